@@ -20,3 +20,14 @@ function(poise_add_gtest name)
   gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60
                        PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "${ARG_LABELS}")
 endfunction()
+
+# poise_register_cli_command(VERB SUMMARY FUNCTION LIBRARY)
+# Makes `poise VERB ...` call `int FUNCTION(int argc, char** argv)` (argv[0] is "poise VERB"),
+# linking LIBRARY into the `poise` tool. Areas call this from their own CMakeLists.txt, so that
+# no shared file needs editing when a verb is added.
+function(poise_register_cli_command verb summary function library)
+  set_property(GLOBAL APPEND PROPERTY POISE_CLI_VERBS "${verb}")
+  set_property(GLOBAL PROPERTY POISE_CLI_${verb}_SUMMARY "${summary}")
+  set_property(GLOBAL PROPERTY POISE_CLI_${verb}_FUNCTION "${function}")
+  set_property(GLOBAL PROPERTY POISE_CLI_${verb}_LIBRARY "${library}")
+endfunction()

@@ -1,0 +1,58 @@
+#!/usr/bin/env bash
+# One entry point for a fresh Debian 12 machine (run as root, or with sudo available):
+#   bash deploy/bootstrap.sh run    install packages, build, run the main job
+#   bash deploy/bootstrap.sh test   install packages, build, run the whole test suite (ctest)
+#   bash deploy/bootstrap.sh build  install packages and build only
+# Environment: POISE_BUILD_DIR (default: build), POISE_JOBS (default: nproc),
+#              POISE_SKIP_APT=1 to skip the package step on a machine that has them.
+set -euo pipefail
+
+mode=${1:-run}
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+build=${POISE_BUILD_DIR:-$here/build}
+jobs=${POISE_JOBS:-$(nproc)}
+
+# Every Debian package the project needs: build tools, the five named dependencies and the
+# well-kept libraries it uses (JSON, YAML, CLI parsing, tests, benchmarks, network namespaces).
+packages=(
+  build-essential cmake pkg-config git python3 iproute2 procps
+  libeigen3-dev liburdfdom-dev
+  libfastrtps-dev libfastcdr-dev fastddsgen default-jre-headless
+  cyclonedds-dev cyclonedds-tools iceoryx
+  libbullet-dev libbullet-extras-dev
+  nlohmann-json3-dev libyaml-cpp-dev libcli11-dev
+  libgtest-dev libgmock-dev libbenchmark-dev
+)
+
+step() { printf '\n== %s\n' "$*"; }
+
+if [[ "${POISE_SKIP_APT:-0}" != 1 ]]; then
+  sudo=""
+  [[ $(id -u) -eq 0 ]] || sudo=sudo
+  step "Installing Debian packages (${#packages[@]})"
+  export DEBIAN_FRONTEND=noninteractive
+  $sudo apt-get update -q
+  $sudo apt-get install -y -q --no-install-recommends "${packages[@]}"
+fi
+
+step "Configuring ($build, Release)"
+cmake -S "$here" -B "$build" -DCMAKE_BUILD_TYPE=Release
+step "Building with $jobs jobs"
+cmake --build "$build" -j "$jobs"
+
+case "$mode" in
+  build) ;;
+  test)
+    step "Running the test suite"
+    cd "$build"
+    ctest --output-on-failure --timeout 600 -j "$jobs"
+    ;;
+  run)
+    step "Running the main job"
+    exec "$here/deploy/main-job.sh" "$build"
+    ;;
+  *)
+    echo "usage: $0 run|test|build" >&2
+    exit 2
+    ;;
+esac
