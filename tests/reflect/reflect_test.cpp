@@ -129,7 +129,8 @@ TEST(Json, ErrorsNameThePath) {
       EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos) << e.what();
     }
   };
-  expect_error(R"({"feet":[{"mu":"high"}]})", "feet[0].mu: expected a number");
+  expect_error(R"({"feet":[{"mu":"high"},{}]})", "feet[0].mu: expected a number");
+  expect_error(R"({"feet":[{}]})", "feet: 1 entries, expected 2");
   expect_error(R"({"com_W":[1,2]})", "com_W: 2 entries, expected 3");
   expect_error(R"({"feet":[{},{},{}]})", "feet: 3 entries, at most 2");
   expect_error(R"({"masss":50})", "masss: unknown member of poise::msg::ContactProblem");
