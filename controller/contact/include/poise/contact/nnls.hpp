@@ -1,0 +1,59 @@
+#pragma once
+
+#include <Eigen/Core>
+
+#include "poise/contact/solver_status.hpp"
+
+namespace poise::contact {
+
+/// Non-negative least squares, min ||A x - b||_2 s.t. x >= 0, by the active-set method of
+/// Lawson and Hanson ("Solving Least Squares Problems", 1974, ch. 23).
+///
+/// Usage: construct (or resize()) once with the largest sizes; solve() then never allocates
+/// (checked with EIGEN_RUNTIME_NO_MALLOC in tests/contact). Not thread-safe: one object per thread.
+///
+/// Every iterate is feasible (x >= 0), so the output of a solve that hits the iteration cap is
+/// still a feasible point, only not optimal.
+class Nnls {
+ public:
+  Nnls() = default;
+  /// Allocates workspace for problems up to max_rows x max_cols. Throws std::invalid_argument if a
+  /// size is not positive.
+  Nnls(int max_rows, int max_cols) { resize(max_rows, max_cols); }
+  void resize(int max_rows, int max_cols);
+
+  /// Cap on the number of least-squares sub-solves (inner iterations). Default 3 * max_cols + 10.
+  void set_max_iterations(int n) { max_iterations_ = n; }
+  /// Relative tolerance on the dual w = A^T (b - A x): stop when max w_j <= tol * ||A||_F * ||b||.
+  void set_tolerance(double tol) { tolerance_ = tol; }
+
+  /// Solves for x (size n). A: m x n with m <= max_rows, n <= max_cols; b: m.
+  /// Failure results: kInvalidInput (sizes do not fit or a non-finite entry; x set to zero),
+  /// kIterationLimit (x is the last feasible iterate). Never throws, never allocates.
+  SolverStatus solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
+                     const Eigen::Ref<const Eigen::VectorXd>& b, Eigen::Ref<Eigen::VectorXd> x);
+
+  /// Dual vector w = A^T (b - A x) of the last solve (first n entries valid). At the optimum
+  /// w_j <= 0 where x_j = 0 and w_j = 0 where x_j > 0.
+  const Eigen::VectorXd& dual() const { return w_; }
+  /// Inner iterations (least-squares sub-solves) used by the last solve.
+  int iterations() const { return iterations_; }
+
+ private:
+  int max_rows_ = 0;
+  int max_cols_ = 0;
+  int max_iterations_ = 0;
+  double tolerance_ = 1e-12;
+  int iterations_ = 0;
+  Eigen::MatrixXd W_;         // max_rows x max_cols, QR workspace
+  Eigen::VectorXd r_;         // max_rows, residual / rhs workspace
+  Eigen::VectorXd qr_rhs_;    // max_rows
+  Eigen::VectorXd diag_;      // max_cols
+  Eigen::VectorXd w_;         // max_cols, dual
+  Eigen::VectorXd z_;         // max_cols, sub-solve
+  Eigen::VectorXi cols_;      // max_cols, passive column list
+  Eigen::VectorXi passive_;   // max_cols, 1 if in passive set
+  Eigen::VectorXi rejected_;  // max_cols
+};
+
+}  // namespace poise::contact
