@@ -1,0 +1,128 @@
+#pragma once
+// Configuration of a simulated robot and its world. Plain structs filled by the scenario loader
+// (scenario.hpp) or by code; validated once by the Simulator constructor.
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace poise::sim {
+
+/// Rectangular foot sole, in the foot frame F (x forward, z up). The sole plane is z = -height
+/// (paper Fig. 5: h is the height of the foot frame above the sole).
+struct SoleConfig {
+  double x_min = 0.0, x_max = 0.0;  ///< back / front edge [m]
+  double y_min = 0.0, y_max = 0.0;  ///< right / left edge [m]
+  double height = 0.0;              ///< foot frame height above the sole [m]
+  double thickness = 0.02;          ///< thickness of the collision box above the sole plane [m]
+};
+
+/// One foot: the URDF frame (link) that is the foot frame F, and optionally its sole.
+struct FootConfig {
+  std::string name;   ///< e.g. "left"
+  std::string frame;  ///< URDF link name of the foot frame (may be a fixed child of the ankle)
+  bool has_sole = false;
+  SoleConfig sole;
+};
+
+/// Robot side of the simulation.
+struct RobotConfig {
+  std::string urdf_path;          ///< URDF file (absolute, or relative to the working dir)
+  std::vector<FootConfig> feet;   ///< at least one
+  std::string imu_frame;          ///< URDF link name of the IMU frame (default: root link)
+  bool self_collision = false;
+  /// Damping gain used in damping mode and by the watchdog [N m s/rad] (all joints).
+  double damping_mode_kd = 5.0;
+};
+
+/// Sinusoid s(t) = amplitude * sin(2 pi frequency t + phase).
+struct Sinusoid {
+  double amplitude = 0.0;  ///< [m] for translations, [rad] for rotations
+  double frequency = 0.0;  ///< [Hz]
+  double phase = 0.0;      ///< [rad]
+};
+
+/// A box-shaped support under one foot. Its top face centre is the platform origin P.
+/// Pose: p_WP(t) = position + axis * translation(t),
+///       R_WP(t) = Rz(yaw) Ry(pitch) Rx(roll) * AngleAxis(rotation(t), rotation_axis).
+struct PlatformConfig {
+  std::string name;
+  std::string foot;  ///< foot name it supports (used for automatic placement), may be empty
+  Eigen::Vector3d half_extents = Eigen::Vector3d(0.25, 0.15, 0.05);  ///< [m]
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  ///< top-centre position at t = 0 [m]
+  /// When true, position x, y, z are placed under the foot at the initial posture (the top face
+  /// touches the lowest sole corner), after which `position` is an offset added to that.
+  bool auto_place = true;
+  double roll = 0.0, pitch = 0.0, yaw = 0.0;  ///< inclination [rad] about x, y, z
+  double friction = 1.0;                      ///< Coulomb coefficient with the robot
+  Eigen::Vector3d translation_axis = Eigen::Vector3d::UnitX();  ///< unit, in W
+  Sinusoid translation;
+  Eigen::Vector3d rotation_axis = Eigen::Vector3d::UnitY();  ///< unit, in the inclined frame
+  Sinusoid rotation;
+};
+
+struct GroundConfig {
+  bool enabled = true;
+  double height = 0.0;    ///< z of the plane [m]
+  double friction = 1.0;  ///< Coulomb coefficient with the robot
+};
+
+struct WorldConfig {
+  Eigen::Vector3d gravity = Eigen::Vector3d(0.0, 0.0, -9.81);  ///< [m/s^2]
+  GroundConfig ground;
+  std::vector<PlatformConfig> platforms;
+};
+
+/// External push: force_W applied at point_L (in the link frame of `link`) during
+/// [start, start + duration).
+struct Push {
+  std::string link;  ///< URDF link name
+  Eigen::Vector3d point_L = Eigen::Vector3d::Zero();  ///< [m]
+  Eigen::Vector3d force_W = Eigen::Vector3d::Zero();  ///< [N]
+  double start = 0.0;     ///< [s]
+  double duration = 0.0;  ///< [s]
+};
+
+/// IMU noise model: white Gaussian noise (std per axis, per sample) plus a constant bias.
+struct ImuNoiseConfig {
+  double gyro_noise_std = 0.0;  ///< [rad/s]
+  Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();  ///< [rad/s]
+  double accel_noise_std = 0.0;  ///< [m/s^2]
+  Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();  ///< [m/s^2]
+  std::uint64_t seed = 1;
+};
+
+/// Contact / solver settings. Defaults were measured on the project humanoid (README).
+struct SolverConfig {
+  double dt = 0.001;             ///< step [s]; one substep per step
+  int iterations = 50;           ///< sequential-impulse iterations
+  double contact_erp = 0.2;      ///< penetration correction factor
+  double contact_cfm = 0.0;      ///< constraint force mixing
+  bool friction_anchor = true;   ///< anchor static foot contacts (no slow creep)
+};
+
+/// Initial state. Unset joints start at 0; the base height is chosen so that the feet rest on
+/// the ground (or the lowest sole corner touches z = ground height) when auto_base_height.
+struct InitialState {
+  Eigen::Vector3d base_position = Eigen::Vector3d(0.0, 0.0, 1.0);  ///< [m]
+  Eigen::Vector4d base_orientation_wxyz = Eigen::Vector4d(1.0, 0.0, 0.0, 0.0);
+  bool auto_base_height = true;
+  double clearance = 0.0;  ///< gap between the lowest sole corner and its support [m]
+  std::vector<std::string> joint_names;  ///< joints to set (any order, subset)
+  std::vector<double> joint_positions;   ///< same size
+  Eigen::Vector3d base_linear_velocity = Eigen::Vector3d::Zero();  ///< in W [m/s]
+};
+
+/// Everything the Simulator needs.
+struct SimulatorConfig {
+  RobotConfig robot;
+  WorldConfig world;
+  SolverConfig solver;
+  ImuNoiseConfig imu;
+  InitialState initial;
+  std::vector<Push> pushes;  ///< scheduled pushes (more can be added live)
+  int max_live_pushes = 16;  ///< capacity reserved for pushes added while running
+};
+
+}  // namespace poise::sim

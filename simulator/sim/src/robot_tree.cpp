@@ -1,0 +1,186 @@
+#include "robot_tree.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <urdf_parser/urdf_parser.h>
+
+namespace poise::sim::detail {
+namespace {
+
+Eigen::Isometry3d to_iso(const urdf::Pose& p) {
+  Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+  X.linear() =
+      Eigen::Quaterniond(p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z).normalized()
+          .toRotationMatrix();
+  X.translation() = Eigen::Vector3d(p.position.x, p.position.y, p.position.z);
+  return X;
+}
+
+[[noreturn]] void fail(const std::string& what, const std::string& msg) {
+  throw std::runtime_error("URDF " + what + ": " + msg);
+}
+
+struct Builder {
+  const urdf::ModelInterface& model;
+  std::string what;
+  RobotTree tree;
+
+  // Adds the link's inertia and collision geometry to body b; the link frame is X_LK in L.
+  void merge_link(const urdf::Link& link, int b, const Eigen::Isometry3d& X_LK) {
+    BodySpec& body = tree.bodies[static_cast<std::size_t>(b)];
+    tree.frames.push_back(FrameSpec{link.name, b, X_LK});
+    if (link.inertial) {
+      const urdf::Inertial& in = *link.inertial;
+      if (!std::isfinite(in.mass) || in.mass < 0.0)
+        fail(what, "link '" + link.name + "' has an invalid mass");
+      Eigen::Matrix3d I_C;
+      I_C << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
+      if (!I_C.allFinite()) fail(what, "link '" + link.name + "' has a non-finite inertia");
+      const Eigen::Isometry3d X_LC = X_LK * to_iso(in.origin);
+      const Eigen::Matrix3d I_C_L = X_LC.linear() * I_C * X_LC.linear().transpose();
+      const Eigen::Vector3d c = X_LC.translation();
+      const double m0 = body.mass, m1 = in.mass, m = m0 + m1;
+      if (m > 0.0) {
+        const Eigen::Vector3d com = (m0 * body.com_L + m1 * c) / m;
+        auto shift = [](double mass, const Eigen::Vector3d& d) {
+          return mass * (d.squaredNorm() * Eigen::Matrix3d::Identity() - d * d.transpose());
+        };
+        body.inertia_com_L = body.inertia_com_L + shift(m0, body.com_L - com) + I_C_L +
+                             shift(m1, c - com);
+        body.com_L = com;
+        body.mass = m;
+      }
+    }
+    for (const auto& col : link.collision_array) {
+      if (!col || !col->geometry) continue;
+      ShapeSpec s;
+      s.X_LS = X_LK * to_iso(col->origin);
+      switch (col->geometry->type) {
+        case urdf::Geometry::BOX: {
+          const auto& g = static_cast<const urdf::Box&>(*col->geometry);
+          s.type = ShapeSpec::Type::kBox;
+          s.size = 0.5 * Eigen::Vector3d(g.dim.x, g.dim.y, g.dim.z);
+          break;
+        }
+        case urdf::Geometry::SPHERE: {
+          const auto& g = static_cast<const urdf::Sphere&>(*col->geometry);
+          s.type = ShapeSpec::Type::kSphere;
+          s.size = Eigen::Vector3d(g.radius, 0.0, 0.0);
+          break;
+        }
+        case urdf::Geometry::CYLINDER: {
+          const auto& g = static_cast<const urdf::Cylinder&>(*col->geometry);
+          s.type = ShapeSpec::Type::kCylinder;
+          s.size = Eigen::Vector3d(g.radius, g.length, 0.0);
+          break;
+        }
+        default:
+          body.has_mesh = true;
+          continue;
+      }
+      if (!s.size.allFinite() || (s.size.array() < 0.0).any())
+        fail(what, "link '" + link.name + "' has an invalid collision size");
+      body.shapes.push_back(s);
+    }
+  }
+
+  void visit(const urdf::Link& link, int b, const Eigen::Isometry3d& X_LK) {
+    merge_link(link, b, X_LK);
+    std::vector<urdf::JointSharedPtr> joints = link.child_joints;
+    std::sort(joints.begin(), joints.end(),
+              [](const auto& a, const auto& c) { return a->name < c->name; });
+    for (const auto& j : joints) {
+      const urdf::LinkConstSharedPtr child = model.getLink(j->child_link_name);
+      if (!child) fail(what, "joint '" + j->name + "' has no child link");
+      const Eigen::Isometry3d X_LJ = X_LK * to_iso(j->parent_to_joint_origin_transform);
+      if (j->type == urdf::Joint::FIXED) {
+        visit(*child, b, X_LJ);
+        continue;
+      }
+      BodySpec body;
+      body.name = child->name;
+      body.parent = b;
+      body.joint_name = j->name;
+      body.X_PJ = X_LJ;
+      Eigen::Vector3d axis(j->axis.x, j->axis.y, j->axis.z);
+      if (!axis.allFinite() || axis.norm() < 1e-9)
+        fail(what, "joint '" + j->name + "' has a zero or invalid axis");
+      body.axis_L = axis.normalized();
+      switch (j->type) {
+        case urdf::Joint::REVOLUTE:
+          body.joint = BodySpec::Joint::kRevolute;
+          body.limited = true;
+          break;
+        case urdf::Joint::CONTINUOUS:
+          body.joint = BodySpec::Joint::kRevolute;
+          break;
+        case urdf::Joint::PRISMATIC:
+          body.joint = BodySpec::Joint::kPrismatic;
+          body.limited = true;
+          break;
+        default:
+          fail(what, "joint '" + j->name +
+                         "' has an unsupported type (only revolute, continuous, prismatic, "
+                         "fixed)");
+      }
+      if (j->limits) {
+        body.lower = j->limits->lower;
+        body.upper = j->limits->upper;
+        body.effort = j->limits->effort;
+        if (body.limited && !(body.lower <= body.upper))
+          fail(what, "joint '" + j->name + "' has lower limit > upper limit");
+      } else if (body.limited) {
+        fail(what, "joint '" + j->name + "' needs a <limit> element");
+      }
+      if (j->dynamics) {
+        body.damping = j->dynamics->damping;
+        body.friction = j->dynamics->friction;
+        if (body.damping < 0.0 || body.friction < 0.0)
+          fail(what, "joint '" + j->name + "' has negative damping or friction");
+      }
+      tree.bodies.push_back(body);
+      const int cb = static_cast<int>(tree.bodies.size()) - 1;
+      visit(*child, cb, Eigen::Isometry3d::Identity());
+      const BodySpec& made = tree.bodies[static_cast<std::size_t>(cb)];
+      if (!(made.mass > 0.0))
+        fail(what, "link '" + made.name + "' (moved by joint '" + j->name +
+                       "') has no mass: a movable body needs an <inertial> with mass > 0");
+    }
+  }
+};
+
+}  // namespace
+
+const FrameSpec* RobotTree::find_frame(const std::string& name) const {
+  for (const auto& f : frames)
+    if (f.name == name) return &f;
+  return nullptr;
+}
+
+RobotTree parse_robot_tree(const std::string& urdf_xml, const std::string& what) {
+  urdf::ModelInterfaceSharedPtr model = urdf::parseURDF(urdf_xml);
+  if (!model) fail(what, "could not be parsed (see the urdfdom message above)");
+  const urdf::LinkConstSharedPtr root = model->getRoot();
+  if (!root) fail(what, "has no root link");
+  Builder b{*model, what, {}};
+  BodySpec base;
+  base.name = root->name;
+  b.tree.bodies.push_back(base);
+  b.visit(*root, 0, Eigen::Isometry3d::Identity());
+  if (!(b.tree.bodies[0].mass > 0.0))
+    fail(what, "the root link '" + root->name + "' and the links fixed to it have no mass");
+  return b.tree;
+}
+
+RobotTree load_robot_tree(const std::string& urdf_path) {
+  std::ifstream in(urdf_path);
+  if (!in) throw std::runtime_error("URDF file '" + urdf_path + "' cannot be opened");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return parse_robot_tree(ss.str(), "'" + urdf_path + "'");
+}
+
+}  // namespace poise::sim::detail

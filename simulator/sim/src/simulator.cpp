@@ -1,0 +1,886 @@
+#include "poise/sim/simulator.hpp"
+
+#include <BulletCollision/CollisionShapes/btBoxShape.h>
+#include <BulletCollision/CollisionShapes/btCompoundShape.h>
+#include <BulletCollision/CollisionShapes/btCylinderShape.h>
+#include <BulletCollision/CollisionShapes/btSphereShape.h>
+#include <BulletCollision/CollisionShapes/btStaticPlaneShape.h>
+#include <BulletDynamics/Featherstone/btMultiBody.h>
+#include <BulletDynamics/Featherstone/btMultiBodyConstraintSolver.h>
+#include <BulletDynamics/Featherstone/btMultiBodyDynamicsWorld.h>
+#include <BulletDynamics/Featherstone/btMultiBodyJointLimitConstraint.h>
+#include <BulletDynamics/Featherstone/btMultiBodyJointMotor.h>
+#include <BulletDynamics/Featherstone/btMultiBodyLinkCollider.h>
+#include <btBulletDynamicsCommon.h>
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <stdexcept>
+#include <unordered_map>
+
+#include "robot_tree.hpp"
+
+#ifndef BT_USE_DOUBLE_PRECISION
+#error "poise_sim must be compiled against double-precision Bullet (BT_USE_DOUBLE_PRECISION)"
+#endif
+
+namespace poise::sim {
+
+void JointCommand::resize(int n) {
+  tick = -1;
+  mode = CommandMode::kTorque;
+  tau_ff = Eigen::VectorXd::Zero(n);
+  q_ref = Eigen::VectorXd::Zero(n);
+  qd_ref = Eigen::VectorXd::Zero(n);
+  kp = Eigen::VectorXd::Zero(n);
+  kd = Eigen::VectorXd::Zero(n);
+}
+
+namespace {
+
+using detail::BodySpec;
+using detail::RobotTree;
+using detail::ShapeSpec;
+
+constexpr int kRobotGroup = 1;
+constexpr int kEnvGroup = 2;
+constexpr int kGroundIndex = -1;  // collision-object user index of the ground
+// platform k has user index -2 - k; robot bodies have their body index (>= 0)
+
+btVector3 bt(const Eigen::Vector3d& v) { return btVector3(v.x(), v.y(), v.z()); }
+Eigen::Vector3d eig(const btVector3& v) { return Eigen::Vector3d(v.x(), v.y(), v.z()); }
+btQuaternion bt(const Eigen::Quaterniond& q) { return btQuaternion(q.x(), q.y(), q.z(), q.w()); }
+btTransform bt(const Eigen::Isometry3d& X) {
+  return btTransform(bt(Eigen::Quaterniond(X.linear())), bt(Eigen::Vector3d(X.translation())));
+}
+Eigen::Isometry3d eig(const btTransform& t) {
+  Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+  const btQuaternion q = t.getRotation();
+  X.linear() = Eigen::Quaterniond(q.w(), q.x(), q.y(), q.z()).toRotationMatrix();
+  X.translation() = eig(t.getOrigin());
+  return X;
+}
+
+double sinusoid(const Sinusoid& s, double t) {
+  return s.amplitude * std::sin(2.0 * M_PI * s.frequency * t + s.phase);
+}
+double sinusoid_rate(const Sinusoid& s, double t) {
+  return s.amplitude * 2.0 * M_PI * s.frequency * std::cos(2.0 * M_PI * s.frequency * t + s.phase);
+}
+
+struct ResolvedPush {
+  int body = 0;
+  Eigen::Vector3d point_K = Eigen::Vector3d::Zero();  // in the body COM frame K
+  Eigen::Vector3d force_W = Eigen::Vector3d::Zero();
+  std::int64_t start_tick = 0, end_tick = 0;  // active for start <= k < end
+};
+
+struct Platform {
+  PlatformConfig cfg;
+  Eigen::Matrix3d R_incline = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d base_position = Eigen::Vector3d::Zero();
+  std::unique_ptr<btBoxShape> shape;
+  std::unique_ptr<btRigidBody> body;
+
+  // Top-centre pose and its velocity (world) at time t.
+  void pose(double t, Eigen::Isometry3d& X_WP, Eigen::Vector3d& v, Eigen::Vector3d& w) const {
+    const Eigen::Vector3d axis_t = cfg.translation_axis;
+    const Eigen::Vector3d axis_r = R_incline * cfg.rotation_axis;
+    X_WP = Eigen::Isometry3d::Identity();
+    X_WP.translation() = base_position + axis_t * sinusoid(cfg.translation, t);
+    X_WP.linear() =
+        Eigen::AngleAxisd(sinusoid(cfg.rotation, t), axis_r).toRotationMatrix() * R_incline;
+    v = axis_t * sinusoid_rate(cfg.translation, t);
+    w = axis_r * sinusoid_rate(cfg.rotation, t);
+  }
+};
+
+}  // namespace
+
+struct Simulator::Impl {
+  SimulatorConfig cfg;
+  RobotTree tree;
+  int n = 0;  // joints = bodies - 1
+  std::vector<std::string> joint_names, body_names, foot_names;
+  Eigen::VectorXd effort, damping;
+  std::vector<Eigen::Isometry3d> X_LK;  // body COM frame K in the URDF body frame L
+  double mass = 0.0;
+  double dt = 0.001;
+  std::int64_t tick = 0;
+
+  // Bullet objects (destroyed in reverse order in ~Impl).
+  std::unique_ptr<btDefaultCollisionConfiguration> collision_config;
+  std::unique_ptr<btCollisionDispatcher> dispatcher;
+  std::unique_ptr<btDbvtBroadphase> broadphase;
+  std::unique_ptr<btMultiBodyConstraintSolver> solver;
+  std::unique_ptr<btMultiBodyDynamicsWorld> world;
+  std::unique_ptr<btMultiBody> mb;
+  std::vector<std::unique_ptr<btCollisionShape>> shapes;
+  std::vector<std::unique_ptr<btMultiBodyLinkCollider>> colliders;
+  std::vector<std::unique_ptr<btMultiBodyConstraint>> constraints;
+  std::unique_ptr<btStaticPlaneShape> ground_shape;
+  std::unique_ptr<btCollisionObject> ground;
+  std::vector<Platform> platforms;
+
+  // Feet, IMU.
+  struct Foot {
+    int body = 0;
+    Eigen::Isometry3d X_KF = Eigen::Isometry3d::Identity();
+    std::vector<Eigen::Vector3d> sole_corners_F;  // lowest points, for placement
+  };
+  std::vector<Foot> feet;
+  std::vector<int> foot_of_body;  // body -> foot index or -1
+  int imu_body = 0;
+  Eigen::Isometry3d X_KI = Eigen::Isometry3d::Identity();
+
+  // Pushes.
+  std::vector<ResolvedPush> pushes;
+
+  // Workspace (allocated once).
+  btAlignedObjectArray<btQuaternion> scratch_q;
+  btAlignedObjectArray<btVector3> scratch_m;
+  btAlignedObjectArray<btVector3> omega_K, vel_K;  // per body, in K
+  std::vector<Eigen::Isometry3d> X_WK;
+  std::vector<Eigen::Vector3d> v_WK, w_W;  // COM velocity and angular velocity in W
+  Eigen::VectorXd tau;
+  Eigen::Vector3d imu_v_prev = Eigen::Vector3d::Zero();
+  Eigen::Vector3d imu_a = Eigen::Vector3d::Zero();
+  std::mt19937_64 rng;
+  std::normal_distribution<double> normal{0.0, 1.0};
+  std::vector<std::uint8_t> contact_scratch;
+
+  explicit Impl(const SimulatorConfig& c);
+  ~Impl();
+  void build_robot();
+  void build_world();
+  void resolve_feet_and_imu();
+  ResolvedPush resolve_push(const Push& p) const;
+  void apply_initial_state();
+  void set_state(const Eigen::Isometry3d& X_WB, const Eigen::VectorXd& q,
+                 const Eigen::Vector3d& v_WB, const Eigen::Vector3d& omega_WB,
+                 const Eigen::VectorXd& qd);
+  void update_kinematics();
+  void update_platforms(double t);
+  Eigen::Isometry3d frame_pose(int body, const Eigen::Isometry3d& X_KF) const {
+    return X_WK[static_cast<std::size_t>(body)] * X_KF;
+  }
+  Eigen::Vector3d point_velocity(int body, const Eigen::Vector3d& p_W) const {
+    const auto b = static_cast<std::size_t>(body);
+    return v_WK[b] + w_W[b].cross(p_W - X_WK[b].translation());
+  }
+  void fill(SensorFrame& s, GroundTruth& g, bool measure_imu);
+  double lowest_foot_point(int foot, const Eigen::Vector3d& normal) const;
+};
+
+Simulator::Impl::Impl(const SimulatorConfig& c) : cfg(c), rng(c.imu.seed) {
+  if (!(cfg.solver.dt > 0.0) || !std::isfinite(cfg.solver.dt))
+    throw std::runtime_error("solver.dt must be > 0");
+  if (cfg.solver.iterations < 1) throw std::runtime_error("solver.iterations must be >= 1");
+  if (cfg.robot.feet.empty()) throw std::runtime_error("robot.feet: at least one foot is required");
+  dt = cfg.solver.dt;
+  tree = detail::load_robot_tree(cfg.robot.urdf_path);
+  n = static_cast<int>(tree.bodies.size()) - 1;
+  effort.resize(n);
+  damping.resize(n);
+  for (int i = 0; i < n; ++i) {
+    const BodySpec& b = tree.bodies[static_cast<std::size_t>(i + 1)];
+    joint_names.push_back(b.joint_name);
+    effort[i] = b.effort > 0.0 ? b.effort : std::numeric_limits<double>::infinity();
+    damping[i] = b.damping;
+  }
+  for (const auto& b : tree.bodies) body_names.push_back(b.name);
+  for (const auto& b : tree.bodies) mass += b.mass;
+  resolve_feet_and_imu();
+
+  collision_config = std::make_unique<btDefaultCollisionConfiguration>();
+  // Several contact points per box/plane pair in one detection pass (stable flat feet).
+  collision_config->setPlaneConvexMultipointIterations(5, 4);
+  collision_config->setConvexConvexMultipointIterations(5, 4);
+  dispatcher = std::make_unique<btCollisionDispatcher>(collision_config.get());
+  broadphase = std::make_unique<btDbvtBroadphase>();
+  solver = std::make_unique<btMultiBodyConstraintSolver>();
+  world = std::make_unique<btMultiBodyDynamicsWorld>(dispatcher.get(), broadphase.get(),
+                                                     solver.get(), collision_config.get());
+  world->setGravity(bt(cfg.world.gravity));
+  btContactSolverInfo& info = world->getSolverInfo();
+  info.m_numIterations = cfg.solver.iterations;
+  info.m_erp2 = cfg.solver.contact_erp;
+  info.m_globalCfm = cfg.solver.contact_cfm;
+  info.m_solverMode |= SOLVER_USE_2_FRICTION_DIRECTIONS;
+  info.m_timeStep = dt;
+
+  build_robot();
+  build_world();
+
+  pushes.reserve(cfg.pushes.size() + static_cast<std::size_t>(std::max(0, cfg.max_live_pushes)));
+  for (const Push& p : cfg.pushes) pushes.push_back(resolve_push(p));
+
+  const std::size_t nb = tree.bodies.size();
+  X_WK.assign(nb, Eigen::Isometry3d::Identity());
+  v_WK.assign(nb, Eigen::Vector3d::Zero());
+  w_W.assign(nb, Eigen::Vector3d::Zero());
+  omega_K.resize(static_cast<int>(nb));
+  vel_K.resize(static_cast<int>(nb));
+  scratch_q.resize(static_cast<int>(nb));
+  scratch_m.resize(static_cast<int>(nb));
+  tau = Eigen::VectorXd::Zero(n);
+  contact_scratch.assign(nb, 0);
+
+  apply_initial_state();
+}
+
+Simulator::Impl::~Impl() {
+  if (world) {
+    for (auto& c : constraints) world->removeMultiBodyConstraint(c.get());
+    for (auto& c : colliders) world->removeCollisionObject(c.get());
+    if (mb) world->removeMultiBody(mb.get());
+    for (auto& p : platforms) world->removeRigidBody(p.body.get());
+    if (ground) world->removeCollisionObject(ground.get());
+  }
+  constraints.clear();
+  colliders.clear();
+  mb.reset();
+  world.reset();
+}
+
+void Simulator::Impl::resolve_feet_and_imu() {
+  foot_of_body.assign(tree.bodies.size(), -1);
+  for (const FootConfig& f : cfg.robot.feet) {
+    const detail::FrameSpec* fr = tree.find_frame(f.frame);
+    if (!fr)
+      throw std::runtime_error("robot.feet." + f.name + ": frame '" + f.frame +
+                               "' is not a link of the URDF");
+    if (foot_of_body[static_cast<std::size_t>(fr->body)] >= 0)
+      throw std::runtime_error("robot.feet." + f.name + ": frame '" + f.frame +
+                               "' is on the same body as another foot");
+    BodySpec& body = tree.bodies[static_cast<std::size_t>(fr->body)];
+    Foot foot;
+    foot.body = fr->body;
+    if (body.shapes.empty()) {
+      if (!f.has_sole)
+        throw std::runtime_error(
+            "robot.feet." + f.name + ": foot link '" + f.frame + "' (body '" + body.name +
+            "') has " + (body.has_mesh ? "only mesh collision geometry" : "no collision geometry") +
+            " and the robot configuration gives no sole rectangle for it: add a sole "
+            "(x_min, x_max, y_min, y_max, height) for this foot");
+      const SoleConfig& s = f.sole;
+      if (!(s.x_max > s.x_min) || !(s.y_max > s.y_min) || !(s.thickness > 0.0) ||
+          !std::isfinite(s.height))
+        throw std::runtime_error("robot.feet." + f.name +
+                                 ".sole: needs x_max > x_min, y_max > y_min, thickness > 0");
+      ShapeSpec box;
+      box.type = ShapeSpec::Type::kBox;
+      box.size = 0.5 * Eigen::Vector3d(s.x_max - s.x_min, s.y_max - s.y_min, s.thickness);
+      Eigen::Isometry3d X_FS = Eigen::Isometry3d::Identity();
+      X_FS.translation() =
+          Eigen::Vector3d(0.5 * (s.x_min + s.x_max), 0.5 * (s.y_min + s.y_max), -s.height + 0.5 * s.thickness);
+      box.X_LS = fr->X_LF * X_FS;
+      body.shapes.push_back(box);
+    }
+    foot_of_body[static_cast<std::size_t>(fr->body)] = static_cast<int>(feet.size());
+    feet.push_back(foot);
+    foot_names.push_back(f.name);
+  }
+  // Sole corners (for initial placement): the configured rectangle, else the bottom of the
+  // foot shapes' bounding box in F.
+  X_LK.resize(tree.bodies.size());
+  for (std::size_t i = 0; i < feet.size(); ++i) {
+    const FootConfig& f = cfg.robot.feet[i];
+    const detail::FrameSpec* fr = tree.find_frame(f.frame);
+    if (f.has_sole) {
+      const SoleConfig& s = f.sole;
+      for (double x : {s.x_min, s.x_max})
+        for (double y : {s.y_min, s.y_max})
+          feet[i].sole_corners_F.emplace_back(x, y, -s.height);
+    } else {
+      // corners of every primitive's bounding box, expressed in F
+      const BodySpec& body = tree.bodies[static_cast<std::size_t>(fr->body)];
+      for (const ShapeSpec& sh : body.shapes) {
+        Eigen::Vector3d h = sh.size;
+        if (sh.type == ShapeSpec::Type::kSphere) h = Eigen::Vector3d::Constant(sh.size.x());
+        if (sh.type == ShapeSpec::Type::kCylinder)
+          h = Eigen::Vector3d(sh.size.x(), sh.size.x(), 0.5 * sh.size.y());
+        for (int k = 0; k < 8; ++k) {
+          const Eigen::Vector3d p_S((k & 1 ? 1 : -1) * h.x(), (k & 2 ? 1 : -1) * h.y(),
+                                    (k & 4 ? 1 : -1) * h.z());
+          feet[i].sole_corners_F.push_back(fr->X_LF.inverse() * (sh.X_LS * p_S));
+        }
+      }
+    }
+  }
+  const std::string imu = cfg.robot.imu_frame.empty() ? tree.bodies[0].name : cfg.robot.imu_frame;
+  if (!tree.find_frame(imu))
+    throw std::runtime_error("robot.imu_frame: '" + imu + "' is not a link of the URDF");
+}
+
+void Simulator::Impl::build_robot() {
+  const std::size_t nb = tree.bodies.size();
+  std::vector<Eigen::Vector3d> principal(nb);
+  for (std::size_t b = 0; b < nb; ++b) {
+    const BodySpec& body = tree.bodies[b];
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(body.inertia_com_L);
+    Eigen::Matrix3d R = es.eigenvectors();
+    if (R.determinant() < 0.0) R.col(2) = -R.col(2);
+    X_LK[b] = Eigen::Isometry3d::Identity();
+    X_LK[b].linear() = R;
+    X_LK[b].translation() = body.com_L;
+    // Featherstone needs a positive-definite inertia: point masses get a tiny sphere inertia.
+    principal[b] = es.eigenvalues().cwiseMax(1e-9);
+  }
+  mb = std::make_unique<btMultiBody>(n, tree.bodies[0].mass, bt(principal[0]), false, false);
+  for (int i = 0; i < n; ++i) {
+    const std::size_t b = static_cast<std::size_t>(i + 1);
+    const BodySpec& body = tree.bodies[b];
+    const std::size_t p = static_cast<std::size_t>(body.parent);
+    const Eigen::Isometry3d X_KpJ = X_LK[p].inverse() * body.X_PJ;
+    const Eigen::Matrix3d R_KpKb = X_KpJ.linear() * X_LK[b].linear();
+    const btQuaternion rot_parent_to_this = bt(Eigen::Quaterniond(R_KpKb.transpose()));
+    const btVector3 axis = bt(Eigen::Vector3d(X_LK[b].linear().transpose() * body.axis_L));
+    const btVector3 parent_com_to_pivot = bt(Eigen::Vector3d(X_KpJ.translation()));
+    const btVector3 pivot_to_com = bt(Eigen::Vector3d(X_LK[b].linear().transpose() * body.com_L));
+    const bool disable_parent_collision = true;
+    if (body.joint == BodySpec::Joint::kRevolute)
+      mb->setupRevolute(i, body.mass, bt(principal[b]), body.parent - 1, rot_parent_to_this, axis,
+                        parent_com_to_pivot, pivot_to_com, disable_parent_collision);
+    else
+      mb->setupPrismatic(i, body.mass, bt(principal[b]), body.parent - 1, rot_parent_to_this,
+                         axis, parent_com_to_pivot, pivot_to_com, disable_parent_collision);
+  }
+  mb->finalizeMultiDof();
+  mb->setLinearDamping(0.0);
+  mb->setAngularDamping(0.0);
+  mb->setHasSelfCollision(cfg.robot.self_collision);
+  mb->setCanSleep(false);
+  mb->setUseGyroTerm(true);
+  mb->setMaxCoordinateVelocity(1000.0);
+  world->addMultiBody(mb.get(), kRobotGroup, kRobotGroup | kEnvGroup);
+
+  for (std::size_t b = 0; b < nb; ++b) {
+    const BodySpec& body = tree.bodies[b];
+    if (body.shapes.empty()) continue;
+    auto compound = std::make_unique<btCompoundShape>(false, static_cast<int>(body.shapes.size()));
+    for (const ShapeSpec& s : body.shapes) {
+      std::unique_ptr<btCollisionShape> shape;
+      switch (s.type) {
+        case ShapeSpec::Type::kBox:
+          shape = std::make_unique<btBoxShape>(bt(s.size));
+          break;
+        case ShapeSpec::Type::kSphere:
+          shape = std::make_unique<btSphereShape>(s.size.x());
+          break;
+        case ShapeSpec::Type::kCylinder:
+          shape = std::make_unique<btCylinderShapeZ>(
+              btVector3(s.size.x(), s.size.x(), 0.5 * s.size.y()));
+          break;
+      }
+      compound->addChildShape(bt(Eigen::Isometry3d(X_LK[b].inverse() * s.X_LS)), shape.get());
+      shapes.push_back(std::move(shape));
+    }
+    auto col = std::make_unique<btMultiBodyLinkCollider>(mb.get(), static_cast<int>(b) - 1);
+    col->setCollisionShape(compound.get());
+    col->setFriction(1.0);  // Bullet multiplies the two coefficients: the support sets mu
+    col->setRestitution(0.0);
+    col->setRollingFriction(0.0);
+    col->setSpinningFriction(0.0);
+    col->setUserIndex(static_cast<int>(b));
+    if (cfg.solver.friction_anchor && foot_of_body[b] >= 0)
+      col->setCollisionFlags(col->getCollisionFlags() | btCollisionObject::CF_HAS_FRICTION_ANCHOR);
+    shapes.push_back(std::move(compound));
+    world->addCollisionObject(col.get(), kRobotGroup, kRobotGroup | kEnvGroup);
+    if (b == 0)
+      mb->setBaseCollider(col.get());
+    else
+      mb->getLink(static_cast<int>(b) - 1).m_collider = col.get();
+    colliders.push_back(std::move(col));
+  }
+
+  for (int i = 0; i < n; ++i) {
+    const BodySpec& body = tree.bodies[static_cast<std::size_t>(i + 1)];
+    if (body.limited) {
+      auto lim = std::make_unique<btMultiBodyJointLimitConstraint>(mb.get(), i, body.lower, body.upper);
+      world->addMultiBodyConstraint(lim.get());
+      constraints.push_back(std::move(lim));
+    }
+    if (body.friction > 0.0) {
+      // Coulomb joint friction: a zero-velocity motor whose force is bounded by the friction.
+      auto fr = std::make_unique<btMultiBodyJointMotor>(mb.get(), i, 0.0, body.friction * dt);
+      world->addMultiBodyConstraint(fr.get());
+      constraints.push_back(std::move(fr));
+    }
+  }
+}
+
+void Simulator::Impl::build_world() {
+  if (cfg.world.ground.enabled) {
+    if (!(cfg.world.ground.friction >= 0.0)) throw std::runtime_error("world.ground.friction must be >= 0");
+    ground_shape = std::make_unique<btStaticPlaneShape>(btVector3(0, 0, 1), cfg.world.ground.height);
+    ground = std::make_unique<btCollisionObject>();
+    ground->setCollisionShape(ground_shape.get());
+    ground->setFriction(cfg.world.ground.friction);
+    ground->setRestitution(0.0);
+    ground->setUserIndex(kGroundIndex);
+    world->addCollisionObject(ground.get(), kEnvGroup, kRobotGroup);
+  }
+  platforms.reserve(cfg.world.platforms.size());
+  for (std::size_t k = 0; k < cfg.world.platforms.size(); ++k) {
+    const PlatformConfig& pc = cfg.world.platforms[k];
+    const std::string key = "world.platforms[" + std::to_string(k) + "] ('" + pc.name + "')";
+    if (!(pc.half_extents.array() > 0.0).all()) throw std::runtime_error(key + ".size must be > 0");
+    if (!(pc.friction >= 0.0)) throw std::runtime_error(key + ".friction must be >= 0");
+    if (pc.translation_axis.norm() < 1e-9 || pc.rotation_axis.norm() < 1e-9)
+      throw std::runtime_error(key + ": motion axes must be non-zero");
+    if (pc.auto_place &&
+        std::find(foot_names.begin(), foot_names.end(), pc.foot) == foot_names.end())
+      throw std::runtime_error(key + ".foot: '" + pc.foot + "' is not a foot of the robot");
+    Platform p;
+    p.cfg = pc;
+    p.cfg.translation_axis.normalize();
+    p.cfg.rotation_axis.normalize();
+    p.R_incline = (Eigen::AngleAxisd(pc.yaw, Eigen::Vector3d::UnitZ()) *
+                   Eigen::AngleAxisd(pc.pitch, Eigen::Vector3d::UnitY()) *
+                   Eigen::AngleAxisd(pc.roll, Eigen::Vector3d::UnitX()))
+                      .toRotationMatrix();
+    p.base_position = pc.position;
+    p.shape = std::make_unique<btBoxShape>(bt(pc.half_extents));
+    btRigidBody::btRigidBodyConstructionInfo ci(0.0, nullptr, p.shape.get());
+    p.body = std::make_unique<btRigidBody>(ci);
+    p.body->setCollisionFlags(p.body->getCollisionFlags() | btCollisionObject::CF_KINEMATIC_OBJECT);
+    p.body->setActivationState(DISABLE_DEACTIVATION);
+    p.body->setFriction(pc.friction);
+    p.body->setRestitution(0.0);
+    p.body->setUserIndex(-2 - static_cast<int>(k));
+    world->addRigidBody(p.body.get(), kEnvGroup, kRobotGroup);
+    platforms.push_back(std::move(p));
+  }
+}
+
+ResolvedPush Simulator::Impl::resolve_push(const Push& p) const {
+  const detail::FrameSpec* fr = tree.find_frame(p.link);
+  if (!fr) throw std::runtime_error("push: link '" + p.link + "' is not a link of the URDF");
+  if (!p.point_L.allFinite() || !p.force_W.allFinite() || !std::isfinite(p.start) ||
+      !std::isfinite(p.duration) || p.duration < 0.0 || p.start < 0.0)
+    throw std::runtime_error("push on '" + p.link + "': non-finite or negative value");
+  ResolvedPush r;
+  r.body = fr->body;
+  r.point_K = X_LK[static_cast<std::size_t>(fr->body)].inverse() * (fr->X_LF * p.point_L);
+  r.force_W = p.force_W;
+  r.start_tick = std::llround(p.start / dt);
+  r.end_tick = r.start_tick + std::llround(p.duration / dt);
+  return r;
+}
+
+void Simulator::Impl::update_kinematics() {
+  mb->forwardKinematics(scratch_q, scratch_m);
+  mb->compTreeLinkVelocities(&omega_K[0], &vel_K[0]);
+  const std::size_t nb = tree.bodies.size();
+  for (std::size_t b = 0; b < nb; ++b) {
+    X_WK[b] = b == 0 ? eig(mb->getBaseWorldTransform())
+                     : eig(mb->getLink(static_cast<int>(b) - 1).m_cachedWorldTransform);
+    const Eigen::Matrix3d& R = X_WK[b].linear();
+    v_WK[b] = R * eig(vel_K[static_cast<int>(b)]);
+    w_W[b] = R * eig(omega_K[static_cast<int>(b)]);
+  }
+}
+
+void Simulator::Impl::update_platforms(double t) {
+  for (Platform& p : platforms) {
+    // The solver sees the support velocity at mid-step; the pose is exact at t.
+    Eigen::Isometry3d X_WP, X_mid;
+    Eigen::Vector3d v, w, v_mid, w_mid;
+    p.pose(t, X_WP, v, w);
+    p.pose(t + 0.5 * dt, X_mid, v_mid, w_mid);
+    Eigen::Isometry3d X_WC = X_WP;  // box centre: half a thickness below the top face
+    X_WC.translation() = X_WP * Eigen::Vector3d(0.0, 0.0, -p.cfg.half_extents.z());
+    // Bullet derives a kinematic body's velocity from (interpolation -> current) transforms:
+    // place the interpolation transform one step "behind" with exactly the mid-step velocity.
+    Eigen::Isometry3d X_prev = Eigen::Isometry3d::Identity();
+    const double wn = w_mid.norm();
+    X_prev.linear() = (wn > 0.0 ? Eigen::AngleAxisd(-wn * dt, w_mid / wn).toRotationMatrix()
+                                : Eigen::Matrix3d::Identity()) *
+                      X_WC.linear();
+    // velocity of the box centre = v_mid + w_mid x (centre - top point)
+    const Eigen::Vector3d v_c = v_mid + w_mid.cross(X_WC.translation() - X_WP.translation());
+    X_prev.translation() = X_WC.translation() - v_c * dt;
+    p.body->setWorldTransform(bt(X_WC));
+    p.body->setInterpolationWorldTransform(bt(X_prev));
+    p.body->setLinearVelocity(bt(v_c));
+    p.body->setAngularVelocity(bt(w_mid));
+  }
+}
+
+double Simulator::Impl::lowest_foot_point(int foot, const Eigen::Vector3d& normal) const {
+  const Foot& f = feet[static_cast<std::size_t>(foot)];
+  const Eigen::Isometry3d X_WF = frame_pose(f.body, f.X_KF);
+  double lo = std::numeric_limits<double>::infinity();
+  for (const auto& c : f.sole_corners_F) lo = std::min(lo, normal.dot(X_WF * c));
+  return lo;
+}
+
+void Simulator::Impl::apply_initial_state() {
+  for (std::size_t i = 0; i < feet.size(); ++i) {
+    const detail::FrameSpec* fr = tree.find_frame(cfg.robot.feet[i].frame);
+    feet[i].X_KF = X_LK[static_cast<std::size_t>(fr->body)].inverse() * fr->X_LF;
+  }
+  {
+    const std::string imu =
+        cfg.robot.imu_frame.empty() ? tree.bodies[0].name : cfg.robot.imu_frame;
+    const detail::FrameSpec* fr = tree.find_frame(imu);
+    imu_body = fr->body;
+    X_KI = X_LK[static_cast<std::size_t>(fr->body)].inverse() * fr->X_LF;
+  }
+  const InitialState& ini = cfg.initial;
+  if (ini.joint_names.size() != ini.joint_positions.size())
+    throw std::runtime_error("initial: joint names and positions differ in size");
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(n);
+  for (std::size_t k = 0; k < ini.joint_names.size(); ++k) {
+    auto it = std::find(joint_names.begin(), joint_names.end(), ini.joint_names[k]);
+    if (it == joint_names.end())
+      throw std::runtime_error("initial.joints: '" + ini.joint_names[k] +
+                               "' is not a movable joint of the URDF");
+    if (!std::isfinite(ini.joint_positions[k]))
+      throw std::runtime_error("initial.joints: '" + ini.joint_names[k] + "' is not finite");
+    q[it - joint_names.begin()] = ini.joint_positions[k];
+  }
+  Eigen::Quaterniond qb(ini.base_orientation_wxyz[0], ini.base_orientation_wxyz[1],
+                        ini.base_orientation_wxyz[2], ini.base_orientation_wxyz[3]);
+  if (!ini.base_orientation_wxyz.allFinite() || qb.norm() < 1e-9 || !ini.base_position.allFinite())
+    throw std::runtime_error("initial.base: invalid pose");
+  Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();
+  X_WB.linear() = qb.normalized().toRotationMatrix();
+  X_WB.translation() = ini.base_position;
+  set_state(X_WB, q, ini.base_linear_velocity, Eigen::Vector3d::Zero(), Eigen::VectorXd());
+
+  if (ini.auto_base_height) {
+    double support_top = cfg.world.ground.enabled ? cfg.world.ground.height : 0.0;
+    for (const Platform& p : platforms)
+      if (p.cfg.auto_place) support_top = std::max(support_top, cfg.world.ground.height + 2.0 * p.cfg.half_extents.z());
+    double lo = std::numeric_limits<double>::infinity();
+    for (std::size_t f = 0; f < feet.size(); ++f)
+      lo = std::min(lo, lowest_foot_point(static_cast<int>(f), Eigen::Vector3d::UnitZ()));
+    X_WB.translation().z() += support_top + ini.clearance - lo;
+    set_state(X_WB, q, ini.base_linear_velocity, Eigen::Vector3d::Zero(), Eigen::VectorXd());
+  }
+  // Platforms under their feet: the top plane touches the lowest sole corner.
+  for (Platform& p : platforms) {
+    if (!p.cfg.auto_place) continue;
+    const int f = static_cast<int>(std::find(foot_names.begin(), foot_names.end(), p.cfg.foot) -
+                                   foot_names.begin());
+    const Foot& foot = feet[static_cast<std::size_t>(f)];
+    const Eigen::Isometry3d X_WF = frame_pose(foot.body, foot.X_KF);
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+    for (const auto& c : foot.sole_corners_F) centre += X_WF * c;
+    centre /= static_cast<double>(foot.sole_corners_F.size());
+    const Eigen::Vector3d nrm = p.R_incline.col(2);
+    const double top = lowest_foot_point(f, nrm) - ini.clearance;
+    Eigen::Vector3d P(centre.x(), centre.y(), 0.0);
+    P.z() = (top - nrm.x() * P.x() - nrm.y() * P.y()) / nrm.z();
+    p.base_position = P + p.cfg.position;
+  }
+  update_platforms(0.0);
+}
+
+void Simulator::Impl::set_state(const Eigen::Isometry3d& X_WB, const Eigen::VectorXd& q,
+                                const Eigen::Vector3d& v_WB, const Eigen::Vector3d& omega_WB,
+                                const Eigen::VectorXd& qd) {
+  if (q.size() != n || (qd.size() != 0 && qd.size() != n))
+    throw std::runtime_error("set_state: q / qd must have dim " + std::to_string(n));
+  const Eigen::Isometry3d X_WK0 = X_WB * X_LK[0];
+  mb->setBasePos(bt(Eigen::Vector3d(X_WK0.translation())));
+  mb->setWorldToBaseRot(bt(Eigen::Quaterniond(X_WK0.linear()).conjugate()));
+  mb->setBaseVel(bt(Eigen::Vector3d(v_WB + omega_WB.cross(X_WK0.translation() - X_WB.translation()))));
+  mb->setBaseOmega(bt(omega_WB));
+  for (int i = 0; i < n; ++i) {
+    mb->setJointPos(i, q[i]);
+    mb->setJointVel(i, qd.size() == n ? qd[i] : 0.0);
+  }
+  mb->updateCollisionObjectWorldTransforms(scratch_q, scratch_m);
+  update_kinematics();
+  for (auto& c : colliders) world->updateSingleAabb(c.get());
+  const Eigen::Isometry3d X_WI = frame_pose(imu_body, X_KI);
+  imu_v_prev = point_velocity(imu_body, X_WI.translation());
+  imu_a.setZero();
+}
+
+void Simulator::Impl::fill(SensorFrame& s, GroundTruth& g, bool measure_imu) {
+  const double t = static_cast<double>(tick) * dt;
+  s.tick = tick;
+  s.time = t;
+  g.tick = tick;
+  g.time = t;
+  for (int i = 0; i < n; ++i) {
+    s.q[i] = mb->getJointPos(i);
+    s.qd[i] = mb->getJointVel(i);
+  }
+  s.tau_measured = tau;
+
+  // IMU
+  const Eigen::Isometry3d X_WI = frame_pose(imu_body, X_KI);
+  const Eigen::Matrix3d R_WI = X_WI.linear();
+  const Eigen::Vector3d v_I = point_velocity(imu_body, X_WI.translation());
+  if (measure_imu) {
+    imu_a = (v_I - imu_v_prev) / dt;
+    imu_v_prev = v_I;
+  }
+  const ImuNoiseConfig& nz = cfg.imu;
+  s.imu_q_WI = Eigen::Quaterniond(R_WI);
+  s.imu_omega_I = R_WI.transpose() * w_W[static_cast<std::size_t>(imu_body)] + nz.gyro_bias;
+  s.imu_specific_force_I = R_WI.transpose() * (imu_a - cfg.world.gravity) + nz.accel_bias;
+  if (nz.gyro_noise_std > 0.0)
+    for (int k = 0; k < 3; ++k) s.imu_omega_I[k] += nz.gyro_noise_std * normal(rng);
+  if (nz.accel_noise_std > 0.0)
+    for (int k = 0; k < 3; ++k) s.imu_specific_force_I[k] += nz.accel_noise_std * normal(rng);
+
+  // Base, CoM
+  g.X_WB = X_WK[0] * X_LK[0].inverse();
+  g.omega_WB = w_W[0];
+  g.v_WB = point_velocity(0, g.X_WB.translation());
+  Eigen::Vector3d c = Eigen::Vector3d::Zero(), cv = Eigen::Vector3d::Zero();
+  for (std::size_t b = 0; b < tree.bodies.size(); ++b) {
+    c += tree.bodies[b].mass * X_WK[b].translation();
+    cv += tree.bodies[b].mass * v_WK[b];
+  }
+  g.com_W = c / mass;
+  g.com_vel_W = cv / mass;
+
+  // Contacts: impulses of the step just taken, from every robot/support manifold.
+  double weight[16] = {};
+  for (std::size_t f = 0; f < feet.size(); ++f) {
+    FootContactTruth& ft = g.feet[f];
+    ft.X_WF = frame_pose(feet[f].body, feet[f].X_KF);
+    ft.v_WF = point_velocity(feet[f].body, ft.X_WF.translation());
+    ft.in_contact = false;
+    ft.num_points = 0;
+    ft.force_W.setZero();
+    ft.torque_Fo_W.setZero();
+    ft.cop_W.setZero();
+  }
+  std::fill(g.non_foot_contact.begin(), g.non_foot_contact.end(), 0);
+  g.num_non_foot_contacts = 0;
+  g.total_contact_force_W.setZero();
+  const int num_manifolds = dispatcher->getNumManifolds();
+  for (int m = 0; m < num_manifolds; ++m) {
+    const btPersistentManifold* man = dispatcher->getManifoldByIndexInternal(m);
+    const int u0 = man->getBody0()->getUserIndex();
+    const int u1 = man->getBody1()->getUserIndex();
+    if ((u0 >= 0) == (u1 >= 0)) continue;  // robot-robot or env-env
+    const bool robot_is_a = u0 >= 0;
+    const int body = robot_is_a ? u0 : u1;
+    const double sign = robot_is_a ? 1.0 : -1.0;
+    const int foot = foot_of_body[static_cast<std::size_t>(body)];
+    for (int j = 0; j < man->getNumContacts(); ++j) {
+      const btManifoldPoint& pt = man->getContactPoint(j);
+      const double ln = pt.getAppliedImpulse();
+      const bool touching = ln > 0.0 || pt.getDistance() < 0.0;
+      if (!touching) continue;
+      const Eigen::Vector3d f =
+          sign *
+          (eig(pt.m_normalWorldOnB) * ln + eig(pt.m_lateralFrictionDir1) * pt.m_appliedImpulseLateral1 +
+           eig(pt.m_lateralFrictionDir2) * pt.m_appliedImpulseLateral2) /
+          dt;
+      g.total_contact_force_W += f;
+      if (foot < 0) {
+        if (!g.non_foot_contact[static_cast<std::size_t>(body)]) ++g.num_non_foot_contacts;
+        g.non_foot_contact[static_cast<std::size_t>(body)] = 1;
+        continue;
+      }
+      FootContactTruth& ft = g.feet[static_cast<std::size_t>(foot)];
+      const Eigen::Vector3d p = eig(robot_is_a ? pt.getPositionWorldOnA() : pt.getPositionWorldOnB());
+      ft.force_W += f;
+      ft.torque_Fo_W += (p - ft.X_WF.translation()).cross(f);
+      ft.cop_W += ln * p;
+      weight[foot] += ln;
+      ++ft.num_points;
+      ft.in_contact = true;
+    }
+  }
+  for (std::size_t f = 0; f < feet.size(); ++f) {
+    FootContactTruth& ft = g.feet[f];
+    if (weight[f] > 0.0)
+      ft.cop_W /= weight[f];
+    else
+      ft.cop_W = ft.X_WF.translation();
+    const Eigen::Matrix3d R_FW = ft.X_WF.linear().transpose();
+    s.foot_wrench_Fo_F[f].head<3>() = R_FW * ft.torque_Fo_W;
+    s.foot_wrench_Fo_F[f].tail<3>() = R_FW * ft.force_W;
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+
+Simulator::Simulator(const SimulatorConfig& config) {
+  if (config.robot.feet.size() > 16) throw std::runtime_error("robot.feet: at most 16 feet");
+  impl_ = std::make_unique<Impl>(config);
+}
+Simulator::~Simulator() = default;
+
+const std::vector<std::string>& Simulator::joint_names() const { return impl_->joint_names; }
+int Simulator::num_joints() const { return impl_->n; }
+const std::vector<std::string>& Simulator::body_names() const { return impl_->body_names; }
+const std::vector<std::string>& Simulator::foot_names() const { return impl_->foot_names; }
+double Simulator::total_mass() const { return impl_->mass; }
+double Simulator::dt() const { return impl_->dt; }
+std::int64_t Simulator::tick() const { return impl_->tick; }
+double Simulator::time() const { return static_cast<double>(impl_->tick) * impl_->dt; }
+const Eigen::VectorXd& Simulator::effort_limits() const { return impl_->effort; }
+double Simulator::damping_kd() const { return impl_->cfg.robot.damping_mode_kd; }
+
+SensorFrame Simulator::make_sensor_frame() const {
+  SensorFrame s;
+  s.q = Eigen::VectorXd::Zero(impl_->n);
+  s.qd = Eigen::VectorXd::Zero(impl_->n);
+  s.tau_measured = Eigen::VectorXd::Zero(impl_->n);
+  s.foot_wrench_Fo_F.assign(impl_->feet.size(), Eigen::Matrix<double, 6, 1>::Zero());
+  return s;
+}
+
+GroundTruth Simulator::make_ground_truth() const {
+  GroundTruth g;
+  g.feet.assign(impl_->feet.size(), FootContactTruth{});
+  g.non_foot_contact.assign(impl_->tree.bodies.size(), 0);
+  return g;
+}
+
+JointCommand Simulator::make_command() const {
+  JointCommand c;
+  c.resize(impl_->n);
+  return c;
+}
+
+void Simulator::read(SensorFrame& sensors, GroundTruth& truth) { impl_->fill(sensors, truth, false); }
+
+StepStatus Simulator::step(const JointCommand& cmd, SensorFrame& sensors, GroundTruth& truth) {
+  Impl& s = *impl_;
+  const int n = s.n;
+  StepStatus status = StepStatus::kOk;
+  const bool sized = cmd.tau_ff.size() == n && cmd.q_ref.size() == n && cmd.qd_ref.size() == n &&
+                     cmd.kp.size() == n && cmd.kd.size() == n;
+  bool ok = sized && static_cast<std::uint8_t>(cmd.mode) <= 2;
+  if (ok) {
+    switch (cmd.mode) {
+      case CommandMode::kTorque:
+        ok = cmd.tau_ff.allFinite();
+        break;
+      case CommandMode::kPd:
+        ok = cmd.tau_ff.allFinite() && cmd.q_ref.allFinite() && cmd.qd_ref.allFinite() &&
+             cmd.kp.allFinite() && cmd.kd.allFinite();
+        break;
+      case CommandMode::kDamping:
+        ok = cmd.kd.allFinite();
+        break;
+    }
+  }
+  btMultiBody& mb = *s.mb;
+  mb.clearForcesAndTorques();
+  for (int i = 0; i < n; ++i) {
+    const double q = mb.getJointPos(i), qd = mb.getJointVel(i);
+    double t = 0.0;
+    if (!ok) {
+      t = -s.cfg.robot.damping_mode_kd * qd;
+    } else if (cmd.mode == CommandMode::kTorque) {
+      t = cmd.tau_ff[i];
+    } else if (cmd.mode == CommandMode::kPd) {
+      t = cmd.tau_ff[i] + cmd.kp[i] * (cmd.q_ref[i] - q) + cmd.kd[i] * (cmd.qd_ref[i] - qd);
+    } else {
+      t = -cmd.kd[i] * qd;
+    }
+    t = std::clamp(t, -s.effort[i], s.effort[i]);
+    s.tau[i] = t;
+    mb.addJointTorque(i, t - s.damping[i] * qd);
+  }
+  if (!ok) status = StepStatus::kRejectedCommand;
+
+  // Pushes active during [k dt, (k+1) dt).
+  const std::int64_t k = s.tick;
+  for (std::size_t i = 0; i < s.pushes.size();) {
+    const ResolvedPush& p = s.pushes[i];
+    if (k >= p.end_tick) {  // expired: swap-remove, no allocation
+      s.pushes[i] = s.pushes.back();
+      s.pushes.pop_back();
+      continue;
+    }
+    if (k >= p.start_tick) {
+      const Eigen::Isometry3d& X = s.X_WK[static_cast<std::size_t>(p.body)];
+      const Eigen::Vector3d r = X.linear() * p.point_K;  // from the body COM to the point
+      const btVector3 f = bt(p.force_W), tq = bt(Eigen::Vector3d(r.cross(p.force_W)));
+      if (p.body == 0) {
+        mb.addBaseForce(f);
+        mb.addBaseTorque(tq);
+      } else {
+        mb.addLinkForce(p.body - 1, f);
+        mb.addLinkTorque(p.body - 1, tq);
+      }
+    }
+    ++i;
+  }
+
+  s.update_platforms(static_cast<double>(k) * s.dt);
+  s.world->stepSimulation(s.dt, 0, s.dt);
+  ++s.tick;
+  s.update_kinematics();
+  s.fill(sensors, truth, true);
+  return status;
+}
+
+bool Simulator::add_push(const Push& push) {
+  Impl& s = *impl_;
+  if (s.pushes.size() >= s.pushes.capacity()) return false;
+  for (const auto& fr : s.tree.frames) {
+    if (fr.name != push.link) continue;
+    if (!push.point_L.allFinite() || !push.force_W.allFinite() || !std::isfinite(push.start) ||
+        !std::isfinite(push.duration) || push.duration < 0.0)
+      return false;
+    ResolvedPush r;
+    r.body = fr.body;
+    r.point_K = s.X_LK[static_cast<std::size_t>(fr.body)].inverse() * (fr.X_LF * push.point_L);
+    r.force_W = push.force_W;
+    r.start_tick = std::max<std::int64_t>(std::llround(push.start / s.dt), s.tick);
+    r.end_tick = r.start_tick + std::llround(push.duration / s.dt);
+    s.pushes.push_back(r);
+    return true;
+  }
+  return false;
+}
+
+void Simulator::set_state(const Eigen::Isometry3d& X_WB, const Eigen::VectorXd& q,
+                          const Eigen::Vector3d& v_WB, const Eigen::Vector3d& omega_WB,
+                          const Eigen::VectorXd& qd) {
+  impl_->set_state(X_WB, q, v_WB, omega_WB, qd);
+}
+
+Eigen::Isometry3d Simulator::frame_pose(const std::string& urdf_link) const {
+  const detail::FrameSpec* fr = impl_->tree.find_frame(urdf_link);
+  if (!fr) throw std::out_of_range("frame_pose: unknown link '" + urdf_link + "'");
+  const auto b = static_cast<std::size_t>(fr->body);
+  return impl_->X_WK[b] * impl_->X_LK[b].inverse() * fr->X_LF;
+}
+
+std::vector<int> joint_index_map(std::span<const std::string> from,
+                                 std::span<const std::string> to) {
+  std::unordered_map<std::string, int> idx;
+  for (std::size_t i = 0; i < to.size(); ++i)
+    if (!idx.emplace(to[i], static_cast<int>(i)).second)
+      throw std::runtime_error("joint_index_map: duplicate joint name '" + to[i] + "'");
+  std::vector<int> map(from.size(), -1);
+  std::unordered_map<std::string, int> seen;
+  for (std::size_t i = 0; i < from.size(); ++i) {
+    if (!seen.emplace(from[i], 0).second)
+      throw std::runtime_error("joint_index_map: duplicate joint name '" + from[i] + "'");
+    auto it = idx.find(from[i]);
+    if (it != idx.end()) map[i] = it->second;
+  }
+  return map;
+}
+
+void remap_joint_vector(const std::vector<int>& map, const Eigen::VectorXd& in,
+                        Eigen::VectorXd& out) {
+  const Eigen::Index m = std::min<Eigen::Index>(in.size(), static_cast<Eigen::Index>(map.size()));
+  for (Eigen::Index i = 0; i < m; ++i) {
+    const int j = map[static_cast<std::size_t>(i)];
+    if (j >= 0 && j < out.size()) out[j] = in[i];
+  }
+}
+
+}  // namespace poise::sim
