@@ -1,0 +1,67 @@
+#pragma once
+// Robot configuration that sits beside a URDF (deploy/robots/<robot>/robot.yaml): feet, soles,
+// IMU frame, joint groups, nominal posture, PD gains, contact defaults. The simulator, estimator
+// and controller all read it through load_robot_config(). Schema: deploy/robots/README.md.
+
+#include <Eigen/Core>
+#include <array>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "poise/model/model.hpp"
+
+namespace poise::model {
+
+enum Side : int { kRight = 0, kLeft = 1 };
+
+/// Sole rectangle in the FOOT frame (x forward, y left): the sole plane lies `height` metres
+/// below the foot frame origin (the ankle), along the foot frame's -z axis.
+struct SoleRectangle {
+  double x_min = 0.0, x_max = 0.0, y_min = 0.0, y_max = 0.0;
+  double height = 0.0;
+};
+
+struct FootConfig {
+  std::string frame;       ///< foot (ankle) link; the sole rectangle is given in this frame
+  int frame_id = -1;       ///< Model::frame_id(frame)
+  std::string sole_frame;  ///< link on the sole plane below the ankle (fixed to the foot)
+  int sole_frame_id = -1;
+  SoleRectangle sole;
+};
+
+struct JointGains {
+  double kp = 0.0;  ///< N m / rad (N / m for prismatic)
+  double kd = 0.0;  ///< N m s / rad
+};
+
+struct RobotConfig {
+  std::string name;
+  std::filesystem::path config_path;  ///< the YAML file
+  std::filesystem::path urdf_path;    ///< absolute path of the URDF
+  std::string imu_frame;
+  int imu_frame_id = -1;
+  std::array<FootConfig, 2> feet;              ///< indexed by Side (kRight, kLeft)
+  double safety_margin = 0.0;                  ///< m, shrinks the sole rectangle for CoP limits
+  double friction_mu = 0.0;                    ///< Coulomb friction coefficient
+  double torsional_mu = 0.0;                   ///< torsional friction coefficient mu_tau (m)
+  std::vector<std::string> leg_joints;         ///< legs (balance joints)
+  std::vector<std::string> upper_body_joints;  ///< arms, torso, head
+  std::vector<int> leg_joint_indices;          ///< Model::joint_index of leg_joints
+  std::vector<int> upper_body_joint_indices;
+  /// Nominal standing configuration (dim nq): joints from the YAML; base upright above the
+  /// origin, at the height that puts both soles on z = 0.
+  Eigen::VectorXd q_nominal;
+  std::vector<JointGains> gains;  ///< per model joint, model joint order (dim njoints)
+};
+
+/// Loads and validates a robot configuration: builds the URDF model and checks every frame and
+/// joint name, the sole geometry against the sole frames, the joint groups (each model joint in
+/// exactly one group), gains, and that the nominal posture is within limits with flat feet and
+/// the CoM above the feet. Throws ModelError naming the problem.
+RobotConfig load_robot_config(const std::filesystem::path& path);
+
+/// The model of a loaded configuration.
+Model load_robot_model(const RobotConfig& config);
+
+}  // namespace poise::model

@@ -1,0 +1,251 @@
+// robot.yaml loader and validation.
+#include "poise/model/robot_config.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "poise/model/centroidal.hpp"
+#include "poise/model/data.hpp"
+#include "poise/model/kinematics.hpp"
+
+namespace poise::model {
+
+namespace {
+
+class Reader {
+ public:
+  explicit Reader(std::string file) : file_(std::move(file)) {}
+
+  [[noreturn]] void fail(const std::string& key, const std::string& what) const {
+    throw ModelError("robot config '" + file_ + "': " + key + ": " + what);
+  }
+  YAML::Node child(const YAML::Node& n, const std::string& parent, const std::string& key) const {
+    if (!n.IsMap()) fail(parent, "expected a mapping");
+    const YAML::Node c = n[key];
+    if (!c) fail(parent.empty() ? key : parent + "." + key, "missing");
+    return c;
+  }
+  double number(const YAML::Node& n, const std::string& key) const {
+    try {
+      const double x = n.as<double>();
+      if (!std::isfinite(x)) fail(key, "not a finite number");
+      return x;
+    } catch (const YAML::Exception&) {
+      fail(key, "expected a number");
+    }
+  }
+  std::string text(const YAML::Node& n, const std::string& key) const {
+    if (!n.IsScalar()) fail(key, "expected a string");
+    return n.as<std::string>();
+  }
+  std::vector<std::string> text_list(const YAML::Node& n, const std::string& key) const {
+    if (!n.IsSequence()) fail(key, "expected a list of names");
+    std::vector<std::string> out;
+    for (const auto& e : n)
+      out.push_back(text(e, key));
+    return out;
+  }
+
+ private:
+  std::string file_;
+};
+
+}  // namespace
+
+RobotConfig load_robot_config(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec))
+    throw ModelError("robot config not found: '" + path.string() + "'");
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path.string());
+  } catch (const YAML::Exception& e) {
+    throw ModelError("robot config '" + path.string() + "': bad YAML: " + e.what());
+  }
+  const Reader r(path.string());
+  RobotConfig cfg;
+  cfg.config_path = std::filesystem::absolute(path);
+  cfg.name = r.text(r.child(root, "", "name"), "name");
+  const std::filesystem::path urdf = r.text(r.child(root, "", "urdf"), "urdf");
+  cfg.urdf_path = urdf.is_absolute() ? urdf : cfg.config_path.parent_path() / urdf;
+  const Model model = build_model_from_urdf_file(cfg.urdf_path);
+
+  auto frame = [&](const std::string& name, const std::string& key) {
+    if (!model.has_frame(name))
+      r.fail(key, "'" + name + "' is not a link of " + cfg.urdf_path.string());
+    return model.frame_id(name);
+  };
+  auto joint = [&](const std::string& name, const std::string& key) {
+    if (!model.has_joint(name))
+      r.fail(key, "'" + name + "' is not a (non-fixed) joint of " + cfg.urdf_path.string());
+    return model.joint_index(name);
+  };
+
+  cfg.imu_frame = r.text(r.child(root, "", "imu_frame"), "imu_frame");
+  cfg.imu_frame_id = frame(cfg.imu_frame, "imu_frame");
+
+  // ---- feet -----------------------------------------------------------------------------------
+  const YAML::Node feet = r.child(root, "", "feet");
+  for (const auto& [side, key] : {std::pair{kRight, "right"}, std::pair{kLeft, "left"}}) {
+    const std::string base = std::string("feet.") + key;
+    const YAML::Node fn = r.child(feet, "feet", key);
+    FootConfig& foot = cfg.feet[side];
+    foot.frame = r.text(r.child(fn, base, "frame"), base + ".frame");
+    foot.frame_id = frame(foot.frame, base + ".frame");
+    foot.sole_frame = r.text(r.child(fn, base, "sole_frame"), base + ".sole_frame");
+    foot.sole_frame_id = frame(foot.sole_frame, base + ".sole_frame");
+    const YAML::Node sn = r.child(fn, base, "sole");
+    const std::string sb = base + ".sole";
+    SoleRectangle& s = foot.sole;
+    s.x_min = r.number(r.child(sn, sb, "x_min"), sb + ".x_min");
+    s.x_max = r.number(r.child(sn, sb, "x_max"), sb + ".x_max");
+    s.y_min = r.number(r.child(sn, sb, "y_min"), sb + ".y_min");
+    s.y_max = r.number(r.child(sn, sb, "y_max"), sb + ".y_max");
+    s.height = r.number(r.child(sn, sb, "height"), sb + ".height");
+    if (!(s.x_min < s.x_max) || !(s.y_min < s.y_max))
+      r.fail(sb, "empty rectangle (need x_min < x_max and y_min < y_max)");
+    if (!(s.height >= 0.0)) r.fail(sb + ".height", "must be >= 0");
+    const Frame& ff = model.frames[foot.frame_id];
+    const Frame& sf = model.frames[foot.sole_frame_id];
+    if (ff.body != sf.body)
+      r.fail(base + ".sole_frame",
+             "'" + foot.sole_frame + "' is not rigidly attached to '" + foot.frame + "'");
+    const SE3 X_FS = ff.X_BF.inverse() * sf.X_BF;
+    if ((X_FS.p - Vector3(0.0, 0.0, -s.height)).norm() > 1e-3 ||
+        !X_FS.R.isApprox(Matrix3::Identity(), 1e-6)) {
+      std::ostringstream os;
+      os << "sole frame '" << foot.sole_frame << "' is at " << X_FS.p.transpose() << " in '"
+         << foot.frame << "'; expected (0, 0, " << -s.height << ") with the same axes";
+      r.fail(base, os.str());
+    }
+  }
+  if (cfg.feet[kRight].frame == cfg.feet[kLeft].frame)
+    r.fail("feet", "left and right use the same frame");
+
+  // ---- contact --------------------------------------------------------------------------------
+  const YAML::Node contact = r.child(root, "", "contact");
+  cfg.safety_margin =
+      r.number(r.child(contact, "contact", "safety_margin"), "contact.safety_margin");
+  cfg.friction_mu = r.number(r.child(contact, "contact", "friction_mu"), "contact.friction_mu");
+  cfg.torsional_mu = r.number(r.child(contact, "contact", "torsional_mu"), "contact.torsional_mu");
+  if (cfg.safety_margin < 0.0) r.fail("contact.safety_margin", "must be >= 0");
+  if (!(cfg.friction_mu > 0.0)) r.fail("contact.friction_mu", "must be > 0");
+  if (cfg.torsional_mu < 0.0) r.fail("contact.torsional_mu", "must be >= 0");
+  for (const FootConfig& f : cfg.feet) {
+    if (2.0 * cfg.safety_margin >=
+        std::min(f.sole.x_max - f.sole.x_min, f.sole.y_max - f.sole.y_min))
+      r.fail("contact.safety_margin", "leaves no safe region inside the sole of " + f.frame);
+  }
+
+  // ---- joint groups ---------------------------------------------------------------------------
+  const YAML::Node groups = r.child(root, "", "joint_groups");
+  cfg.leg_joints = r.text_list(r.child(groups, "joint_groups", "legs"), "joint_groups.legs");
+  cfg.upper_body_joints =
+      r.text_list(r.child(groups, "joint_groups", "upper_body"), "joint_groups.upper_body");
+  std::vector<int> group_of(model.njoints, -1);
+  for (int g = 0; g < 2; ++g) {
+    const auto& names = g == 0 ? cfg.leg_joints : cfg.upper_body_joints;
+    auto& idx = g == 0 ? cfg.leg_joint_indices : cfg.upper_body_joint_indices;
+    const std::string key = g == 0 ? "joint_groups.legs" : "joint_groups.upper_body";
+    for (const std::string& n : names) {
+      const int j = joint(n, key);
+      if (group_of[j] != -1) r.fail(key, "joint '" + n + "' is listed twice");
+      group_of[j] = g;
+      idx.push_back(j);
+    }
+  }
+  for (int j = 0; j < model.njoints; ++j)
+    if (group_of[j] == -1)
+      r.fail("joint_groups", "joint '" + model.joint_names[j] + "' belongs to no group");
+
+  // ---- nominal posture ------------------------------------------------------------------------
+  Eigen::VectorXd q = model.neutral();
+  const YAML::Node posture = r.child(root, "", "nominal_posture");
+  if (!posture.IsMap()) r.fail("nominal_posture", "expected a mapping joint: angle");
+  for (const auto& kv : posture) {
+    const std::string n = r.text(kv.first, "nominal_posture");
+    const std::string key = "nominal_posture." + n;
+    const int j = joint(n, key);
+    const double x = r.number(kv.second, key);
+    if (x < model.limits[j].lower || x > model.limits[j].upper)
+      r.fail(key, "outside the joint limits");
+    q[model.idx_q(j)] = x;
+  }
+  Data data(model);
+  forward_kinematics(model, data, q);
+  double z_sum = 0.0;
+  for (const FootConfig& f : cfg.feet) {
+    const SE3 X = frame_placement(model, data, f.sole_frame_id);
+    if (X.R.col(2).z() < std::cos(1e-3))
+      r.fail("nominal_posture", "the sole of '" + f.frame + "' is not flat (tilted)");
+    z_sum += X.p.z();
+  }
+  q[2] = -0.5 * z_sum;
+  forward_kinematics(model, data, q);
+  const double dz = frame_placement(model, data, cfg.feet[0].sole_frame_id).p.z() -
+                    frame_placement(model, data, cfg.feet[1].sole_frame_id).p.z();
+  if (std::abs(dz) > 1e-3) r.fail("nominal_posture", "the two soles are not at the same height");
+  center_of_mass(model, data, q);
+  Eigen::Vector2d lo(1e9, 1e9), hi(-1e9, -1e9);
+  for (const FootConfig& f : cfg.feet) {
+    const SE3 X = frame_placement(model, data, f.frame_id);
+    for (double x : {f.sole.x_min, f.sole.x_max})
+      for (double y : {f.sole.y_min, f.sole.y_max}) {
+        const Vector3 c = X.act(Vector3(x, y, -f.sole.height));
+        lo = lo.cwiseMin(c.head<2>());
+        hi = hi.cwiseMax(c.head<2>());
+      }
+  }
+  const Eigen::Vector2d com = data.com.head<2>();
+  if ((com.array() < lo.array()).any() || (com.array() > hi.array()).any()) {
+    std::ostringstream os;
+    os << "the CoM (" << com.transpose() << ") is not above the feet";
+    r.fail("nominal_posture", os.str());
+  }
+  cfg.q_nominal = q;
+
+  // ---- gains ----------------------------------------------------------------------------------
+  const YAML::Node gains = r.child(root, "", "pd_gains");
+  if (!gains.IsMap()) r.fail("pd_gains", "expected a mapping");
+  auto read_gains = [&](const YAML::Node& n, const std::string& key) {
+    JointGains g;
+    g.kp = r.number(r.child(n, key, "kp"), key + ".kp");
+    g.kd = r.number(r.child(n, key, "kd"), key + ".kd");
+    if (g.kp < 0.0 || g.kd < 0.0) r.fail(key, "gains must be >= 0");
+    return g;
+  };
+  bool have_default = false;
+  JointGains def;
+  std::vector<bool> set(model.njoints, false);
+  cfg.gains.assign(model.njoints, JointGains{});
+  for (const auto& kv : gains) {
+    const std::string n = r.text(kv.first, "pd_gains");
+    const std::string key = "pd_gains." + n;
+    if (n == "default") {
+      def = read_gains(kv.second, key);
+      have_default = true;
+      continue;
+    }
+    const int j = joint(n, key);
+    cfg.gains[j] = read_gains(kv.second, key);
+    set[j] = true;
+  }
+  for (int j = 0; j < model.njoints; ++j) {
+    if (set[j]) continue;
+    if (!have_default)
+      r.fail("pd_gains", "no gains for joint '" + model.joint_names[j] + "' and no default");
+    cfg.gains[j] = def;
+  }
+  return cfg;
+}
+
+Model load_robot_model(const RobotConfig& config) {
+  return build_model_from_urdf_file(config.urdf_path);
+}
+
+}  // namespace poise::model
