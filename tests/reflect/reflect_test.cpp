@@ -140,9 +140,8 @@ TEST(Json, ErrorsNameThePath) {
 
 TEST(Json, ShortArraysAllowedOnlyWhenBoundedByACount) {
   msg::JointCommand c;
-  reflect::from_json(reflect::Json::parse(
-                         R"({"mode":"COMMAND_DAMPING","joint_count":2,"kd":[1.5,2.5]})"),
-                     c);
+  reflect::from_json(
+      reflect::Json::parse(R"({"mode":"COMMAND_DAMPING","joint_count":2,"kd":[1.5,2.5]})"), c);
   EXPECT_EQ(c.mode(), msg::COMMAND_DAMPING);
   EXPECT_EQ(c.kd()[1], 2.5);
   EXPECT_EQ(c.kd()[2], 0.0);

@@ -22,21 +22,25 @@ void fill_value(T& v, const FieldInfo& info, std::mt19937_64& rng) {
       using M = std::remove_cvref_t<decltype(m)>;
       if constexpr (is_array_v<M>) {
         const long long count = count_of(v, i.count_field);
-        for (std::size_t k = count < 0 ? m.size() : static_cast<std::size_t>(count); k < m.size(); ++k) {
+        for (std::size_t k = count < 0 ? m.size() : static_cast<std::size_t>(count); k < m.size();
+             ++k) {
           m[k] = {};
         }
       }
     });
   } else if constexpr (is_array_v<T>) {
-    for (auto& e : v) fill_value(e, info, rng);
+    for (auto& e : v)
+      fill_value(e, info, rng);
   } else if constexpr (is_vector_v<T>) {
     const std::size_t bound = info.max_length ? info.max_length : 8;
     v.resize(std::uniform_int_distribution<std::size_t>(0, std::min<std::size_t>(bound, 8))(rng));
-    for (auto& e : v) fill_value(e, FieldInfo{info.name, info.idl_type, 0, {}, 0}, rng);
+    for (auto& e : v)
+      fill_value(e, FieldInfo{info.name, info.idl_type, 0, {}, 0}, rng);
   } else if constexpr (is_string_v<T>) {
     const std::size_t bound = info.max_length ? info.max_length : 300;
     std::string text(std::uniform_int_distribution<std::size_t>(0, bound)(rng), ' ');
-    for (auto& c : text) c = static_cast<char>(std::uniform_int_distribution<int>('a', 'z')(rng));
+    for (auto& c : text)
+      c = static_cast<char>(std::uniform_int_distribution<int>('a', 'z')(rng));
     v = text;
   } else if constexpr (is_enum_v<T>) {
     const auto n = msg::EnumTraits<T>::names.size();
@@ -48,7 +52,8 @@ void fill_value(T& v, const FieldInfo& info, std::mt19937_64& rng) {
   } else {
     static_assert(std::is_integral_v<T>);
     if (info.count_bound) {
-      v = static_cast<T>(std::uniform_int_distribution<unsigned long long>(0, info.count_bound)(rng));
+      v = static_cast<T>(
+          std::uniform_int_distribution<unsigned long long>(0, info.count_bound)(rng));
     } else {
       v = static_cast<T>(rng());
     }
@@ -65,8 +70,9 @@ std::optional<std::string> diff_value(const T& a, const T& b, const std::string&
       msg::visit_fields(b, [&](const FieldInfo& ib, const auto& mb) {
         if constexpr (std::is_same_v<decltype(ma), decltype(mb)>) {
           if (!result && ib.name == info.name) {
-            result = diff_value(ma, mb, path.empty() ? std::string(info.name)
-                                                     : path + "." + std::string(info.name));
+            result = diff_value(
+                ma, mb,
+                path.empty() ? std::string(info.name) : path + "." + std::string(info.name));
           }
         }
       });
@@ -81,8 +87,9 @@ std::optional<std::string> diff_value(const T& a, const T& b, const std::string&
     }
     return std::nullopt;
   } else if constexpr (is_string_v<T>) {
-    if (a != b) return path + ": strings differ (length " + std::to_string(a.size()) + " vs " +
-                       std::to_string(b.size()) + ")";
+    if (a != b)
+      return path + ": strings differ (length " + std::to_string(a.size()) + " vs " +
+             std::to_string(b.size()) + ")";
     return std::nullopt;
   } else {
     if (a != b) {

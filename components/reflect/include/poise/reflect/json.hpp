@@ -44,7 +44,8 @@ Json value_to_json(const T& v, long long count) {
     Json arr = Json::array();
     std::size_t n = v.size();
     if (count >= 0) n = std::min<std::size_t>(n, static_cast<std::size_t>(count));
-    for (std::size_t i = 0; i < n; ++i) arr.push_back(value_to_json(v[i], -1));
+    for (std::size_t i = 0; i < n; ++i)
+      arr.push_back(value_to_json(v[i], -1));
     return arr;
   } else if constexpr (is_fixed_string_v<T>) {
     return Json(v.to_string());
@@ -73,7 +74,8 @@ void struct_from_json(const Json& j, S& s, const std::string& path) {
   }
   for (auto it = j.begin(); it != j.end(); ++it) {
     bool known = false;
-    msg::visit_fields(s, [&](const FieldInfo& info, auto&) { known = known || info.name == it.key(); });
+    msg::visit_fields(
+        s, [&](const FieldInfo& info, auto&) { known = known || info.name == it.key(); });
     if (!known) {
       std::string valid;
       msg::visit_fields(s, [&](const FieldInfo& info, auto&) {
@@ -85,7 +87,8 @@ void struct_from_json(const Json& j, S& s, const std::string& path) {
   }
   msg::visit_fields(s, [&](const FieldInfo& info, auto& value) {
     const auto it = j.find(std::string(info.name));
-    if (it != j.end()) value_from_json(*it, value, join(path, info.name), info, !info.count_field.empty());
+    if (it != j.end())
+      value_from_json(*it, value, join(path, info.name), info, !info.count_field.empty());
   });
 }
 
@@ -141,7 +144,8 @@ void value_from_json(const Json& j, T& v, const std::string& path, const FieldIn
         }
       }
       std::string valid;
-      for (auto n : names) valid += (valid.empty() ? "" : ", ") + std::string(n);
+      for (auto n : names)
+        valid += (valid.empty() ? "" : ", ") + std::string(n);
       throw JsonError(path + ": '" + s + "' is not one of " + valid);
     }
     if (j.is_number_integer() && j.template get<long long>() >= 0 &&

@@ -42,7 +42,8 @@ inline void print_json(const Json& j, std::string& out, int indent) {
       out += pad + it.key() + ": " + buf + "\n";
     } else if (v.is_string()) {
       const auto s = v.get<std::string>();
-      out += pad + it.key() + ": " + (s.size() > 200 ? v.dump().substr(0, 200) + "...\"" : v.dump()) + "\n";
+      out += pad + it.key() + ": " +
+             (s.size() > 200 ? v.dump().substr(0, 200) + "...\"" : v.dump()) + "\n";
     } else {
       out += pad + it.key() + ": " + v.dump() + "\n";
     }

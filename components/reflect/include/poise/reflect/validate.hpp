@@ -21,7 +21,9 @@ struct ValidationError {
   char path[96] = {};
   char reason[96] = {};
   /// "path: reason", for one log line.
-  void format(char* out, std::size_t size) const { std::snprintf(out, size, "%s: %s", path, reason); }
+  void format(char* out, std::size_t size) const {
+    std::snprintf(out, size, "%s: %s", path, reason);
+  }
 };
 
 namespace detail {
