@@ -1,1 +1,491 @@
-namespace poise::sim {}
+#include "poise/sim/scenario.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+#ifdef POISE_SIM_HAVE_MODEL
+#include "poise/model/model.hpp"
+#include "poise/model/robot_config.hpp"
+#endif
+
+namespace poise::sim {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Ctx {
+  std::string what;
+  fs::path base_dir;
+  [[noreturn]] void fail(const std::string& key, const std::string& msg) const {
+    throw std::runtime_error(what + ": " + key + ": " + msg);
+  }
+  void allow(const YAML::Node& n, const std::string& key, std::initializer_list<const char*> keys) const {
+    if (!n) return;
+    if (!n.IsMap()) fail(key, "must be a mapping");
+    for (const auto& kv : n) {
+      const std::string k = kv.first.as<std::string>();
+      if (std::none_of(keys.begin(), keys.end(), [&](const char* a) { return k == a; })) {
+        std::string list;
+        for (const char* a : keys) list += std::string(list.empty() ? "" : ", ") + a;
+        fail(key.empty() ? k : key + "." + k, "unknown key (allowed: " + list + ")");
+      }
+    }
+  }
+  double num(const YAML::Node& n, const std::string& key) const {
+    try {
+      const double v = n.as<double>();
+      if (!std::isfinite(v)) fail(key, "must be a finite number");
+      return v;
+    } catch (const YAML::Exception&) {
+      fail(key, "must be a number");
+    }
+  }
+  double num(const YAML::Node& parent, const char* k, const std::string& key, double dflt) const {
+    return parent[k] ? num(parent[k], key + "." + k) : dflt;
+  }
+  bool boolean(const YAML::Node& parent, const char* k, const std::string& key, bool dflt) const {
+    if (!parent[k]) return dflt;
+    try {
+      return parent[k].as<bool>();
+    } catch (const YAML::Exception&) {
+      fail(key + "." + k, "must be true or false");
+    }
+  }
+  std::string str(const YAML::Node& n, const std::string& key) const {
+    if (!n.IsScalar()) fail(key, "must be a string");
+    return n.as<std::string>();
+  }
+  Eigen::Vector3d vec3(const YAML::Node& n, const std::string& key) const {
+    if (!n.IsSequence() || n.size() != 3) fail(key, "must be a list of 3 numbers");
+    Eigen::Vector3d v;
+    for (int i = 0; i < 3; ++i) v[i] = num(n[i], key + "[" + std::to_string(i) + "]");
+    return v;
+  }
+  fs::path path(const YAML::Node& n, const std::string& key) const {
+    const fs::path p = str(n, key);
+    if (p.is_absolute()) return p;
+    const fs::path a = base_dir / p;
+    if (fs::exists(a)) return fs::weakly_canonical(a);
+#ifdef POISE_SIM_SOURCE_DIR
+    const fs::path b = fs::path(POISE_SIM_SOURCE_DIR) / p;
+    if (fs::exists(b)) return fs::weakly_canonical(b);
+#endif
+    fail(key, "file '" + p.string() + "' not found (relative to " + base_dir.string() +
+                  " or the source tree)");
+  }
+};
+
+constexpr double kDeg = M_PI / 180.0;
+
+Sinusoid sinusoid(const Ctx& c, const YAML::Node& n, const std::string& key, bool angular,
+                  Eigen::Vector3d& axis) {
+  c.allow(n, key, {"axis", "amplitude", "amplitude_deg", "frequency", "phase_deg"});
+  Sinusoid s;
+  if (n["axis"]) {
+    axis = c.vec3(n["axis"], key + ".axis");
+    if (axis.norm() < 1e-9) c.fail(key + ".axis", "must be non-zero");
+    axis.normalize();
+  }
+  if (angular) {
+    if (n["amplitude"]) c.fail(key + ".amplitude", "use amplitude_deg for rotations");
+    s.amplitude = c.num(n, "amplitude_deg", key, 0.0) * kDeg;
+  } else {
+    if (n["amplitude_deg"]) c.fail(key + ".amplitude_deg", "use amplitude (m) for translations");
+    s.amplitude = c.num(n, "amplitude", key, 0.0);
+  }
+  s.frequency = c.num(n, "frequency", key, 0.0);
+  if (s.frequency < 0.0) c.fail(key + ".frequency", "must be >= 0");
+  s.phase = c.num(n, "phase_deg", key, 0.0) * kDeg;
+  return s;
+}
+
+void load_robot(const Ctx& c, const YAML::Node& n, Scenario& sc, std::vector<std::pair<std::string, double>>& nominal) {
+  const std::string key = "robot";
+  if (!n) c.fail(key, "is required");
+  c.allow(n, key, {"config", "urdf", "feet", "imu_frame", "self_collision", "damping_mode_kd"});
+  RobotConfig& r = sc.sim.robot;
+  if (n["config"]) {
+    if (n["urdf"] || n["feet"] || n["imu_frame"])
+      c.fail(key, "give either 'config' (robot configuration file) or 'urdf' + 'feet', not both");
+    sc.robot_config = c.path(n["config"], key + ".config");
+#ifdef POISE_SIM_HAVE_MODEL
+    model::RobotConfig rc;
+    try {
+      rc = model::load_robot_config(sc.robot_config);
+    } catch (const std::exception& e) {
+      c.fail(key + ".config", e.what());
+    }
+    r.urdf_path = rc.urdf_path.string();
+    r.imu_frame = rc.imu_frame;
+    r.feet.clear();
+    const char* side_name[2] = {"right", "left"};
+    for (int s = 0; s < 2; ++s) {
+      const model::FootConfig& f = rc.feet[static_cast<std::size_t>(s)];
+      FootConfig ff;
+      ff.name = side_name[s];
+      ff.frame = f.frame;
+      ff.has_sole = true;
+      ff.sole.x_min = f.sole.x_min;
+      ff.sole.x_max = f.sole.x_max;
+      ff.sole.y_min = f.sole.y_min;
+      ff.sole.y_max = f.sole.y_max;
+      ff.sole.height = f.sole.height;
+      r.feet.push_back(ff);
+    }
+    // nominal posture: joint entries of q_nominal (q = [p (3); quat (4); joints])
+    const model::Model m = model::load_robot_model(rc);
+    for (std::size_t j = 0; j < m.joint_names.size(); ++j)
+      nominal.emplace_back(m.joint_names[j], rc.q_nominal[7 + static_cast<Eigen::Index>(j)]);
+#else
+    c.fail(key + ".config", "this build has no robot-configuration loader (poise_model); use "
+                            "'urdf' + 'feet'");
+#endif
+  } else {
+    if (!n["urdf"]) c.fail(key, "needs 'config' or 'urdf'");
+    r.urdf_path = c.path(n["urdf"], key + ".urdf").string();
+    if (n["imu_frame"]) r.imu_frame = c.str(n["imu_frame"], key + ".imu_frame");
+    const YAML::Node feet = n["feet"];
+    if (!feet || !feet.IsMap() || feet.size() == 0)
+      c.fail(key + ".feet", "a mapping of foot name -> {frame, sole} is required");
+    r.feet.clear();
+    for (const auto& kv : feet) {
+      const std::string name = kv.first.as<std::string>();
+      const std::string fk = key + ".feet." + name;
+      c.allow(kv.second, fk, {"frame", "sole"});
+      FootConfig f;
+      f.name = name;
+      if (!kv.second["frame"]) c.fail(fk + ".frame", "is required");
+      f.frame = c.str(kv.second["frame"], fk + ".frame");
+      if (const YAML::Node s = kv.second["sole"]) {
+        c.allow(s, fk + ".sole", {"x_min", "x_max", "y_min", "y_max", "height", "thickness"});
+        for (const char* k : {"x_min", "x_max", "y_min", "y_max", "height"})
+          if (!s[k]) c.fail(fk + ".sole." + k, "is required");
+        f.has_sole = true;
+        f.sole.x_min = c.num(s["x_min"], fk + ".sole.x_min");
+        f.sole.x_max = c.num(s["x_max"], fk + ".sole.x_max");
+        f.sole.y_min = c.num(s["y_min"], fk + ".sole.y_min");
+        f.sole.y_max = c.num(s["y_max"], fk + ".sole.y_max");
+        f.sole.height = c.num(s["height"], fk + ".sole.height");
+        f.sole.thickness = c.num(s, "thickness", fk + ".sole", f.sole.thickness);
+      }
+      r.feet.push_back(f);
+    }
+  }
+  r.self_collision = c.boolean(n, "self_collision", key, false);
+  r.damping_mode_kd = c.num(n, "damping_mode_kd", key, r.damping_mode_kd);
+}
+
+void load_world(const Ctx& c, const YAML::Node& n, Scenario& sc) {
+  const std::string key = "world";
+  c.allow(n, key, {"gravity", "ground", "platforms"});
+  WorldConfig& w = sc.sim.world;
+  if (!n) return;
+  if (n["gravity"]) w.gravity = c.vec3(n["gravity"], key + ".gravity");
+  if (const YAML::Node g = n["ground"]) {
+    c.allow(g, key + ".ground", {"enabled", "height", "friction"});
+    w.ground.enabled = c.boolean(g, "enabled", key + ".ground", true);
+    w.ground.height = c.num(g, "height", key + ".ground", 0.0);
+    w.ground.friction = c.num(g, "friction", key + ".ground", w.ground.friction);
+    if (w.ground.friction < 0.0) c.fail(key + ".ground.friction", "must be >= 0");
+  }
+  if (const YAML::Node ps = n["platforms"]) {
+    if (!ps.IsSequence()) c.fail(key + ".platforms", "must be a list");
+    for (std::size_t i = 0; i < ps.size(); ++i) {
+      const YAML::Node p = ps[i];
+      const std::string pk = key + ".platforms[" + std::to_string(i) + "]";
+      c.allow(p, pk, {"name", "foot", "size", "position", "auto_place", "roll_deg", "pitch_deg",
+                      "yaw_deg", "friction", "translation", "rotation"});
+      PlatformConfig pc;
+      pc.name = p["name"] ? c.str(p["name"], pk + ".name") : "platform" + std::to_string(i);
+      if (p["foot"]) pc.foot = c.str(p["foot"], pk + ".foot");
+      if (p["size"]) {
+        const Eigen::Vector3d s = c.vec3(p["size"], pk + ".size");
+        if ((s.array() <= 0.0).any()) c.fail(pk + ".size", "all three sizes must be > 0");
+        pc.half_extents = 0.5 * s;
+      }
+      pc.auto_place = c.boolean(p, "auto_place", pk, !pc.foot.empty());
+      if (pc.auto_place && pc.foot.empty()) c.fail(pk + ".foot", "auto_place needs a foot");
+      if (p["position"]) pc.position = c.vec3(p["position"], pk + ".position");
+      pc.roll = c.num(p, "roll_deg", pk, 0.0) * kDeg;
+      pc.pitch = c.num(p, "pitch_deg", pk, 0.0) * kDeg;
+      pc.yaw = c.num(p, "yaw_deg", pk, 0.0) * kDeg;
+      pc.friction = c.num(p, "friction", pk, pc.friction);
+      if (pc.friction < 0.0) c.fail(pk + ".friction", "must be >= 0");
+      if (p["translation"])
+        pc.translation = sinusoid(c, p["translation"], pk + ".translation", false, pc.translation_axis);
+      if (p["rotation"])
+        pc.rotation = sinusoid(c, p["rotation"], pk + ".rotation", true, pc.rotation_axis);
+      w.platforms.push_back(pc);
+    }
+  }
+}
+
+}  // namespace
+
+Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
+                        const std::string& what) {
+  Ctx c{what, base_dir};
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    throw std::runtime_error(what + ": invalid YAML: " + e.what());
+  }
+  if (!root.IsMap()) throw std::runtime_error(what + ": the top level must be a mapping");
+  c.allow(root, "", {"name", "description", "robot", "world", "initial", "disturbances",
+                     "duration", "success", "sensors", "solver", "dds"});
+  Scenario sc;
+  if (!root["name"]) c.fail("name", "is required");
+  sc.name = c.str(root["name"], "name");
+  if (root["description"]) sc.description = c.str(root["description"], "description");
+  if (!root["duration"]) c.fail("duration", "is required");
+  sc.duration = c.num(root["duration"], "duration");
+  if (!(sc.duration > 0.0)) c.fail("duration", "must be > 0");
+
+  std::vector<std::pair<std::string, double>> nominal;
+  load_robot(c, root["robot"], sc, nominal);
+  load_world(c, root["world"], sc);
+
+  // initial state
+  InitialState& ini = sc.sim.initial;
+  if (const YAML::Node n = root["initial"]) {
+    c.allow(n, "initial", {"posture", "joints", "base_xy", "base_height", "base_rpy_deg",
+                           "clearance", "support"});
+    std::string posture = n["posture"] ? c.str(n["posture"], "initial.posture") : "nominal";
+    if (posture != "nominal" && posture != "zero")
+      c.fail("initial.posture", "must be 'nominal' or 'zero'");
+    if (posture == "nominal")
+      for (const auto& [name, v] : nominal) {
+        ini.joint_names.push_back(name);
+        ini.joint_positions.push_back(v);
+      }
+    if (const YAML::Node j = n["joints"]) {
+      if (!j.IsMap()) c.fail("initial.joints", "must be a mapping joint -> angle (rad)");
+      for (const auto& kv : j) {
+        const std::string name = kv.first.as<std::string>();
+        const double v = c.num(kv.second, "initial.joints." + name);
+        auto it = std::find(ini.joint_names.begin(), ini.joint_names.end(), name);
+        if (it != ini.joint_names.end())
+          ini.joint_positions[static_cast<std::size_t>(it - ini.joint_names.begin())] = v;
+        else {
+          ini.joint_names.push_back(name);
+          ini.joint_positions.push_back(v);
+        }
+      }
+    }
+    if (n["base_xy"]) {
+      if (!n["base_xy"].IsSequence() || n["base_xy"].size() != 2)
+        c.fail("initial.base_xy", "must be a list of 2 numbers");
+      ini.base_position.x() = c.num(n["base_xy"][0], "initial.base_xy[0]");
+      ini.base_position.y() = c.num(n["base_xy"][1], "initial.base_xy[1]");
+    }
+    if (n["base_height"] && !(n["base_height"].IsScalar() && n["base_height"].as<std::string>() == "auto")) {
+      ini.auto_base_height = false;
+      ini.base_position.z() = c.num(n["base_height"], "initial.base_height");
+    }
+    if (n["base_rpy_deg"]) {
+      const Eigen::Vector3d rpy = c.vec3(n["base_rpy_deg"], "initial.base_rpy_deg") * kDeg;
+      const Eigen::Quaterniond q(Eigen::AngleAxisd(rpy.z(), Eigen::Vector3d::UnitZ()) *
+                                 Eigen::AngleAxisd(rpy.y(), Eigen::Vector3d::UnitY()) *
+                                 Eigen::AngleAxisd(rpy.x(), Eigen::Vector3d::UnitX()));
+      ini.base_orientation_wxyz << q.w(), q.x(), q.y(), q.z();
+    }
+    ini.clearance = c.num(n, "clearance", "initial", 0.0);
+    if (n["support"]) sc.support = c.str(n["support"], "initial.support");
+  } else {
+    for (const auto& [name, v] : nominal) {
+      ini.joint_names.push_back(name);
+      ini.joint_positions.push_back(v);
+    }
+  }
+  bool support_ok = sc.support == "double";
+  for (const auto& f : sc.sim.robot.feet) support_ok = support_ok || f.name == sc.support;
+  if (!support_ok) c.fail("initial.support", "must be 'double' or a foot name, got '" + sc.support + "'");
+
+  // disturbances
+  if (const YAML::Node d = root["disturbances"]) {
+    c.allow(d, "disturbances", {"pushes"});
+    if (const YAML::Node ps = d["pushes"]) {
+      if (!ps.IsSequence()) c.fail("disturbances.pushes", "must be a list");
+      for (std::size_t i = 0; i < ps.size(); ++i) {
+        const std::string pk = "disturbances.pushes[" + std::to_string(i) + "]";
+        const YAML::Node p = ps[i];
+        c.allow(p, pk, {"link", "point", "force", "start", "duration"});
+        for (const char* k : {"link", "force", "start", "duration"})
+          if (!p[k]) c.fail(pk + "." + k, "is required");
+        Push push;
+        push.link = c.str(p["link"], pk + ".link");
+        if (p["point"]) push.point_L = c.vec3(p["point"], pk + ".point");
+        push.force_W = c.vec3(p["force"], pk + ".force");
+        push.start = c.num(p["start"], pk + ".start");
+        push.duration = c.num(p["duration"], pk + ".duration");
+        if (push.start < 0.0) c.fail(pk + ".start", "must be >= 0");
+        if (push.duration <= 0.0) c.fail(pk + ".duration", "must be > 0");
+        sc.sim.pushes.push_back(push);
+      }
+    }
+  }
+
+  // sensors
+  if (const YAML::Node s = root["sensors"]) {
+    c.allow(s, "sensors", {"imu", "seed"});
+    ImuNoiseConfig& imu = sc.sim.imu;
+    if (s["seed"]) {
+      const double seed = c.num(s["seed"], "sensors.seed");
+      if (seed < 0.0 || seed != std::floor(seed)) c.fail("sensors.seed", "must be a non-negative integer");
+      imu.seed = static_cast<std::uint64_t>(seed);
+    }
+    if (const YAML::Node i = s["imu"]) {
+      c.allow(i, "sensors.imu", {"gyro_noise_std", "gyro_bias", "accel_noise_std", "accel_bias"});
+      imu.gyro_noise_std = c.num(i, "gyro_noise_std", "sensors.imu", 0.0);
+      imu.accel_noise_std = c.num(i, "accel_noise_std", "sensors.imu", 0.0);
+      if (imu.gyro_noise_std < 0.0) c.fail("sensors.imu.gyro_noise_std", "must be >= 0");
+      if (imu.accel_noise_std < 0.0) c.fail("sensors.imu.accel_noise_std", "must be >= 0");
+      if (i["gyro_bias"]) imu.gyro_bias = c.vec3(i["gyro_bias"], "sensors.imu.gyro_bias");
+      if (i["accel_bias"]) imu.accel_bias = c.vec3(i["accel_bias"], "sensors.imu.accel_bias");
+    }
+  }
+
+  // solver
+  if (const YAML::Node s = root["solver"]) {
+    c.allow(s, "solver", {"dt", "iterations", "contact_erp", "contact_cfm", "friction_anchor"});
+    SolverConfig& sv = sc.sim.solver;
+    sv.dt = c.num(s, "dt", "solver", sv.dt);
+    if (!(sv.dt > 0.0 && sv.dt <= 0.01)) c.fail("solver.dt", "must be in (0, 0.01] s");
+    const double it = c.num(s, "iterations", "solver", sv.iterations);
+    if (it < 1 || it != std::floor(it)) c.fail("solver.iterations", "must be an integer >= 1");
+    sv.iterations = static_cast<int>(it);
+    sv.contact_erp = c.num(s, "contact_erp", "solver", sv.contact_erp);
+    sv.contact_cfm = c.num(s, "contact_cfm", "solver", sv.contact_cfm);
+    sv.friction_anchor = c.boolean(s, "friction_anchor", "solver", sv.friction_anchor);
+  }
+
+  // success criteria
+  if (const YAML::Node s = root["success"]) {
+    c.allow(s, "success", {"com_error_max_m", "com_error_final_m", "foot_slip_max_m",
+                           "recovery_time_s", "allow_non_foot_contacts", "min_base_height_m"});
+    SuccessCriteria& k = sc.success;
+    k.com_error_max_m = c.num(s, "com_error_max_m", "success", k.com_error_max_m);
+    k.com_error_final_m = c.num(s, "com_error_final_m", "success", k.com_error_final_m);
+    k.foot_slip_max_m = c.num(s, "foot_slip_max_m", "success", k.foot_slip_max_m);
+    k.recovery_time_s = c.num(s, "recovery_time_s", "success", k.recovery_time_s);
+    k.allow_non_foot_contacts = c.boolean(s, "allow_non_foot_contacts", "success", false);
+    k.min_base_height_m = c.num(s, "min_base_height_m", "success", k.min_base_height_m);
+  }
+
+  // dds hints
+  if (const YAML::Node d = root["dds"]) {
+    c.allow(d, "dds", {"vendor", "components"});
+    auto check = [&](const std::string& v, const std::string& key) {
+      if (v != "fastdds" && v != "cyclonedds") c.fail(key, "must be 'fastdds' or 'cyclonedds'");
+    };
+    if (d["vendor"]) {
+      sc.dds.vendor = c.str(d["vendor"], "dds.vendor");
+      check(sc.dds.vendor, "dds.vendor");
+    }
+    if (const YAML::Node comps = d["components"]) {
+      if (!comps.IsMap()) c.fail("dds.components", "must be a mapping component -> vendor");
+      for (const auto& kv : comps) {
+        const std::string comp = kv.first.as<std::string>();
+        const std::string v = c.str(kv.second, "dds.components." + comp);
+        check(v, "dds.components." + comp);
+        sc.dds.per_component.emplace_back(comp, v);
+      }
+    }
+  }
+
+  // platforms must name existing feet
+  for (std::size_t i = 0; i < sc.sim.world.platforms.size(); ++i) {
+    const std::string& foot = sc.sim.world.platforms[i].foot;
+    if (foot.empty()) continue;
+    bool found = false;
+    for (const auto& f : sc.sim.robot.feet) found = found || f.name == foot;
+    if (!found)
+      c.fail("world.platforms[" + std::to_string(i) + "].foot", "'" + foot + "' is not a foot of the robot");
+  }
+  return sc;
+}
+
+Scenario load_scenario(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("scenario file '" + path.string() + "' cannot be opened");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const fs::path abs = fs::absolute(path);
+  Scenario sc = parse_scenario(ss.str(), abs.parent_path(), "scenario '" + path.string() + "'");
+  sc.file = abs;
+  return sc;
+}
+
+std::vector<int> platforms_of_feet(const Scenario& sc) {
+  std::vector<int> out(sc.sim.robot.feet.size(), -1);
+  for (std::size_t f = 0; f < out.size(); ++f)
+    for (std::size_t k = 0; k < sc.sim.world.platforms.size(); ++k)
+      if (sc.sim.world.platforms[k].foot == sc.sim.robot.feet[f].name) out[f] = static_cast<int>(k);
+  return out;
+}
+
+ScenarioMonitor::ScenarioMonitor(const Scenario& scenario, std::vector<int> platform_of_foot)
+    : scenario_(scenario), platform_of_foot_(std::move(platform_of_foot)) {
+  for (std::size_t f = 0; f < scenario.sim.robot.feet.size(); ++f)
+    if (scenario.support == "double" || scenario.sim.robot.feet[f].name == scenario.support)
+      support_feet_.push_back(static_cast<int>(f));
+  for (const Push& p : scenario.sim.pushes) last_push_end_ = std::max(last_push_end_, p.start + p.duration);
+  foot_in_support_0_.assign(scenario.sim.robot.feet.size(), Eigen::Vector3d::Zero());
+  r_.last_recovery_time_s = std::numeric_limits<double>::infinity();
+}
+
+void ScenarioMonitor::update(const GroundTruth& g) {
+  auto support_pose = [&](int f) {
+    const int k = platform_of_foot_[static_cast<std::size_t>(f)];
+    return k >= 0 && static_cast<std::size_t>(k) < g.platform_X_WP.size()
+               ? g.platform_X_WP[static_cast<std::size_t>(k)]
+               : Eigen::Isometry3d::Identity();
+  };
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  for (int f : support_feet_) centre += g.feet[static_cast<std::size_t>(f)].X_WF.translation().head<2>();
+  centre /= static_cast<double>(std::max<std::size_t>(1, support_feet_.size()));
+  if (!initialised_) {
+    com_offset_ = g.com_W.head<2>() - centre;
+    for (int f : support_feet_)
+      foot_in_support_0_[static_cast<std::size_t>(f)] =
+          support_pose(f).inverse() * g.feet[static_cast<std::size_t>(f)].X_WF.translation();
+    initialised_ = true;
+  }
+  time_ = g.time;
+  const double err = (g.com_W.head<2>() - (centre + com_offset_)).norm();
+  r_.com_error_max_m = std::max(r_.com_error_max_m, err);
+  r_.com_error_final_m = err;
+  if (err > scenario_.success.com_error_final_m) last_bad_time_ = g.time;
+  for (int f : support_feet_) {
+    const auto& ft = g.feet[static_cast<std::size_t>(f)];
+    if (!ft.in_contact) continue;
+    const Eigen::Vector3d p = support_pose(f).inverse() * ft.X_WF.translation();
+    r_.foot_slip_max_m =
+        std::max(r_.foot_slip_max_m, (p - foot_in_support_0_[static_cast<std::size_t>(f)]).head<2>().norm());
+  }
+  if (g.num_non_foot_contacts > 0) ++r_.non_foot_contacts;
+  r_.min_base_height_m = std::min(r_.min_base_height_m, g.X_WB.translation().z());
+}
+
+ScenarioMonitor::Result ScenarioMonitor::result() const {
+  Result r = r_;
+  const SuccessCriteria& k = scenario_.success;
+  r.last_recovery_time_s = r.com_error_final_m <= k.com_error_final_m
+                               ? std::max(0.0, last_bad_time_ - last_push_end_)
+                               : std::numeric_limits<double>::infinity();
+  r.survived = initialised_ && r.com_error_max_m <= k.com_error_max_m &&
+               r.com_error_final_m <= k.com_error_final_m && r.foot_slip_max_m <= k.foot_slip_max_m &&
+               (k.allow_non_foot_contacts || r.non_foot_contacts == 0) &&
+               r.min_base_height_m >= k.min_base_height_m &&
+               (std::isinf(k.recovery_time_s) || r.last_recovery_time_s <= k.recovery_time_s);
+  return r;
+}
+
+}  // namespace poise::sim

@@ -645,6 +645,11 @@ void Simulator::Impl::fill(SensorFrame& s, GroundTruth& g, bool measure_imu) {
   g.com_W = c / mass;
   g.com_vel_W = cv / mass;
 
+  for (std::size_t k = 0; k < platforms.size() && k < g.platform_X_WP.size(); ++k) {
+    Eigen::Vector3d v, w;
+    platforms[k].pose(t, g.platform_X_WP[k], v, w);
+  }
+
   // Contacts: impulses of the step just taken, from every robot/support manifold.
   double weight[16] = {};
   for (std::size_t f = 0; f < feet.size(); ++f) {
@@ -740,6 +745,7 @@ GroundTruth Simulator::make_ground_truth() const {
   GroundTruth g;
   g.feet.assign(impl_->feet.size(), FootContactTruth{});
   g.non_foot_contact.assign(impl_->tree.bodies.size(), 0);
+  g.platform_X_WP.assign(impl_->platforms.size(), Eigen::Isometry3d::Identity());
   return g;
 }
 

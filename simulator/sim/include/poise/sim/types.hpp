@@ -84,6 +84,8 @@ struct GroundTruth {
   int num_non_foot_contacts = 0;  ///< number of bodies flagged in non_foot_contact
   /// Sum of every contact force the environment exerts on the robot (feet and others) [N].
   Eigen::Vector3d total_contact_force_W = Eigen::Vector3d::Zero();
+  /// Pose of each platform's top-face centre (order of WorldConfig::platforms).
+  std::vector<Eigen::Isometry3d> platform_X_WP;
 };
 
 /// Result of one simulation step. A step never throws.

@@ -1,0 +1,92 @@
+#pragma once
+// Scenario files (YAML; schema in deploy/scenarios/README.md): robot, world, initial posture,
+// disturbances, duration and success criteria of one experiment, plus a monitor that turns the
+// ground truth of a run into the verdict quantities (CoM error, foot slip, non-foot contacts).
+
+#include <filesystem>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "poise/sim/sim_config.hpp"
+#include "poise/sim/types.hpp"
+
+namespace poise::sim {
+
+struct SuccessCriteria {
+  double com_error_max_m = std::numeric_limits<double>::infinity();  ///< over the whole run
+  double com_error_final_m = std::numeric_limits<double>::infinity();  ///< at the end
+  double foot_slip_max_m = std::numeric_limits<double>::infinity();  ///< of a supporting foot
+  double recovery_time_s = std::numeric_limits<double>::infinity();  ///< after the last push
+  bool allow_non_foot_contacts = false;  ///< a knee / hand / trunk touching = fall
+  double min_base_height_m = 0.0;        ///< base below this height = fall
+};
+
+/// Optional hints for `poise run` (which DDS vendor each component uses).
+struct DdsHints {
+  std::string vendor;  ///< default vendor for every component ("" = launcher default)
+  std::vector<std::pair<std::string, std::string>> per_component;  ///< component -> vendor
+};
+
+struct Scenario {
+  std::string name;
+  std::string description;
+  std::filesystem::path file;          ///< the YAML file (absolute)
+  std::filesystem::path robot_config;  ///< robot configuration YAML ("" when inline)
+  double duration = 0.0;               ///< [s]
+  std::string support = "double";      ///< initial support: double | left | right
+  SimulatorConfig sim;                 ///< robot, world, initial state, pushes, noise, solver
+  SuccessCriteria success;
+  DdsHints dds;
+};
+
+/// Loads and validates a scenario file. Relative paths inside it are resolved against the
+/// scenario's directory first, then against the source tree. Throws std::runtime_error naming
+/// the file and the offending key.
+Scenario load_scenario(const std::filesystem::path& path);
+
+/// Same from YAML text; `base_dir` resolves relative paths, `what` names the source in errors.
+Scenario parse_scenario(const std::string& yaml_text, const std::filesystem::path& base_dir,
+                        const std::string& what = "scenario");
+
+/// Accumulates the verdict quantities of a run from its ground truth (one update per tick).
+/// CoM error: horizontal distance between the CoM and its reference, the reference being the
+/// initial CoM offset from the centroid of the support feet, carried along with that centroid
+/// (so moving supports are not counted as error). Foot slip: largest displacement of a
+/// supporting foot relative to the support it stands on (platform or ground), while in contact.
+class ScenarioMonitor {
+ public:
+  struct Result {
+    double com_error_max_m = 0.0;
+    double com_error_final_m = 0.0;
+    double foot_slip_max_m = 0.0;
+    int non_foot_contacts = 0;  ///< ticks with at least one non-foot contact
+    double min_base_height_m = std::numeric_limits<double>::infinity();
+    double last_recovery_time_s = 0.0;  ///< time after the last push until the CoM error stayed
+                                        ///< below com_error_final_m (inf if it never did)
+    bool survived = false;
+  };
+
+  /// `platform_of_foot[f]` = index of the platform under foot f, or -1 for the ground.
+  ScenarioMonitor(const Scenario& scenario, std::vector<int> platform_of_foot);
+  void update(const GroundTruth& truth);
+  /// Evaluates the success criteria on what was seen so far.
+  Result result() const;
+
+ private:
+  Scenario scenario_;
+  std::vector<int> platform_of_foot_;
+  std::vector<int> support_feet_;
+  bool initialised_ = false;
+  Eigen::Vector2d com_offset_ = Eigen::Vector2d::Zero();
+  std::vector<Eigen::Vector3d> foot_in_support_0_;
+  double last_push_end_ = 0.0;
+  double last_bad_time_ = 0.0;
+  double time_ = 0.0;
+  Result r_;
+};
+
+/// Index of the platform that supports each foot (by PlatformConfig::foot), -1 = ground.
+std::vector<int> platforms_of_feet(const Scenario& scenario);
+
+}  // namespace poise::sim
