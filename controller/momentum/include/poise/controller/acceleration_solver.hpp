@@ -1,0 +1,78 @@
+#pragma once
+// Joint accelerations of the balance controller, paper eq (33):
+//
+//   min_x  w_b |A x - b|^2 + sum_j w_j (x_j - t_j)^2
+//   s.t.   C x = d                    (foot accelerations, eq (36): J qdd = a_d - J_dot qd)
+//          lo <= x[6:] <= hi          (joint-acceleration bounds from the joint limits)
+//
+// x = qdd (dim nv = 6 + n, the model's generalized acceleration), A the centroidal momentum
+// matrix (6 x nv), b = hdot_a - A_dot qd (6). The diagonal term carries the paper's upper-body
+// objective (1 - w_b) |qdd_u,d - qdd_u|^2 (w_j = 1 - w_b, t_j = qdd_u,d on upper-body joints)
+// plus a small posture prior on every DoF (see AccelerationConfig::posture_weight); the caller
+// combines them into (w, t). Solved as a strictly convex QP by the Goldfarb-Idnani dual method
+// (poise::contact::DualQp); when the bounds make it infeasible it is solved again without them.
+
+#include <Eigen/Core>
+
+#include "poise/contact/dual_qp.hpp"
+#include "poise/contact/solver_status.hpp"
+
+namespace poise::controller {
+
+class AccelerationSolver {
+ public:
+  AccelerationSolver() = default;
+  /// nv: number of variables (>= 7); max_eq: maximum number of equality rows.
+  /// Allocates; throws std::invalid_argument on bad sizes.
+  AccelerationSolver(int nv, int max_eq) { resize(nv, max_eq); }
+  void resize(int nv, int max_eq);
+
+  struct Result {
+    contact::SolverStatus status = contact::SolverStatus::kInvalidInput;
+    bool bounds_dropped = false;  ///< infeasible with bounds: this is the bound-free solution
+    int iterations = 0;
+    int active_bounds = 0;
+  };
+
+  /// A: 6 x nv, b: 6, w_b in (0, 1), w: nv (>= 0, with w_b A^T A + diag(w) positive definite),
+  /// t: nv, C: m x nv (m <= max_eq), d: m, lo, hi: nv - 6 (lo <= hi), x: nv (output).
+  /// Allocation-free, never throws. On failure x holds the solver's last iterate, or zero when the
+  /// input was rejected.
+  Result solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
+               const Eigen::Ref<const Eigen::VectorXd>& b, double w_b,
+               const Eigen::Ref<const Eigen::VectorXd>& w,
+               const Eigen::Ref<const Eigen::VectorXd>& t,
+               const Eigen::Ref<const Eigen::MatrixXd>& C,
+               const Eigen::Ref<const Eigen::VectorXd>& d,
+               const Eigen::Ref<const Eigen::VectorXd>& lo,
+               const Eigen::Ref<const Eigen::VectorXd>& hi, Eigen::Ref<Eigen::VectorXd> x);
+
+  /// Hessian and gradient of the last solve, 0.5 x^T G x + g^T x form (for KKT checks in tests).
+  const Eigen::MatrixXd& hessian() const { return G_; }
+  const Eigen::VectorXd& gradient() const { return g_; }
+  const contact::DualQp& qp() const { return qp_; }
+
+ private:
+  int nv_ = 0;
+  int max_eq_ = 0;
+  contact::DualQp qp_;
+  Eigen::MatrixXd G_;
+  Eigen::VectorXd g_;
+  Eigen::MatrixXd A_in_;  // 2 (nv - 6) x nv: [I; -I] on the joint columns
+  Eigen::VectorXd b_in_;
+};
+
+/// Joint-acceleration bounds that keep a joint inside [q_min, q_max] (paper Sec. 3.5, "the
+/// upper bound decreases when a joint approaches its upper limit"): with a constant acceleration
+/// over the horizon T, q + qd T + qdd T^2 / 2 stays inside the limits:
+///   hi = 2 (q_max - q - qd T) / T^2,  lo = 2 (q_min - q - qd T) / T^2,
+/// each clamped to [-a_max, a_max] (so lo <= hi always holds; a joint predicted beyond a limit gets
+/// a bound of the sign that drives it back). Infinite limits give +-a_max. Allocation-free; dim n.
+void joint_acceleration_bounds(const Eigen::Ref<const Eigen::VectorXd>& q,
+                               const Eigen::Ref<const Eigen::VectorXd>& qd,
+                               const Eigen::Ref<const Eigen::VectorXd>& q_min,
+                               const Eigen::Ref<const Eigen::VectorXd>& q_max, double horizon,
+                               double a_max, Eigen::Ref<Eigen::VectorXd> lo,
+                               Eigen::Ref<Eigen::VectorXd> hi);
+
+}  // namespace poise::controller

@@ -1,0 +1,160 @@
+#pragma once
+// The momentum-based balance controller of Lee & Goswami (paper Sec. 3.2, 3.5-3.7, 4.2) as a
+// library: no DDS, no threads, no clocks, no files after configuration.
+//
+// One tick is split in two phases so that a node can send the contact problem to a separate
+// contact-optimiser process and wait for the answer:
+//
+//   prepare(state k, reference)  -> contact problem k       (phase A: eqs (10)-(11), supports,
+//                                                             foot motion (36), Sec. 4.2 rule)
+//   finish(contact solution k)   -> joint command k         (phase B: eq (33), inverse dynamics,
+//                                                             theta*, theta_dot*, gains (34)-(35))
+//   finish_fallback()            -> joint command k         (phase B without a usable solution:
+//                                                             previous solution or gravity
+//                                                             distribution; counted)
+//
+// In one process, tick() does A, calls the optimiser, then B.
+// Every per-tick call is noexcept and allocation-free (tests prove it with
+// EIGEN_RUNTIME_NO_MALLOC). Joint vectors are in the MODEL joint order; the node remaps.
+
+#include <Eigen/Core>
+#include <array>
+
+#include "poise/contact/contact_problem.hpp"
+#include "poise/controller/acceleration_solver.hpp"
+#include "poise/controller/balance_reference.hpp"
+#include "poise/controller/controller_config.hpp"
+#include "poise/controller/joint_command.hpp"
+#include "poise/controller/robot_state.hpp"
+#include "poise/controller/tick_diagnostics.hpp"
+#include "poise/model/data.hpp"
+#include "poise/model/model.hpp"
+#include "poise/model/robot_config.hpp"
+
+namespace poise::controller {
+
+class BalanceController {
+ public:
+  /// Copies the model and robot configuration, validates `config`, preallocates everything.
+  /// Throws ConfigError (bad config, model and robot config that do not match).
+  BalanceController(const model::Model& model, const model::RobotConfig& robot,
+                    const ControllerConfig& config);
+
+  const model::Model& model() const { return model_; }
+  const model::RobotConfig& robot() const { return robot_; }
+  const ControllerConfig& config() const { return config_; }
+  int num_joints() const { return model_.njoints; }
+
+  /// Preallocated inputs/outputs of the right sizes (configuration time: allocate).
+  RobotState make_state() const;
+  BalanceReference make_reference() const;  ///< stand: automatic feet and CoM, nominal arms
+  JointCommand make_command() const;
+
+  /// Phase A. Validates the state sizes and finiteness (a bad state makes finish() command
+  /// damping). Writes the contact problem of this tick.
+  void prepare(const RobotState& state, const BalanceReference& reference,
+               contact::ContactProblem& problem) noexcept;
+
+  /// Phase B with the optimiser's solution of the problem written by the last prepare().
+  /// `command` must come from make_command() (a wrongly sized command is left untouched).
+  /// A solution with status kInvalidInput or kSolverFailure, or with non-finite numbers, is not
+  /// used: the fallback is taken instead (counted as a late solution).
+  void finish(const contact::ContactSolution& solution, JointCommand& command) noexcept;
+
+  /// Phase B when the solution of this tick is late: reuses the previous solution (same supports,
+  /// at most FallbackConfig::max_reuse_ticks in a row), else the gravity distribution. Counted.
+  void finish_fallback(JointCommand& command) noexcept;
+
+  /// One whole tick in one process: prepare, `solve(problem, solution)` (returns false when it
+  /// has no usable answer), finish or finish_fallback.
+  template <class Solve>
+  void tick(const RobotState& state, const BalanceReference& reference, Solve&& solve,
+            JointCommand& command) noexcept {
+    prepare(state, reference, problem_);
+    if (solve(static_cast<const contact::ContactProblem&>(problem_), solution_))
+      finish(solution_, command);
+    else
+      finish_fallback(command);
+  }
+
+  /// Forgets the integrated references theta*, theta_dot* and the held foot poses (they restart
+  /// from the next measured state). Counters are kept.
+  void reset() noexcept;
+
+  const TickDiagnostics& diagnostics() const { return diag_; }
+  /// The contact problem of the last prepare() (also what tick() sent to the optimiser).
+  const contact::ContactProblem& problem() const { return problem_; }
+  /// Joint accelerations qdd (dim nv) of the last eq (33) solve.
+  const Eigen::VectorXd& generalized_acceleration() const { return qdd_; }
+  /// Generalized velocity v (dim nv) and configuration q (dim nq) of the last prepare().
+  const Eigen::VectorXd& generalized_velocity() const { return v_; }
+  const Eigen::VectorXd& configuration() const { return q_; }
+  /// Joint torques of the last inverse dynamics, all nv rows (base rows = residual).
+  const Eigen::VectorXd& inverse_dynamics_torque() const { return tau_; }
+  /// Foot Jacobians (6 x nv, LOCAL_WORLD_ALIGNED) and J_dot qd of the last prepare().
+  const Eigen::MatrixXd& foot_jacobians() const { return C_; }
+  const Eigen::VectorXd& foot_bias_acceleration() const { return jdot_v_; }
+  /// Centroidal momentum matrix A (6 x nv) and A_dot qd of the last prepare().
+  const model::Matrix6X& centroidal_matrix() const { return data_.Ag; }
+  const model::Vector6& centroidal_bias() const { return data_.dAg_v; }
+  /// Weights w, targets t and joint-acceleration bounds of the last eq (33) solve.
+  const Eigen::VectorXd& qp_weights() const { return w_; }
+  const Eigen::VectorXd& qp_targets() const { return t_; }
+  const Eigen::VectorXd& qdd_lower() const { return lo_; }
+  const Eigen::VectorXd& qdd_upper() const { return hi_; }
+  const AccelerationSolver& acceleration_solver() const { return solver_; }
+
+ private:
+  void finish_with(const contact::ContactSolution& solution, ContactSource source,
+                   JointCommand& command) noexcept;
+  void command_damping(JointCommand& command) noexcept;
+  bool command_sized(const JointCommand& command) const noexcept;
+
+  model::Model model_;
+  model::RobotConfig robot_;
+  ControllerConfig config_;
+  model::Data data_;
+  AccelerationSolver solver_;
+
+  // ---- fixed per robot
+  // ---------------------------------------------------------------------------
+  Eigen::VectorXd q_min_, q_max_, effort_;  // dim n
+  Eigen::VectorXd kp_, kd_;                 // dim n, robot gains * gain_scale
+  Eigen::VectorXd is_upper_;                // dim n, 1 for upper-body joints
+  Eigen::VectorXd q_nominal_;               // dim n
+  double com_height_ = 0.0;
+
+  // ---- per tick
+  // ----------------------------------------------------------------------------------
+  bool state_ok_ = false;
+  Eigen::VectorXd q_, v_;       // nq, nv
+  Eigen::VectorXd qd_joint_;    // n (measured)
+  Eigen::VectorXd qdd_;         // nv
+  Eigen::VectorXd tau_;         // nv
+  Eigen::MatrixXd C_;           // 12 x nv stacked foot Jacobians [right; left]
+  Eigen::VectorXd jdot_v_;      // 12
+  Eigen::VectorXd d_;           // 12: a_d - J_dot qd
+  Eigen::VectorXd w_, t_;       // nv
+  Eigen::VectorXd lo_, hi_;     // n
+  Eigen::VectorXd qdd_u_ref_;   // n: reference upper-body accelerations of this tick
+  Eigen::VectorXd q_u_target_;  // n: upper-body posture target of this tick
+  model::Matrix6X J_foot_;      // 6 x nv scratch
+  std::array<model::SE3, 2> X_WF_;
+  std::array<model::Motion, 2> V_WF_;
+
+  // ---- across ticks
+  // ------------------------------------------------------------------------------
+  bool have_references_ = false;
+  Eigen::VectorXd q_ref_, qd_ref_;  // n: theta*, theta_dot*
+  std::array<bool, 2> have_hold_{false, false};
+  std::array<model::SE3, 2> X_WF_hold_;  // desired pose of each foot when not resting
+  bool have_previous_solution_ = false;
+  std::array<bool, 2> previous_support_{false, false};
+  int reuse_count_ = 0;
+  contact::ContactProblem problem_;
+  contact::ContactSolution solution_;           // scratch for tick() and fallbacks
+  contact::ContactSolution previous_solution_;  // last solution used
+  TickDiagnostics diag_;
+};
+
+}  // namespace poise::controller

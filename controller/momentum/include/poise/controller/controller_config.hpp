@@ -1,0 +1,102 @@
+#pragma once
+// Tuning of the momentum-based balance controller (paper Sec. 3.2, 3.5-3.7, 4.2).
+//
+// Defaults are the paper's Sec. 4.2 values mapped from its Y-up world to this project's Z-up world
+// (swap the Y and Z entries: the VERTICAL gains are the paper's middle entries), plus the values
+// this project chose where the paper gives none (documented field by field; measured on the
+// project humanoid, see controller/momentum/README.md).
+
+#include <Eigen/Core>
+#include <filesystem>
+#include <stdexcept>
+
+namespace poise::controller {
+
+/// Thrown for every configuration-time error (bad file, bad key, out-of-range value).
+class ConfigError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Eqs (10)-(11): k_dot_d = G11 (k_d - k);  l_dot_d / m = G21 (rdot_G,d - rdot_G) + G22 (r_G,d -
+/// r_G). Diagonals in world axes (x forward, y left, z up).
+struct MomentumGains {
+  Eigen::Vector3d gamma11{5.0, 5.0, 5.0};     ///< angular momentum damping [1/s]
+  Eigen::Vector3d gamma21{40.0, 40.0, 20.0};  ///< CoM velocity gain [1/s] (paper {40,20,40}, Y up)
+  Eigen::Vector3d gamma22{8.0, 8.0, 3.0};     ///< CoM position gain [1/s^2] (paper {8,3,8}, Y up)
+};
+
+/// Weights of the contact problem, eqs (21) and (29) (copied into the problem sent out).
+struct ContactWeights {
+  double w_k = 0.1;       ///< angular momentum weight in (21)
+  double eps_f = 0.01;    ///< force regularisation in (21)
+  double eps_cop = 0.01;  ///< CoP / normal torque regularisation in (29)
+};
+
+/// Eq (36): a_d = kp log(T^-1 T_d) + kd (v_d - v) for each foot.
+struct FootGains {
+  double kp = 100.0;  ///< [1/s^2]
+  double kd = 20.0;   ///< [1/s]
+};
+
+/// Eq (33) and its companions.
+struct AccelerationConfig {
+  /// Balance weight w_b in (33): w_b ||A qdd + Adot qd - hdot_a||^2 + (1 - w_b) ||qdd_u -
+  /// qdd_u,d||^2.
+  double w_b = 0.95;
+  /// Weak posture prior added to (33) (not in the paper): w_posture ||qdd - qdd_posture||^2 over
+  /// every DoF, with qdd_posture = posture_kp (q_nominal - q) - posture_kd qd for joints and
+  /// -posture_kd v for the base. It makes the Hessian positive definite (the paper's (33) alone
+  /// is singular when w_b -> 1 on the leg DoFs left free by the foot constraints) and slowly brings
+  /// the posture back after a push, inside the null space of the momentum task.
+  double posture_weight = 1e-3;
+  double posture_kp = 20.0;  ///< [1/s^2]
+  double posture_kd = 9.0;   ///< [1/s]
+  /// Upper-body (arms, torso) desired accelerations qdd_u,d = reference qdd + PD to the reference
+  /// posture (or the nominal posture): the arms are not balance joints (paper Sec. 4).
+  double upper_body_kp = 100.0;  ///< [1/s^2]
+  double upper_body_kd = 20.0;   ///< [1/s]
+  /// Joint-acceleration bounds from position limits: qdd_u = 2 (q_max - q - qd T) / T^2 with the
+  /// horizon T, then clamped to +-max_joint_acceleration.
+  double limit_horizon = 0.1;             ///< T [s]
+  double max_joint_acceleration = 500.0;  ///< [rad/s^2]
+};
+
+/// Joint-level references theta*, theta_dot* of eqs (34)-(35).
+struct FeedbackConfig {
+  double gain_scale = 1.0;           ///< multiplies the robot config's kp and kd
+  double max_position_error = 0.05;  ///< |theta* - theta| is clamped to this [rad]
+  double max_velocity_error = 0.5;   ///< |theta_dot* - theta_dot| is clamped to this [rad/s]
+};
+
+/// What to do when the contact solution of a tick is late or unusable.
+struct FallbackConfig {
+  /// Reuse the previous solution (same supports) for at most this many consecutive ticks; after
+  /// that, or if the supports changed, use the gravity-compensating distribution.
+  int max_reuse_ticks = 5;
+};
+
+struct ControllerConfig {
+  double dt = 0.001;  ///< control period [s]
+  MomentumGains momentum;
+  ContactWeights contact;
+  FootGains foot;
+  AccelerationConfig acceleration;
+  FeedbackConfig feedback;
+  FallbackConfig fallback;
+  /// Measured CoP inside the safe region shrunk by this extra margin => the foot is resting
+  /// (Sec. 4.2 moving-support rule) [m]. 0: the safe region itself.
+  double resting_extra_margin = 0.0;
+  /// Desired CoM height above the mean sole height of the support feet when the reference gives
+  /// no CoM target [m]; <= 0: the nominal posture's CoM height.
+  double com_height = 0.0;
+
+  /// Throws ConfigError naming the first bad field (negative gain, w_b outside (0,1), ...).
+  void validate() const;
+};
+
+/// Loads a YAML file (schema: controller/momentum/config/balance_controller.yaml); missing keys
+/// keep their defaults, unknown keys are an error. Throws ConfigError naming the file and key.
+ControllerConfig load_controller_config(const std::filesystem::path& path);
+
+}  // namespace poise::controller

@@ -1,0 +1,479 @@
+#include "poise/controller/balance_controller.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "poise/controller/contact_fallback.hpp"
+#include "poise/controller/foot_motion.hpp"
+#include "poise/controller/momentum_rate.hpp"
+#include "poise/model/centroidal.hpp"
+#include "poise/model/dynamics.hpp"
+#include "poise/model/kinematics.hpp"
+
+namespace poise::controller {
+
+namespace {
+
+constexpr int kFeet = 2;
+
+bool finite3(const Eigen::Vector3d& v) {
+  return v.allFinite();
+}
+
+bool solution_usable(const contact::ContactSolution& s) {
+  if (s.status == contact::ContactStatus::kInvalidInput ||
+      s.status == contact::ContactStatus::kSolverFailure)
+    return false;
+  if (!finite3(s.k_dot_admissible) || !finite3(s.l_dot_admissible)) return false;
+  for (const auto& f : s.feet)
+    if (!finite3(f.force_W) || !finite3(f.torque_ankle_W)) return false;
+  return true;
+}
+
+}  // namespace
+
+const char* to_string(ContactSource s) {
+  switch (s) {
+    case ContactSource::kSolution:
+      return "solution";
+    case ContactSource::kReusedSolution:
+      return "reused_solution";
+    case ContactSource::kGravityDistribution:
+      return "gravity_distribution";
+  }
+  return "unknown";
+}
+
+BalanceController::BalanceController(const model::Model& model, const model::RobotConfig& robot,
+                                     const ControllerConfig& config)
+    : model_(model), robot_(robot), config_(config), data_(model_) {
+  config_.validate();
+  const int n = model_.njoints;
+  if (n < 1) throw ConfigError("BalanceController: the model has no joints");
+  if (robot_.q_nominal.size() != model_.nq)
+    throw ConfigError("BalanceController: robot config q_nominal has size " +
+                      std::to_string(robot_.q_nominal.size()) + ", model nq is " +
+                      std::to_string(model_.nq) + " (robot config of another model?)");
+  if (static_cast<int>(robot_.gains.size()) != n)
+    throw ConfigError("BalanceController: robot config has gains for " +
+                      std::to_string(robot_.gains.size()) + " joints, model has " +
+                      std::to_string(n));
+  for (int side = 0; side < kFeet; ++side) {
+    const auto& foot = robot_.feet[side];
+    if (foot.frame_id < 0 || foot.frame_id >= static_cast<int>(model_.frames.size()) ||
+        model_.frames[foot.frame_id].name != foot.frame)
+      throw ConfigError("BalanceController: foot frame '" + foot.frame +
+                        "' does not match the model");
+  }
+  const int nv = model_.nv;
+
+  q_min_.resize(n);
+  q_max_.resize(n);
+  effort_.resize(n);
+  kp_.resize(n);
+  kd_.resize(n);
+  is_upper_.setZero(n);
+  for (int j = 0; j < n; ++j) {
+    q_min_[j] = model_.limits[j].lower;
+    q_max_[j] = model_.limits[j].upper;
+    effort_[j] = model_.limits[j].effort;
+    kp_[j] = config_.feedback.gain_scale * robot_.gains[j].kp;
+    kd_[j] = config_.feedback.gain_scale * robot_.gains[j].kd;
+  }
+  for (int j : robot_.upper_body_joint_indices) {
+    if (j < 0 || j >= n)
+      throw ConfigError("BalanceController: upper-body joint index out of range");
+    is_upper_[j] = 1.0;
+  }
+  q_nominal_ = robot_.q_nominal.tail(n);
+
+  // Desired CoM height above the soles in the nominal posture (Sec. 4.2 target when no CoM target).
+  if (config_.com_height > 0.0) {
+    com_height_ = config_.com_height;
+  } else {
+    model::center_of_mass(model_, data_, robot_.q_nominal);
+    double sole_z = 0.0;
+    for (int side = 0; side < kFeet; ++side)
+      sole_z +=
+          0.5 * sole_center_W(model::frame_placement(model_, data_, robot_.feet[side].frame_id),
+                              robot_.feet[side].sole)
+                    .z();
+    com_height_ = data_.com.z() - sole_z;
+    if (!(com_height_ > 0.0))
+      throw ConfigError("BalanceController: the nominal CoM is not above the soles");
+  }
+
+  solver_.resize(nv, 6 * kFeet);
+  q_.setZero(model_.nq);
+  v_.setZero(nv);
+  qd_joint_.setZero(n);
+  qdd_.setZero(nv);
+  tau_.setZero(nv);
+  C_.setZero(6 * kFeet, nv);
+  jdot_v_.setZero(6 * kFeet);
+  d_.setZero(6 * kFeet);
+  w_.setZero(nv);
+  t_.setZero(nv);
+  lo_.setZero(n);
+  hi_.setZero(n);
+  qdd_u_ref_.setZero(n);
+  q_u_target_.setZero(n);
+  J_foot_.setZero(6, nv);
+  q_ref_.setZero(n);
+  qd_ref_.setZero(n);
+  for (auto& V : V_WF_)
+    V.setZero();
+
+  problem_.gravity = model_.gravity;
+  for (int side = 0; side < kFeet; ++side) {
+    const auto& foot = robot_.feet[side];
+    auto& pf = problem_.feet[side];
+    pf.sole.x_min = foot.sole.x_min;
+    pf.sole.x_max = foot.sole.x_max;
+    pf.sole.y_min = foot.sole.y_min;
+    pf.sole.y_max = foot.sole.y_max;
+    pf.ankle_height = foot.sole.height;
+    pf.safety_margin = robot_.safety_margin;
+    pf.mu = robot_.friction_mu;
+    pf.mu_torsion = robot_.torsional_mu;
+  }
+  problem_.weights.w_k = config_.contact.w_k;
+  problem_.weights.eps_f = config_.contact.eps_f;
+  problem_.weights.eps_cop = config_.contact.eps_cop;
+  problem_.mass = model_.total_mass;
+}
+
+RobotState BalanceController::make_state() const {
+  RobotState s;
+  s.resize(model_.njoints);
+  return s;
+}
+
+BalanceReference BalanceController::make_reference() const {
+  BalanceReference r;
+  r.resize(model_.njoints);
+  r.upper_body_q = q_nominal_;
+  return r;
+}
+
+JointCommand BalanceController::make_command() const {
+  JointCommand c;
+  c.resize(model_.njoints);
+  return c;
+}
+
+void BalanceController::reset() noexcept {
+  have_references_ = false;
+  have_hold_ = {false, false};
+  have_previous_solution_ = false;
+  reuse_count_ = 0;
+}
+
+void BalanceController::prepare(const RobotState& state, const BalanceReference& reference,
+                                contact::ContactProblem& problem) noexcept {
+  const int n = model_.njoints;
+  diag_.tick = state.tick;
+  state_ok_ = state.q.size() == n && state.qd.size() == n && state.q.allFinite() &&
+              state.qd.allFinite() && state.X_WB.R.allFinite() && state.X_WB.p.allFinite() &&
+              finite3(state.v_WB) && finite3(state.omega_WB) &&
+              reference.upper_body_qdd.size() == n && reference.upper_body_q.size() == n &&
+              reference.upper_body_qdd.allFinite() && reference.upper_body_q.allFinite() &&
+              reference.com_W.allFinite() && reference.com_velocity_W.allFinite() &&
+              reference.k_W.allFinite();
+  for (const auto& f : state.feet)
+    state_ok_ = state_ok_ && f.cop_W.allFinite();
+  if (!state_ok_) {
+    // Keep the previous problem but with no support: the answer is not used anyway.
+    problem = problem_;
+    for (auto& f : problem.feet)
+      f.in_contact = false;
+    return;
+  }
+
+  // ---- generalized coordinates (model conventions, see model.hpp) ------------------------------
+  model::set_base_pose(state.X_WB, q_);
+  q_.tail(n) = state.q;
+  const Eigen::Matrix3d R_WB = Eigen::Quaterniond(q_.segment<4>(3)).toRotationMatrix();
+  v_.head<6>() = model::base_velocity_from_world(R_WB, state.v_WB, state.omega_WB);
+  v_.tail(n) = state.qd;
+  qd_joint_ = state.qd;
+
+  // A, A_dot qd, CoM, momentum, joint Jacobians and FK with velocities.
+  model::centroidal_momentum_matrix(model_, data_, q_, v_);
+  const double mass = data_.mass;
+  diag_.com_W = data_.com;
+  diag_.com_velocity_W = data_.vcom;
+  diag_.h_W = data_.hg;
+
+  // ---- feet: kinematics, supports, Sec. 4.2 resting rule, eq (36) -------------------------------
+  int num_support = 0;
+  Eigen::Vector3d sole_mean = Eigen::Vector3d::Zero();
+  Eigen::Vector3d foot_vel_mean = Eigen::Vector3d::Zero();
+  for (int i = 0; i < kFeet; ++i) {
+    const auto& foot = robot_.feet[i];
+    const auto& meas = state.feet[i];
+    const auto& ref = reference.feet[i];
+    X_WF_[i] = model::frame_placement(model_, data_, foot.frame_id);
+    V_WF_[i] = model::frame_velocity(model_, data_, foot.frame_id);
+    model::frame_jacobian(model_, data_, foot.frame_id, J_foot_);
+    C_.middleRows<6>(6 * i) = J_foot_;
+    jdot_v_.segment<6>(6 * i) = model::frame_jdot_v(model_, data_, foot.frame_id);
+    if (!have_hold_[i]) {
+      X_WF_hold_[i] = X_WF_[i];
+      have_hold_[i] = true;
+    }
+
+    bool support = false;
+    switch (ref.mode) {
+      case FootMode::kAuto:
+        support = meas.in_contact;
+        break;
+      case FootMode::kSupport:
+        support = true;
+        break;
+      case FootMode::kSwing:
+        support = false;
+        break;
+    }
+    const bool resting = support && meas.in_contact &&
+                         cop_in_safe_region(X_WF_[i], meas.cop_W, foot.sole,
+                                            robot_.safety_margin + config_.resting_extra_margin);
+    diag_.support[i] = support;
+    diag_.resting[i] = resting;
+
+    model::SE3 X_d = X_WF_hold_[i];
+    model::Motion V_d = model::Motion::Zero();
+    if (ref.has_target) {
+      X_d = ref.X_WF_target;
+      V_d = ref.V_WF_target;
+      X_WF_hold_[i] = X_WF_[i];
+    } else if (resting) {
+      // Resting on a (possibly moving) support: follow it (v_d = v, T_d = T).
+      X_d = X_WF_[i];
+      V_d = V_WF_[i];
+      X_WF_hold_[i] = X_WF_[i];
+    }
+    const model::Motion a_d = foot_acceleration(config_.foot, X_WF_[i], V_WF_[i], X_d, V_d);
+    diag_.foot_acceleration_desired[i] = a_d;
+    d_.segment<6>(6 * i) = a_d - jdot_v_.segment<6>(6 * i);
+
+    if (support) {
+      ++num_support;
+      sole_mean += sole_center_W(X_WF_[i], foot.sole);
+      foot_vel_mean += V_WF_[i].head<3>();
+    }
+
+    auto& pf = problem_.feet[i];
+    pf.in_contact = support;
+    pf.R_WF = X_WF_[i].R;
+    pf.p_WF = X_WF_[i].p;
+  }
+
+  // ---- desired CoM (reference, or Sec. 4.2: above the mid-point of the supports) ---------------
+  if (reference.has_com_target) {
+    diag_.com_target_W = reference.com_W;
+    diag_.com_velocity_target_W = reference.com_velocity_W;
+  } else if (num_support > 0) {
+    sole_mean /= num_support;
+    diag_.com_target_W = sole_mean + Eigen::Vector3d(0.0, 0.0, com_height_);
+    diag_.com_velocity_target_W = foot_vel_mean / num_support;
+  }  // no support and no target: keep the last target
+
+  // ---- eqs (10)-(11)
+  // ------------------------------------------------------------------------------
+  diag_.hdot_desired =
+      desired_momentum_rate(config_.momentum, mass, data_.hg.head<3>(), reference.k_W, data_.com,
+                            diag_.com_target_W, data_.vcom, diag_.com_velocity_target_W);
+
+  // Upper-body objective of this tick.
+  qdd_u_ref_ = reference.upper_body_qdd;
+  if (reference.has_upper_body_q)
+    q_u_target_ = reference.upper_body_q;
+  else
+    q_u_target_ = q_nominal_;
+
+  problem_.mass = mass;
+  problem_.gravity = model_.gravity;
+  problem_.com = data_.com;
+  problem_.k_dot_desired = diag_.hdot_desired.head<3>();
+  problem_.l_dot_desired = diag_.hdot_desired.tail<3>();
+  problem = problem_;
+}
+
+void BalanceController::finish(const contact::ContactSolution& solution,
+                               JointCommand& command) noexcept {
+  if (!command_sized(command)) return;
+  if (!state_ok_) {
+    command_damping(command);
+    return;
+  }
+  if (!solution_usable(solution)) {
+    finish_fallback(command);
+    return;
+  }
+  reuse_count_ = 0;
+  finish_with(solution, ContactSource::kSolution, command);
+}
+
+void BalanceController::finish_fallback(JointCommand& command) noexcept {
+  if (!command_sized(command)) return;
+  ++diag_.late_solutions;
+  if (!state_ok_) {
+    command_damping(command);
+    return;
+  }
+  const bool same_support = have_previous_solution_ &&
+                            previous_support_[0] == problem_.feet[0].in_contact &&
+                            previous_support_[1] == problem_.feet[1].in_contact;
+  if (same_support && reuse_count_ < config_.fallback.max_reuse_ticks) {
+    ++reuse_count_;
+    solution_ = previous_solution_;
+    finish_with(solution_, ContactSource::kReusedSolution, command);
+    return;
+  }
+  gravity_distribution(problem_, solution_);
+  finish_with(solution_, ContactSource::kGravityDistribution, command);
+}
+
+bool BalanceController::command_sized(const JointCommand& command) const noexcept {
+  const Eigen::Index n = model_.njoints;
+  return command.tau_ff.size() == n && command.q_ref.size() == n && command.qd_ref.size() == n &&
+         command.kp.size() == n && command.kd.size() == n;
+}
+
+void BalanceController::command_damping(JointCommand& command) noexcept {
+  command.tick = diag_.tick;
+  command.mode = CommandMode::kDamping;
+  command.tau_ff.setZero();
+  command.kp.setZero();
+  command.kd = kd_;
+  ++diag_.ticks;
+}
+
+void BalanceController::finish_with(const contact::ContactSolution& solution, ContactSource source,
+                                    JointCommand& command) noexcept {
+  const int n = model_.njoints;
+  const int nv = model_.nv;
+  const double dt = config_.dt;
+  diag_.contact_source = source;
+  if (source == ContactSource::kSolution || source == ContactSource::kGravityDistribution) {
+    previous_solution_ = solution;
+    previous_support_ = {problem_.feet[0].in_contact, problem_.feet[1].in_contact};
+    have_previous_solution_ = true;
+  }
+
+  // Admissible momentum rate of the wrenches actually applied, about the current CoM.
+  diag_.hdot_admissible = momentum_rate_of_wrenches(problem_, solution);
+  for (int i = 0; i < kFeet; ++i) {
+    if (problem_.feet[i].in_contact) {
+      diag_.foot_wrench_W[i].head<3>() = solution.feet[i].force_W;
+      diag_.foot_wrench_W[i].tail<3>() = solution.feet[i].torque_ankle_W;
+    } else {
+      diag_.foot_wrench_W[i].setZero();
+    }
+  }
+
+  // ---- eq (33) ----------------------------------------------------------------------------------
+  const auto& acfg = config_.acceleration;
+  const double w_u = 1.0 - acfg.w_b;
+  const double w_p = acfg.posture_weight;
+  // Base: posture prior = damping of the base velocity.
+  w_.head<6>().setConstant(w_p);
+  t_.head<6>() = -acfg.posture_kd * v_.head<6>();
+  for (int j = 0; j < n; ++j) {
+    const double q = q_[7 + j];
+    const double qd = v_[6 + j];
+    const double t_post = acfg.posture_kp * (q_nominal_[j] - q) - acfg.posture_kd * qd;
+    if (is_upper_[j] > 0.0) {
+      const double t_u =
+          qdd_u_ref_[j] + acfg.upper_body_kp * (q_u_target_[j] - q) - acfg.upper_body_kd * qd;
+      w_[6 + j] = w_u + w_p;
+      t_[6 + j] = (w_u * t_u + w_p * t_post) / (w_u + w_p);
+    } else {
+      w_[6 + j] = w_p;
+      t_[6 + j] = t_post;
+    }
+  }
+  joint_acceleration_bounds(q_.tail(n), v_.tail(n), q_min_, q_max_, acfg.limit_horizon,
+                            acfg.max_joint_acceleration, lo_, hi_);
+  model::Vector6 b = diag_.hdot_admissible - data_.dAg_v;
+  const AccelerationSolver::Result r =
+      solver_.solve(data_.Ag, b, acfg.w_b, w_, t_, C_, d_, lo_, hi_, qdd_);
+  diag_.qp_status = r.status;
+  diag_.qp_iterations = r.iterations;
+  diag_.active_bounds = r.active_bounds;
+  diag_.bounds_dropped = r.bounds_dropped;
+  if (r.status != contact::SolverStatus::kOptimal || r.bounds_dropped) ++diag_.qp_failures;
+  if (!qdd_.allFinite() || r.status == contact::SolverStatus::kInvalidInput ||
+      r.status == contact::SolverStatus::kNotPositiveDefinite)
+    qdd_.setZero();
+  diag_.hdot_achieved.noalias() = data_.Ag * qdd_;
+  diag_.hdot_achieved += data_.dAg_v;
+  diag_.momentum_residual = (diag_.hdot_achieved - diag_.hdot_admissible).norm();
+  double cres = 0.0;
+  for (int row = 0; row < 6 * kFeet; ++row)
+    cres = std::max(cres, std::abs(C_.row(row).dot(qdd_) - d_[row]));
+  diag_.constraint_residual = cres;
+
+  // ---- feed-forward torques: inverse dynamics with the admissible wrenches
+  // -----------------------
+  model::clear_external_forces(data_);
+  for (int i = 0; i < kFeet; ++i) {
+    if (!problem_.feet[i].in_contact) continue;
+    model::add_external_wrench(model_, data_, robot_.feet[i].frame_id, X_WF_[i].p,
+                               solution.feet[i].force_W, solution.feet[i].torque_ankle_W);
+  }
+  tau_ = model::rnea(model_, data_, q_, v_, qdd_);
+  diag_.base_wrench_residual = tau_.head<6>().norm();
+  int sat = 0;
+  for (int j = 0; j < n; ++j) {
+    double tau = tau_[6 + j];
+    if (std::isfinite(effort_[j]) && std::abs(tau) > effort_[j]) {
+      tau = std::clamp(tau, -effort_[j], effort_[j]);
+      ++sat;
+    }
+    command.tau_ff[j] = tau;
+  }
+  diag_.torque_saturations = sat;
+
+  // ---- theta*, theta_dot* integrated from qdd_a (34)-(35)
+  // ----------------------------------------
+  const auto& fb = config_.feedback;
+  int clamps = 0;
+  if (!have_references_) {
+    q_ref_ = q_.tail(n);
+    qd_ref_ = qd_joint_;
+    have_references_ = true;
+  }
+  for (int j = 0; j < n; ++j) {
+    const double q = q_[7 + j];
+    const double qd = qd_joint_[j];
+    double vr = qd_ref_[j] + qdd_[6 + j] * dt;
+    if (std::abs(vr - qd) > fb.max_velocity_error) {
+      vr = qd + std::clamp(vr - qd, -fb.max_velocity_error, fb.max_velocity_error);
+      ++clamps;
+    }
+    double pr = q_ref_[j] + vr * dt;
+    if (std::abs(pr - q) > fb.max_position_error) {
+      pr = q + std::clamp(pr - q, -fb.max_position_error, fb.max_position_error);
+      ++clamps;
+    }
+    if (pr < q_min_[j]) pr = q_min_[j];
+    if (pr > q_max_[j]) pr = q_max_[j];
+    qd_ref_[j] = vr;
+    q_ref_[j] = pr;
+  }
+  diag_.reference_clamps = clamps;
+  (void)nv;
+
+  command.tick = diag_.tick;
+  command.mode = CommandMode::kTorque;
+  command.q_ref = q_ref_;
+  command.qd_ref = qd_ref_;
+  command.kp = kp_;
+  command.kd = kd_;
+  ++diag_.ticks;
+}
+
+}  // namespace poise::controller

@@ -1,0 +1,175 @@
+#include "poise/controller/controller_config.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <set>
+#include <string>
+
+namespace poise::controller {
+
+namespace {
+
+void require(bool ok, const std::string& field, const std::string& what) {
+  if (!ok) throw ConfigError("controller config: " + field + " " + what);
+}
+
+void positive_vec(const Eigen::Vector3d& v, const std::string& field) {
+  require(v.allFinite() && (v.array() >= 0.0).all(), field, "must be finite and >= 0");
+}
+
+class Reader {
+ public:
+  explicit Reader(std::string file) : file_(std::move(file)) {}
+
+  [[noreturn]] void fail(const std::string& key, const std::string& what) const {
+    throw ConfigError(file_ + ": " + key + ": " + what);
+  }
+
+  /// Checks that `node` is a map whose keys are all in `allowed`.
+  void keys(const YAML::Node& node, const std::string& path, std::set<std::string> allowed) const {
+    if (!node.IsMap()) fail(path.empty() ? "<root>" : path, "expected a mapping");
+    for (const auto& kv : node) {
+      const std::string k = kv.first.as<std::string>();
+      if (!allowed.count(k)) fail(path.empty() ? k : path + "." + k, "unknown key");
+    }
+  }
+
+  void number(const YAML::Node& node, const std::string& key, const std::string& path,
+              double& out) const {
+    const YAML::Node v = node[key];
+    if (!v) return;
+    try {
+      out = v.as<double>();
+    } catch (const YAML::Exception&) {
+      fail(path + key, "expected a number");
+    }
+    if (!std::isfinite(out)) fail(path + key, "must be finite");
+  }
+
+  void integer(const YAML::Node& node, const std::string& key, const std::string& path,
+               int& out) const {
+    const YAML::Node v = node[key];
+    if (!v) return;
+    try {
+      out = v.as<int>();
+    } catch (const YAML::Exception&) {
+      fail(path + key, "expected an integer");
+    }
+  }
+
+  void vec3(const YAML::Node& node, const std::string& key, const std::string& path,
+            Eigen::Vector3d& out) const {
+    const YAML::Node v = node[key];
+    if (!v) return;
+    if (!v.IsSequence() || v.size() != 3) fail(path + key, "expected a list of 3 numbers");
+    for (int i = 0; i < 3; ++i) {
+      try {
+        out[i] = v[i].as<double>();
+      } catch (const YAML::Exception&) {
+        fail(path + key, "expected a list of 3 numbers");
+      }
+    }
+  }
+
+ private:
+  std::string file_;
+};
+
+}  // namespace
+
+void ControllerConfig::validate() const {
+  require(std::isfinite(dt) && dt > 0.0, "dt", "must be > 0");
+  positive_vec(momentum.gamma11, "momentum.gamma11");
+  positive_vec(momentum.gamma21, "momentum.gamma21");
+  positive_vec(momentum.gamma22, "momentum.gamma22");
+  require(contact.w_k >= 0.0 && contact.eps_f >= 0.0 && contact.eps_cop >= 0.0, "contact",
+          "weights must be >= 0");
+  require(foot.kp >= 0.0 && foot.kd >= 0.0, "foot", "gains must be >= 0");
+  const auto& a = acceleration;
+  require(a.w_b > 0.0 && a.w_b < 1.0, "acceleration.w_b",
+          "must be inside (0, 1) (paper Sec. 3.5: w_b = 1 makes eq (33) indeterminate)");
+  require(a.posture_weight > 0.0, "acceleration.posture_weight",
+          "must be > 0 (it keeps the Hessian of eq (33) positive definite)");
+  require(a.posture_kp >= 0.0 && a.posture_kd >= 0.0, "acceleration.posture_kp/kd", "must be >= 0");
+  require(a.upper_body_kp >= 0.0 && a.upper_body_kd >= 0.0, "acceleration.upper_body_kp/kd",
+          "must be >= 0");
+  require(a.limit_horizon > 0.0, "acceleration.limit_horizon", "must be > 0");
+  require(a.max_joint_acceleration > 0.0, "acceleration.max_joint_acceleration", "must be > 0");
+  require(feedback.gain_scale >= 0.0, "feedback.gain_scale", "must be >= 0");
+  require(feedback.max_position_error >= 0.0 && feedback.max_velocity_error >= 0.0,
+          "feedback.max_*_error", "must be >= 0");
+  require(fallback.max_reuse_ticks >= 0, "fallback.max_reuse_ticks", "must be >= 0");
+  require(std::isfinite(resting_extra_margin), "resting_extra_margin", "must be finite");
+  require(std::isfinite(com_height), "com_height", "must be finite");
+}
+
+ControllerConfig load_controller_config(const std::filesystem::path& path) {
+  const std::string file = path.string();
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(file);
+  } catch (const YAML::BadFile&) {
+    throw ConfigError(file + ": cannot open the controller config");
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(file + ": YAML error: " + e.what());
+  }
+  ControllerConfig c;
+  Reader r(file);
+  if (root.IsNull()) return c;
+  r.keys(root, "",
+         {"dt", "momentum", "contact", "foot", "acceleration", "feedback", "fallback",
+          "resting_extra_margin", "com_height"});
+  r.number(root, "dt", "", c.dt);
+  r.number(root, "resting_extra_margin", "", c.resting_extra_margin);
+  r.number(root, "com_height", "", c.com_height);
+  if (const auto m = root["momentum"]) {
+    r.keys(m, "momentum", {"gamma11", "gamma21", "gamma22"});
+    r.vec3(m, "gamma11", "momentum.", c.momentum.gamma11);
+    r.vec3(m, "gamma21", "momentum.", c.momentum.gamma21);
+    r.vec3(m, "gamma22", "momentum.", c.momentum.gamma22);
+  }
+  if (const auto m = root["contact"]) {
+    r.keys(m, "contact", {"w_k", "eps_f", "eps_cop"});
+    r.number(m, "w_k", "contact.", c.contact.w_k);
+    r.number(m, "eps_f", "contact.", c.contact.eps_f);
+    r.number(m, "eps_cop", "contact.", c.contact.eps_cop);
+  }
+  if (const auto m = root["foot"]) {
+    r.keys(m, "foot", {"kp", "kd"});
+    r.number(m, "kp", "foot.", c.foot.kp);
+    r.number(m, "kd", "foot.", c.foot.kd);
+  }
+  if (const auto m = root["acceleration"]) {
+    r.keys(m, "acceleration",
+           {"w_b", "posture_weight", "posture_kp", "posture_kd", "upper_body_kp", "upper_body_kd",
+            "limit_horizon", "max_joint_acceleration"});
+    auto& a = c.acceleration;
+    r.number(m, "w_b", "acceleration.", a.w_b);
+    r.number(m, "posture_weight", "acceleration.", a.posture_weight);
+    r.number(m, "posture_kp", "acceleration.", a.posture_kp);
+    r.number(m, "posture_kd", "acceleration.", a.posture_kd);
+    r.number(m, "upper_body_kp", "acceleration.", a.upper_body_kp);
+    r.number(m, "upper_body_kd", "acceleration.", a.upper_body_kd);
+    r.number(m, "limit_horizon", "acceleration.", a.limit_horizon);
+    r.number(m, "max_joint_acceleration", "acceleration.", a.max_joint_acceleration);
+  }
+  if (const auto m = root["feedback"]) {
+    r.keys(m, "feedback", {"gain_scale", "max_position_error", "max_velocity_error"});
+    r.number(m, "gain_scale", "feedback.", c.feedback.gain_scale);
+    r.number(m, "max_position_error", "feedback.", c.feedback.max_position_error);
+    r.number(m, "max_velocity_error", "feedback.", c.feedback.max_velocity_error);
+  }
+  if (const auto m = root["fallback"]) {
+    r.keys(m, "fallback", {"max_reuse_ticks"});
+    r.integer(m, "max_reuse_ticks", "fallback.", c.fallback.max_reuse_ticks);
+  }
+  try {
+    c.validate();
+  } catch (const ConfigError& e) {
+    throw ConfigError(file + ": " + e.what());
+  }
+  return c;
+}
+
+}  // namespace poise::controller
