@@ -23,14 +23,19 @@ namespace {
 namespace bid = btInverseDynamicsBullet3;
 using test::all_urdfs;
 
-bid::vec3 bv(const Vector3& v) { return bid::vec3(v.x(), v.y(), v.z()); }
+bid::vec3 bv(const Vector3& v) {
+  return bid::vec3(v.x(), v.y(), v.z());
+}
 bid::mat33 bm(const Matrix3& m) {
   bid::mat33 out;
   for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) out(i, j) = m(i, j);
+    for (int j = 0; j < 3; ++j)
+      out(i, j) = m(i, j);
   return out;
 }
-Vector3 ev(const btVector3& v) { return Vector3(v.x(), v.y(), v.z()); }
+Vector3 ev(const btVector3& v) {
+  return Vector3(v.x(), v.y(), v.z());
+}
 
 Matrix3 rot_of(const urdf::Rotation& r) {
   return Eigen::Quaterniond(r.w, r.x, r.y, r.z).normalized().toRotationMatrix();
@@ -55,7 +60,8 @@ void add_subtree(BulletRobot& r, const urdf::Link& link, int body, int& next) {
     const Vector3 p(o.position.x, o.position.y, o.position.z);
     const Matrix3 R_PC = rot_of(o.rotation);
     bid::JointType type = bid::FIXED;
-    if (j->type == urdf::Joint::REVOLUTE || j->type == urdf::Joint::CONTINUOUS) type = bid::REVOLUTE;
+    if (j->type == urdf::Joint::REVOLUTE || j->type == urdf::Joint::CONTINUOUS)
+      type = bid::REVOLUTE;
     if (j->type == urdf::Joint::PRISMATIC) type = bid::PRISMATIC;
     double mass = 0.0;
     Vector3 com = Vector3::Zero();
@@ -67,7 +73,8 @@ void add_subtree(BulletRobot& r, const urdf::Link& link, int body, int& next) {
       Ic << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
       const Matrix3 R = rot_of(in.origin.rotation);
       com = Vector3(in.origin.position.x, in.origin.position.y, in.origin.position.z);
-      I_o = R * Ic * R.transpose() + mass * (com.squaredNorm() * Matrix3::Identity() - com * com.transpose());
+      I_o = R * Ic * R.transpose() +
+            mass * (com.squaredNorm() * Matrix3::Identity() - com * com.transpose());
     }
     const Vector3 axis = Vector3(j->axis.x, j->axis.y, j->axis.z).normalized();
     const int me = next++;
@@ -100,11 +107,12 @@ void build_bullet(BulletRobot& r, const std::string& path, const Vector3& gravit
       Ic << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
       const Matrix3 R = rot_of(in.origin.rotation);
       com = Vector3(in.origin.position.x, in.origin.position.y, in.origin.position.z);
-      I_o = R * Ic * R.transpose() + mass * (com.squaredNorm() * Matrix3::Identity() - com * com.transpose());
+      I_o = R * Ic * R.transpose() +
+            mass * (com.squaredNorm() * Matrix3::Identity() - com * com.transpose());
     }
-    ASSERT_EQ(0, r.tree.addBody(k, k - 1, k < 3 ? bid::PRISMATIC : bid::REVOLUTE,
-                                bv(Vector3::Zero()), I3, bv(axes[k]), mass, bv(com),
-                                k == 5 ? bm(I_o) : Z3, 0, nullptr));
+    ASSERT_EQ(
+        0, r.tree.addBody(k, k - 1, k < 3 ? bid::PRISMATIC : bid::REVOLUTE, bv(Vector3::Zero()), I3,
+                          bv(axes[k]), mass, bv(com), k == 5 ? bm(I_o) : Z3, 0, nullptr));
   }
   r.link_body[root->name] = 5;
   int next = 6;
@@ -147,8 +155,8 @@ Mapping map_state(const Model& model, const BulletRobot& r, const Eigen::VectorX
   m.v = m.T * uc;
   // accelerations: a_base = d/dt [R^T pdot; R^T omega_W]
   const Vector3 w1 = uc[3] * a1, w2 = w1 + uc[4] * a2;
-  const Vector3 wdot_W = ac[3] * a1 + ac[4] * a2 + ac[5] * a3 + uc[4] * w1.cross(a2) +
-                         uc[5] * w2.cross(a3);
+  const Vector3 wdot_W =
+      ac[3] * a1 + ac[4] * a2 + ac[5] * a3 + uc[4] * w1.cross(a2) + uc[5] * w2.cross(a3);
   m.a = m.T * ac;
   const Vector3 vB = m.v.head<3>(), wB = m.v.segment<3>(3);
   m.a.head<3>() = R.transpose() * ac.head<3>() - wB.cross(vB);
@@ -194,7 +202,8 @@ TEST_P(BulletCompareTest, InverseDynamicsAndMassMatrixAgree) {
     br.tree.clearAllUserForcesAndMoments();
     ASSERT_EQ(0, br.tree.calculateInverseDynamics(bq, bu, ba, &btau));
     Eigen::VectorXd tau_bullet(n);
-    for (int i = 0; i < n; ++i) tau_bullet[i] = btau(i);
+    for (int i = 0; i < n; ++i)
+      tau_bullet[i] = btau(i);
     clear_external_forces(data);
     ASSERT_GT(tau_bullet.norm(), 1.0);  // a non-trivial comparison
     const Eigen::VectorXd tau = rnea(model, data, m.q, m.v, m.a);
@@ -225,7 +234,8 @@ TEST_P(BulletCompareTest, InverseDynamicsAndMassMatrixAgree) {
       }
     }
     ASSERT_EQ(0, br.tree.calculateInverseDynamics(bq, bu, ba, &btau));
-    for (int i = 0; i < n; ++i) tau_bullet[i] = btau(i);
+    for (int i = 0; i < n; ++i)
+      tau_bullet[i] = btau(i);
     const Eigen::VectorXd tau_e = m.T.transpose() * rnea(model, data, m.q, m.v, m.a);
     EXPECT_LT((tau_e - tau_bullet).norm(), 1e-9 * (1 + tau_bullet.norm()))
         << "poise:  " << tau_e.transpose() << "\nbullet: " << tau_bullet.transpose();
@@ -234,7 +244,8 @@ TEST_P(BulletCompareTest, InverseDynamicsAndMassMatrixAgree) {
     ASSERT_EQ(0, br.tree.calculateMassMatrix(bq, &bM));
     Eigen::MatrixXd M_bullet(n, n);
     for (int i = 0; i < n; ++i)
-      for (int j = 0; j < n; ++j) M_bullet(i, j) = bM(i, j);
+      for (int j = 0; j < n; ++j)
+        M_bullet(i, j) = bM(i, j);
     const Eigen::MatrixXd M_chain = m.T.transpose() * crba(model, data, m.q) * m.T;
     EXPECT_LT((M_chain - M_bullet).norm(), 1e-9 * (1 + M_bullet.norm()));
   }

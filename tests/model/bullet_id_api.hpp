@@ -60,8 +60,7 @@ class MultiBodyTree {
               const mat33& body_I_body, const int user_int, void* user_ptr);
   void setAcceptInvalidMassParameters(bool flag);
   int finalize();
-  int calculateInverseDynamics(const vecx& q, const vecx& u, const vecx& dot_u,
-                               vecx* joint_forces);
+  int calculateInverseDynamics(const vecx& q, const vecx& u, const vecx& dot_u, vecx* joint_forces);
   int calculateMassMatrix(const vecx& q, matxx* mass_matrix);
   int setGravityInWorldFrame(const vec3& gravity);
   int getBodyOrigin(const int body_index, vec3* world_origin) const;

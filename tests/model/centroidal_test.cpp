@@ -92,8 +92,8 @@ TEST_P(CentroidalTest, BiasMatchesMomentumDerivativeAtZeroAcceleration) {
     centroidal_momentum(model, dp, qp, s.v);
     centroidal_momentum(model, dm, qm, s.v);
     const Vector6 fd = (dp.hg - dm.hg) / (2 * h);
-    EXPECT_LT((data.dAg_v - fd).norm(), 1e-5 * (1 + fd.norm()))
-        << data.dAg_v.transpose() << "\n" << fd.transpose();
+    EXPECT_LT((data.dAg_v - fd).norm(), 1e-5 * (1 + fd.norm())) << data.dAg_v.transpose() << "\n"
+                                                                << fd.transpose();
   }
 }
 
@@ -113,8 +113,8 @@ TEST_P(CentroidalTest, AMatchesMomentumDerivativeWithAcceleration) {
     centroidal_momentum(model, dm, qm, s.v - h * s.a);
     const Vector6 fd = (dp.hg - dm.hg) / (2 * h);
     const Vector6 hdot = data.Ag * s.a + data.dAg_v;
-    EXPECT_LT((hdot - fd).norm(), 1e-5 * (1 + fd.norm()))
-        << hdot.transpose() << "\n" << fd.transpose();
+    EXPECT_LT((hdot - fd).norm(), 1e-5 * (1 + fd.norm())) << hdot.transpose() << "\n"
+                                                          << fd.transpose();
   }
 }
 

@@ -23,7 +23,9 @@ std::vector<int> body_frames(const Model& m) {
 }
 
 // Point on body b given in body coordinates -> coordinates in the frame of body b's own link.
-Vector3 in_frame(const Model& m, int f, const Vector3& p_B) { return m.frames[f].X_BF.act_inv(p_B); }
+Vector3 in_frame(const Model& m, int f, const Vector3& p_B) {
+  return m.frames[f].X_BF.act_inv(p_B);
+}
 
 class DynamicsTest : public ::testing::TestWithParam<std::string> {};
 
@@ -46,8 +48,9 @@ TEST_P(DynamicsTest, RneaAtRestEqualsGravityGeneralizedForce) {
       frame_point_jacobian(model, data, bf[b], in_frame(model, bf[b], I.com), J);
       g -= J.topRows<3>().transpose() * (I.mass * model.gravity);
     }
-    EXPECT_LT((tau - g).norm(), 1e-10 * (1 + g.norm())) << "\n" << tau.transpose() << "\n"
-                                                         << g.transpose();
+    EXPECT_LT((tau - g).norm(), 1e-10 * (1 + g.norm())) << "\n"
+                                                        << tau.transpose() << "\n"
+                                                        << g.transpose();
   }
 }
 

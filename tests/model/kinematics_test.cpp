@@ -23,7 +23,8 @@ TEST(Spatial, ExpLogRoundTrip) {
   std::normal_distribution<double> n01;
   for (int k = 0; k < 200; ++k) {
     Motion nu;
-    for (int i = 0; i < 6; ++i) nu[i] = n01(rng);
+    for (int i = 0; i < 6; ++i)
+      nu[i] = n01(rng);
     if (nu.tail<3>().norm() > 3.0) nu.tail<3>() *= 3.0 / nu.tail<3>().norm();
     if (k % 10 == 0) nu.tail<3>() *= 1e-9;  // near-identity rotations
     const SE3 X = se3_exp(nu);

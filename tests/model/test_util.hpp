@@ -36,9 +36,11 @@ inline State random_state(const Model& model, std::mt19937& rng) {
   std::uniform_real_distribution<double> u01(0.0, 1.0);
   State s;
   s.q = model.neutral();
-  for (int i = 0; i < 3; ++i) s.q[i] = 0.5 * n01(rng);
+  for (int i = 0; i < 3; ++i)
+    s.q[i] = 0.5 * n01(rng);
   Eigen::Vector4d quat;
-  for (int i = 0; i < 4; ++i) quat[i] = n01(rng);
+  for (int i = 0; i < 4; ++i)
+    quat[i] = n01(rng);
   s.q.segment<4>(3) = quat.normalized();
   for (int j = 0; j < model.njoints; ++j) {
     const double lo = std::max(model.limits[j].lower, -2.0);
