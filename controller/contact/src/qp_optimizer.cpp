@@ -1,0 +1,136 @@
+#include "poise/contact/qp_optimizer.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace poise::contact {
+
+namespace {
+
+Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d S;
+  S << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+  return S;
+}
+
+}  // namespace
+
+QpOptimizer::QpOptimizer() : qp_(kMaxVars, 0, kMaxConstraints) {
+  M_.setZero();
+  c_.setZero();
+  G_.setZero();
+  g_.setZero();
+  A_.setZero();
+  b_.setZero();
+  y_.setZero();
+}
+
+void QpOptimizer::solve(const ContactProblem& p, ContactSolution& solution) {
+  adjusted_ = false;
+  raw_objective_ = 0.0;
+  n_ = 0;
+  if (!detail::prepare(p, solution)) return;
+
+  const double sw_k = std::sqrt(p.weights.w_k);
+  const double se_f = std::sqrt(p.weights.eps_f);
+  const double se_t = std::sqrt(p.weights.eps_tau);
+  int slots[kMaxFeet];
+  int nf = 0;
+  for (int i = 0; i < kMaxFeet; ++i)
+    if (p.feet[i].in_contact) slots[nf++] = i;
+  const int n = kVarsPerFoot * nf;
+  const int mi = kConstraintsPerFoot * nf;
+  n_ = n;
+
+  // Residual M y - c, y = [f_F; m_F] per foot.
+  M_.setZero();
+  c_.setZero();
+  A_.setZero();
+  b_.setZero();
+  c_.segment<3>(0) = p.l_dot_desired - p.mass * p.gravity;
+  c_.segment<3>(3) = sw_k * p.k_dot_desired;
+  for (int s = 0; s < nf; ++s) {
+    const FootContact& foot = p.feet[slots[s]];
+    const Eigen::Matrix3d& R = foot.R_WF;
+    const double h = foot.ankle_height;
+    Eigen::Matrix3d S;  // o x f with o = (0, 0, -h): (h f_y, -h f_x, 0)
+    S << 0.0, h, 0.0, -h, 0.0, 0.0, 0.0, 0.0, 0.0;
+    const int col = kVarsPerFoot * s;
+    M_.block<3, 3>(0, col) = R;
+    M_.block<3, 3>(3, col) = sw_k * (skew(foot.p_WF - p.com) * R + R * S);
+    M_.block<3, 3>(3, col + 3) = sw_k * R;
+    M_.block<3, 3>(6 + 6 * s, col) = se_f * Eigen::Matrix3d::Identity();
+    M_.block<3, 3>(9 + 6 * s, col) = se_t * S;
+    M_.block<3, 3>(9 + 6 * s, col + 3) = se_t * Eigen::Matrix3d::Identity();
+
+    // Inequalities A y >= b (b = 0 for all rows). Columns: f_x f_y f_z m_x m_y m_z.
+    const int r = kConstraintsPerFoot * s;
+    const double mu = foot.mu;
+    const Eigen::Vector4d region = safe_region(foot);
+    A_.row(r + 0).segment<3>(col) << -1.0, -1.0, mu;
+    A_.row(r + 1).segment<3>(col) << -1.0, 1.0, mu;
+    A_.row(r + 2).segment<3>(col) << 1.0, -1.0, mu;
+    A_.row(r + 3).segment<3>(col) << 1.0, 1.0, mu;
+    A_(r + 4, col + 2) = 1.0;                                    // f_z >= 0
+    A_(r + 5, col + 2) = -region[0], A_(r + 5, col + 4) = -1.0;  // -m_y - x_lo f_z >= 0
+    A_(r + 6, col + 2) = region[1], A_(r + 6, col + 4) = 1.0;    // m_y + x_hi f_z >= 0
+    A_(r + 7, col + 2) = -region[2], A_(r + 7, col + 3) = 1.0;   // m_x - y_lo f_z >= 0
+    A_(r + 8, col + 2) = region[3], A_(r + 8, col + 3) = -1.0;   // y_hi f_z - m_x >= 0
+    A_(r + 9, col + 2) = foot.mu_torsion, A_(r + 9, col + 5) = -1.0;
+    A_(r + 10, col + 2) = foot.mu_torsion, A_(r + 10, col + 5) = 1.0;
+  }
+  G_.noalias() = M_.transpose() * M_;
+  g_.noalias() = -M_.transpose() * c_;
+  const double ridge = 1e-10 * (G_.trace() / n + 1e-12);
+  G_.diagonal().head(n).array() += ridge;
+
+  qp_status_ = qp_.solve(G_.topLeftCorner(n, n), g_.head(n), G_.topRows(0).leftCols(n), g_.head(0),
+                         A_.topLeftCorner(mi, n), b_.head(mi), y_.head(n));
+  if (qp_status_ == SolverStatus::kInvalidInput ||
+      qp_status_ == SolverStatus::kNotPositiveDefinite || qp_status_ == SolverStatus::kInfeasible) {
+    set_safe_solution(ContactStatus::kSolverFailure, solution);
+    return;
+  }
+  // J_qp = |M y - c|^2 (the ridge is not part of the objective).
+  raw_objective_ = (M_ * y_ - c_).squaredNorm();  // unused columns of M_ are zero
+
+  // Admissibility clean-up in the paper's model.
+  const double threshold = 1e-9 * (p.mass * p.gravity.norm() + 1.0);
+  for (int s = 0; s < nf; ++s) {
+    const FootContact& foot = p.feet[slots[s]];
+    const Eigen::Vector4d region = safe_region(foot);
+    Eigen::Vector3d f = y_.segment<3>(kVarsPerFoot * s);
+    const Eigen::Vector3d m = y_.segment<3>(kVarsPerFoot * s + 3);
+    const double tol = 1e-9 * (f.norm() + m.norm() + threshold);
+    if (!(f.z() > threshold)) {
+      adjusted_ = adjusted_ || f.norm() > tol;
+      solution.feet[slots[s]] =
+          make_foot_wrench(foot, Eigen::Vector3d::Zero(), 0.5 * (region[0] + region[1]),
+                           0.5 * (region[2] + region[3]), 0.0);
+      continue;
+    }
+    const double f_t1 = std::abs(f.x()) + std::abs(f.y());
+    if (f_t1 > foot.mu * f.z()) {
+      const double scale = foot.mu * f.z() / f_t1;
+      adjusted_ = adjusted_ || f_t1 - foot.mu * f.z() > tol;
+      f.x() *= scale;
+      f.y() *= scale;
+    }
+    const double d_x_raw = -m.y() / f.z();
+    const double d_y_raw = m.x() / f.z();
+    const double d_x = std::clamp(d_x_raw, region[0], region[1]);
+    const double d_y = std::clamp(d_y_raw, region[2], region[3]);
+    const double tau_n_raw = m.z() - (d_x * f.y() - d_y * f.x());
+    const double tau_n_max = foot.mu_torsion * f.z();
+    const double tau_n = std::clamp(tau_n_raw, -tau_n_max, tau_n_max);
+    adjusted_ = adjusted_ || std::abs(d_x - d_x_raw) * f.z() > tol ||
+                std::abs(d_y - d_y_raw) * f.z() > tol || std::abs(tau_n - tau_n_raw) > tol;
+    solution.feet[slots[s]] = make_foot_wrench(foot, foot.R_WF * f, d_x, d_y, tau_n);
+  }
+  detail::finish(p,
+                 qp_status_ == SolverStatus::kIterationLimit ? ContactStatus::kIterationLimit
+                                                             : ContactStatus::kOk,
+                 solution);
+}
+
+}  // namespace poise::contact
