@@ -71,6 +71,8 @@ ReaderCore::ReaderCore(Participant& participant, std::string topic_name, std::st
 
 ReaderCore::~ReaderCore() {
   if (watch_token_) participant_.unwatch_topic(watch_token_);
+  // Detach the callback first: this waits for a running callback, which uses reader_.
+  reader_->set_on_data_available({});
   reader_.reset();
 }
 
