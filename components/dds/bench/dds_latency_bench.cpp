@@ -527,6 +527,29 @@ int main(int argc, char** argv) {
         "loopback configs (deploy/dds), separate echo process, %d round trips after %d warm-up,\n"
         "domains %d..%d. Times in microseconds.\n\n",
         ts.serialized_size(&probe), samples, warmup, base, base + 6);
+    {
+      // CPU cost of what our layer adds per sample (same process, no DDS).
+      std::vector<std::uint8_t> buf(ts.max_serialized_size);
+      poise::msg::Sensors out;
+      char why[256];
+      constexpr int kIter = 20000;
+      std::size_t n = 0;
+      bool ok = true;
+      auto t0 = Clock::now();
+      for (int i = 0; i < kIter; ++i)
+        n = ts.serialize(&probe, buf.data(), buf.size());
+      auto t1 = Clock::now();
+      for (int i = 0; i < kIter; ++i)
+        ok &= ts.deserialize(buf.data(), n, &out, why, sizeof(why));
+      auto t2 = Clock::now();
+      for (int i = 0; i < kIter; ++i)
+        ok &= ts.validate(&out, why, sizeof(why));
+      auto t3 = Clock::now();
+      auto us = [](auto d) { return std::chrono::duration<double, std::micro>(d).count() / kIter; };
+      std::printf(
+          "Layer CPU per sample: serialize %.2f us, deserialize %.2f us, validate %.2f us%s\n\n",
+          us(t1 - t0), us(t2 - t1), us(t3 - t2), ok ? "" : " (FAILED)");
+    }
     std::printf("%-16s %-6s %10s %10s %10s %14s\n", "ping-echo", "api", "median", "p99", "max",
                 "allocs/rt*");
     std::fflush(stdout);

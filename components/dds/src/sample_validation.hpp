@@ -29,10 +29,59 @@ namespace poise::dds::detail {
 
 #if POISE_DDS_HAVE_REFLECT
 
+/// The same checks as poise::reflect::validate, without building the field path (which costs
+/// ~10-25 us per 1 kHz sample): runs on every sample; the full validator runs only on failure,
+/// to name the field.
+struct FastCheck {
+  bool ok = true;
+
+  template <class T>
+  void value(const poise::reflect::FieldInfo& info, const T& v) {
+    using namespace poise::reflect;
+    if constexpr (is_struct_v<T>) {
+      poise::msg::visit_fields(v, *this);
+    } else if constexpr (is_array_v<T>) {
+      using E = typename T::value_type;
+      if constexpr (std::is_floating_point_v<E>) {
+        E sum = 0;  // NaN and +-inf survive x * 0; finite values give 0
+        for (const E& e : v)
+          sum += e * 0;
+        ok &= sum == 0;
+      } else {
+        for (const auto& e : v)
+          value(info, e);
+      }
+    } else if constexpr (is_vector_v<T>) {
+      if (info.max_length && v.size() > info.max_length) {
+        ok = false;
+        return;
+      }
+      for (const auto& e : v)
+        value(FieldInfo{info.name, info.idl_type, 0, {}, 0}, e);
+    } else if constexpr (is_string_v<T>) {
+      if (info.max_length && v.size() > info.max_length) ok = false;
+    } else if constexpr (is_enum_v<T>) {
+      if (enum_name(v).empty()) ok = false;
+    } else if constexpr (std::is_floating_point_v<T>) {
+      ok &= static_cast<bool>(std::isfinite(v));
+    } else if constexpr (std::is_integral_v<T> && !std::is_same_v<T, bool>) {
+      if (info.count_bound && static_cast<unsigned long long>(v) > info.count_bound) ok = false;
+    }
+  }
+
+  template <class T>
+  void operator()(const poise::reflect::FieldInfo& info, const T& v) {
+    if (ok) value(info, v);
+  }
+};
+
 template <class T>
 bool validate_sample(const T& sample, char* why, std::size_t why_size) noexcept {
+  FastCheck fast;
+  poise::msg::visit_fields(sample, fast);
+  if (fast.ok) return true;
   poise::reflect::ValidationError error;
-  if (poise::reflect::validate(sample, &error)) return true;
+  if (poise::reflect::validate(sample, &error)) return true;  // cannot happen: same checks
   error.format(why, why_size);
   return false;
 }
