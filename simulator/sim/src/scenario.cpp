@@ -200,7 +200,8 @@ void load_world(const Ctx& c, const YAML::Node& n, Scenario& sc) {
       const YAML::Node p = ps[i];
       const std::string pk = key + ".platforms[" + std::to_string(i) + "]";
       c.allow(p, pk, {"name", "foot", "size", "position", "auto_place", "roll_deg", "pitch_deg",
-                      "yaw_deg", "friction", "translation", "rotation"});
+                      "yaw_deg", "friction", "translation", "rotation", "motion_start",
+                      "motion_ramp"});
       PlatformConfig pc;
       pc.name = p["name"] ? c.str(p["name"], pk + ".name") : "platform" + std::to_string(i);
       if (p["foot"]) pc.foot = c.str(p["foot"], pk + ".foot");
@@ -221,6 +222,10 @@ void load_world(const Ctx& c, const YAML::Node& n, Scenario& sc) {
         pc.translation = sinusoid(c, p["translation"], pk + ".translation", false, pc.translation_axis);
       if (p["rotation"])
         pc.rotation = sinusoid(c, p["rotation"], pk + ".rotation", true, pc.rotation_axis);
+      pc.motion_start = c.num(p, "motion_start", pk, 0.0);
+      pc.motion_ramp = c.num(p, "motion_ramp", pk, 0.0);
+      if (pc.motion_start < 0.0) c.fail(pk + ".motion_start", "must be >= 0");
+      if (pc.motion_ramp < 0.0) c.fail(pk + ".motion_ramp", "must be >= 0");
       w.platforms.push_back(pc);
     }
   }

@@ -89,12 +89,24 @@ struct Platform {
   void pose(double t, Eigen::Isometry3d& X_WP, Eigen::Vector3d& v, Eigen::Vector3d& w) const {
     const Eigen::Vector3d axis_t = cfg.translation_axis;
     const Eigen::Vector3d axis_r = R_incline * cfg.rotation_axis;
+    const double tau = t - cfg.motion_start;
+    double e = 0.0, de = 0.0;  // envelope and its rate
+    if (tau > 0.0) {
+      if (cfg.motion_ramp > 0.0 && tau < cfg.motion_ramp) {
+        const double s = tau / cfg.motion_ramp;
+        e = s * s * (3.0 - 2.0 * s);
+        de = 6.0 * s * (1.0 - s) / cfg.motion_ramp;
+      } else {
+        e = 1.0;
+      }
+    }
+    const double tr = e * sinusoid(cfg.translation, tau);
+    const double rot = e * sinusoid(cfg.rotation, tau);
     X_WP = Eigen::Isometry3d::Identity();
-    X_WP.translation() = base_position + axis_t * sinusoid(cfg.translation, t);
-    X_WP.linear() =
-        Eigen::AngleAxisd(sinusoid(cfg.rotation, t), axis_r).toRotationMatrix() * R_incline;
-    v = axis_t * sinusoid_rate(cfg.translation, t);
-    w = axis_r * sinusoid_rate(cfg.rotation, t);
+    X_WP.translation() = base_position + axis_t * tr;
+    X_WP.linear() = Eigen::AngleAxisd(rot, axis_r).toRotationMatrix() * R_incline;
+    v = axis_t * (de * sinusoid(cfg.translation, tau) + e * sinusoid_rate(cfg.translation, tau));
+    w = axis_r * (de * sinusoid(cfg.rotation, tau) + e * sinusoid_rate(cfg.rotation, tau));
   }
 };
 
@@ -430,6 +442,8 @@ void Simulator::Impl::build_world() {
     const std::string key = "world.platforms[" + std::to_string(k) + "] ('" + pc.name + "')";
     if (!(pc.half_extents.array() > 0.0).all()) throw std::runtime_error(key + ".size must be > 0");
     if (!(pc.friction >= 0.0)) throw std::runtime_error(key + ".friction must be >= 0");
+    if (pc.motion_ramp < 0.0 || !std::isfinite(pc.motion_start))
+      throw std::runtime_error(key + ": motion_ramp must be >= 0 and motion_start finite");
     if (pc.translation_axis.norm() < 1e-9 || pc.rotation_axis.norm() < 1e-9)
       throw std::runtime_error(key + ": motion axes must be non-zero");
     if (pc.auto_place &&

@@ -44,8 +44,11 @@ struct Sinusoid {
 };
 
 /// A box-shaped support under one foot. Its top face centre is the platform origin P.
-/// Pose: p_WP(t) = position + axis * translation(t),
-///       R_WP(t) = Rz(yaw) Ry(pitch) Rx(roll) * AngleAxis(rotation(t), rotation_axis).
+/// Pose: p_WP(t) = position + axis * e(t) translation(t - motion_start),
+///       R_WP(t) = AngleAxis(e(t) rotation(t - motion_start), R_incline rotation_axis) R_incline,
+///       R_incline = Rz(yaw) Ry(pitch) Rx(roll),
+/// where the envelope e(t) rises smoothly (3s^2 - 2s^3, s = (t - motion_start) / motion_ramp)
+/// from 0 at motion_start to 1 after motion_ramp, so the support starts at rest.
 struct PlatformConfig {
   std::string name;
   std::string foot;  ///< foot name it supports (used for automatic placement), may be empty
@@ -60,6 +63,8 @@ struct PlatformConfig {
   Sinusoid translation;
   Eigen::Vector3d rotation_axis = Eigen::Vector3d::UnitY();  ///< unit, in the inclined frame
   Sinusoid rotation;
+  double motion_start = 0.0;  ///< [s] the support is still before this time
+  double motion_ramp = 0.0;   ///< [s] envelope rise time (0 = full amplitude at once)
 };
 
 struct GroundConfig {
