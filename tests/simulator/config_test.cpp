@@ -1,1 +1,110 @@
+// Configuration errors are clear and thrown at construction; joint-order helpers.
 #include <gtest/gtest.h>
+
+#include <stdexcept>
+
+#include "poise/sim/simulator.hpp"
+#include "sim_test_util.hpp"
+
+namespace poise::sim {
+namespace {
+
+std::string error_of(const SimulatorConfig& cfg) {
+  try {
+    Simulator sim(cfg);
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(SimConfig, MeshOnlyFeetWithoutSoleIsAClearError) {
+  const std::string e = error_of(test::biped_config("biped_mesh_feet.urdf"));
+  EXPECT_NE(e.find("robot.feet.left"), std::string::npos) << e;
+  EXPECT_NE(e.find("only mesh collision geometry"), std::string::npos) << e;
+  EXPECT_NE(e.find("sole"), std::string::npos) << e;
+}
+
+TEST(SimConfig, MeshOnlyFeetWithSoleConfigStandOnTheSoleBox) {
+  SimulatorConfig cfg = test::biped_config("biped_mesh_feet.urdf");
+  for (auto& f : cfg.robot.feet) {
+    f.has_sole = true;
+    f.sole = test::biped_sole();
+  }
+  Simulator sim(cfg);
+  SensorFrame s = sim.make_sensor_frame();
+  GroundTruth g = sim.make_ground_truth();
+  sim.read(s, g);
+  // auto base height: the sole plane (z = 0 in the sole frame) is on the ground
+  EXPECT_NEAR(g.feet[0].X_WF.translation().z(), 0.0, 1e-9);
+  JointCommand c = sim.make_command();
+  c.mode = CommandMode::kPd;
+  c.q_ref = s.q;
+  c.kp.setConstant(600);
+  c.kd.setConstant(20);
+  for (int k = 0; k < 500; ++k) sim.step(c, s, g);
+  EXPECT_TRUE(g.feet[0].in_contact && g.feet[1].in_contact);
+  EXPECT_NEAR(g.feet[0].force_W.z() + g.feet[1].force_W.z(), sim.total_mass() * 9.81,
+              0.02 * sim.total_mass() * 9.81);
+}
+
+TEST(SimConfig, BadInputsNameTheProblem) {
+  SimulatorConfig cfg = test::biped_config();
+  cfg.robot.urdf_path = "/nonexistent/robot.urdf";
+  EXPECT_NE(error_of(cfg).find("/nonexistent/robot.urdf"), std::string::npos);
+
+  cfg = test::biped_config();
+  cfg.robot.feet[1].frame = "no_such_link";
+  EXPECT_NE(error_of(cfg).find("'no_such_link' is not a link"), std::string::npos);
+
+  cfg = test::biped_config();
+  cfg.robot.feet.clear();
+  EXPECT_NE(error_of(cfg).find("robot.feet"), std::string::npos);
+
+  cfg = test::biped_config();
+  cfg.robot.imu_frame = "nope";
+  EXPECT_NE(error_of(cfg).find("robot.imu_frame"), std::string::npos);
+
+  cfg = test::biped_config();
+  cfg.initial.joint_names.push_back("elbow_that_does_not_exist");
+  cfg.initial.joint_positions.push_back(0.1);
+  EXPECT_NE(error_of(cfg).find("elbow_that_does_not_exist"), std::string::npos);
+
+  cfg = test::biped_config();
+  cfg.pushes = {Push{"ghost", {}, {1, 0, 0}, 0.0, 0.1}};
+  EXPECT_NE(error_of(cfg).find("'ghost'"), std::string::npos);
+
+  cfg = test::biped_config();
+  PlatformConfig p;
+  p.foot = "middle";
+  cfg.world.platforms = {p};
+  EXPECT_NE(error_of(cfg).find("'middle' is not a foot"), std::string::npos);
+
+  cfg = test::biped_config();
+  cfg.solver.dt = 0.0;
+  EXPECT_NE(error_of(cfg).find("solver.dt"), std::string::npos);
+}
+
+TEST(SimConfig, JointNamesAndMapping) {
+  Simulator sim(test::biped_config());
+  const auto& names = sim.joint_names();
+  ASSERT_EQ(sim.num_joints(), 10);
+  // depth-first, children by joint name: l_hip_roll's subtree before r_hip_roll's
+  EXPECT_EQ(names.front(), "l_hip_roll");
+  EXPECT_EQ(names[4], "l_ankle_roll");
+  EXPECT_EQ(names[5], "r_hip_roll");
+  EXPECT_TRUE(std::isinf(sim.effort_limits()[0]) || sim.effort_limits()[0] == 300.0);
+
+  std::vector<std::string> other(names.rbegin(), names.rend());
+  other.push_back("neck");
+  const std::vector<int> map = joint_index_map(names, other);
+  Eigen::VectorXd in = Eigen::VectorXd::LinSpaced(10, 0, 9), out = Eigen::VectorXd::Constant(11, -1);
+  remap_joint_vector(map, in, out);
+  for (int i = 0; i < 10; ++i) EXPECT_EQ(out[9 - i], i);
+  EXPECT_EQ(out[10], -1);
+  const std::vector<std::string> dup = {"a", "a"};
+  EXPECT_THROW(joint_index_map(names, dup), std::runtime_error);
+}
+
+}  // namespace
+}  // namespace poise::sim

@@ -1,1 +1,159 @@
+// Scenario files: the shipped paper scenarios load and put the robot on its supports; schema
+// errors name the key; the monitor's verdict quantities.
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "poise/sim/scenario.hpp"
+#include "poise/sim/simulator.hpp"
+#include "sim_test_util.hpp"
+
+namespace poise::sim {
+namespace {
+
+namespace fs = std::filesystem;
+const fs::path kScenarios = fs::path(POISE_SOURCE_DIR) / "deploy/scenarios";
+
+std::string error_of(const std::string& yaml) {
+  try {
+    parse_scenario(yaml, fs::path(POISE_SOURCE_DIR) / "tests/simulator", "test.yaml");
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+const char* kInline = R"(
+name: inline
+duration: 1.0
+robot:
+  urdf: urdf/biped.urdf
+  imu_frame: imu_link
+  feet:
+    left: {frame: l_sole}
+    right: {frame: r_sole}
+initial:
+  posture: zero
+  joints: {l_knee: 0.6, r_knee: 0.6, l_hip_pitch: -0.3, r_hip_pitch: -0.3,
+           l_ankle_pitch: -0.3, r_ankle_pitch: -0.3}
+disturbances:
+  pushes:
+    - {link: torso, point: [0, 0, 0.1], force: [50, 0, 0], start: 0.2, duration: 0.05}
+)";
+
+TEST(SimScenario, InlineRobotScenarioLoads) {
+  const Scenario sc = parse_scenario(kInline, fs::path(POISE_SOURCE_DIR) / "tests/simulator");
+  EXPECT_EQ(sc.name, "inline");
+  ASSERT_EQ(sc.sim.robot.feet.size(), 2u);
+  ASSERT_EQ(sc.sim.pushes.size(), 1u);
+  EXPECT_EQ(sc.sim.pushes[0].force_W, Eigen::Vector3d(50, 0, 0));
+  Simulator sim(sc.sim);
+  EXPECT_EQ(sim.num_joints(), 10);
+}
+
+TEST(SimScenario, SchemaErrorsNameTheKey) {
+  const std::string base = kInline;
+  EXPECT_NE(error_of(base + "colour: red\n").find("colour: unknown key"), std::string::npos);
+  EXPECT_NE(error_of("name: x\nrobot: {urdf: urdf/biped.urdf, feet: {l: {frame: l_sole}}}\n")
+                .find("duration"),
+            std::string::npos);
+  std::string e = error_of(base + "world:\n  platforms:\n    - {foot: left, frction: 0.5}\n");
+  EXPECT_NE(e.find("world.platforms[0].frction: unknown key"), std::string::npos) << e;
+  e = error_of(base + "world:\n  platforms:\n    - {foot: middle}\n");
+  EXPECT_NE(e.find("world.platforms[0].foot"), std::string::npos) << e;
+  e = error_of(base + "success: {com_error_max_m: big}\n");
+  EXPECT_NE(e.find("success.com_error_max_m: must be a number"), std::string::npos) << e;
+  e = error_of(base + "dds: {vendor: zeromq}\n");
+  EXPECT_NE(e.find("dds.vendor"), std::string::npos) << e;
+  e = error_of(std::string(kInline).replace(std::string(kInline).find("urdf/biped.urdf"), 15, "urdf/none.urdf"));
+  EXPECT_NE(e.find("robot.urdf: file 'urdf/none.urdf' not found"), std::string::npos) << e;
+  e = error_of(base + "sensors: {imu: {gyro_noise_std: -1}}\n");
+  EXPECT_NE(e.find("sensors.imu.gyro_noise_std"), std::string::npos) << e;
+  EXPECT_NE(error_of("[1, 2").find("invalid YAML"), std::string::npos);
+}
+
+#ifdef POISE_SIM_TEST_HAVE_MODEL
+TEST(SimScenario, PaperScenariosLoadAndStandOnTheirSupports) {
+  int count = 0;
+  for (const char* name : {"forward_push_double_support", "lateral_push_single_support",
+                           "platforms_in_phase", "platforms_out_of_phase"}) {
+    SCOPED_TRACE(name);
+    const Scenario sc = load_scenario(kScenarios / (std::string(name) + ".yaml"));
+    EXPECT_EQ(sc.name, name);
+    EXPECT_GT(sc.duration, 0.0);
+    Simulator sim(sc.sim);
+    SensorFrame s = sim.make_sensor_frame();
+    GroundTruth g = sim.make_ground_truth();
+    sim.read(s, g);
+    JointCommand c = sim.make_command();
+    c.mode = CommandMode::kPd;
+    c.q_ref = s.q;
+    c.kp.setConstant(300);
+    c.kd.setConstant(6);
+    for (int k = 0; k < 100; ++k) sim.step(c, s, g);
+    // the supporting feet carry the robot, nothing else touches
+    double fz = 0.0;
+    for (std::size_t f = 0; f < g.feet.size(); ++f) {
+      const bool support = sc.support == "double" || sim.foot_names()[f] == sc.support;
+      EXPECT_EQ(g.feet[f].in_contact, support) << sim.foot_names()[f];
+      fz += g.feet[f].force_W.z();
+    }
+    EXPECT_NEAR(fz, sim.total_mass() * 9.81, 0.25 * sim.total_mass() * 9.81);
+    EXPECT_EQ(g.num_non_foot_contacts, 0);
+    ++count;
+  }
+  EXPECT_EQ(count, 4);
+  const Scenario fwd = load_scenario(kScenarios / "forward_push_double_support.yaml");
+  ASSERT_EQ(fwd.sim.pushes.size(), 1u);
+  EXPECT_DOUBLE_EQ(fwd.sim.pushes[0].force_W.norm() * fwd.sim.pushes[0].duration, 12.0);
+  const Scenario oop = load_scenario(kScenarios / "platforms_out_of_phase.yaml");
+  ASSERT_EQ(oop.sim.world.platforms.size(), 2u);
+  EXPECT_NEAR(std::abs(oop.sim.world.platforms[0].translation.phase -
+                       oop.sim.world.platforms[1].translation.phase),
+              M_PI, 1e-12);
+  EXPECT_NEAR(oop.sim.world.platforms[0].pitch, -oop.sim.world.platforms[1].pitch, 1e-12);
+}
+#endif
+
+TEST(SimScenario, MonitorMeasuresComErrorAndSlipAgainstTheSupports) {
+  Scenario sc = parse_scenario(kInline, fs::path(POISE_SOURCE_DIR) / "tests/simulator");
+  sc.sim.world.platforms.resize(1);
+  sc.sim.world.platforms[0].foot = "left";
+  sc.success.com_error_final_m = 0.05;
+  sc.success.foot_slip_max_m = 0.01;
+  ScenarioMonitor mon(sc, platforms_of_feet(sc));
+  GroundTruth g;
+  g.feet.resize(2);
+  g.platform_X_WP.assign(1, Eigen::Isometry3d::Identity());
+  g.non_foot_contact.assign(3, 0);
+  // feet at y = +-0.1 (left on a platform), CoM 2 cm ahead of their centre
+  auto set = [&](double t, double platform_x, double com_x, double left_slip) {
+    g.time = t;
+    g.platform_X_WP[0].translation().x() = platform_x;
+    g.feet[0].X_WF.translation() = Eigen::Vector3d(platform_x + left_slip, 0.1, 0.0);
+    g.feet[1].X_WF.translation() = Eigen::Vector3d(0.0, -0.1, 0.0);
+    g.feet[0].in_contact = g.feet[1].in_contact = true;
+    g.com_W = Eigen::Vector3d(com_x, 0.0, 0.8);
+    mon.update(g);
+  };
+  set(0.0, 0.0, 0.02, 0.0);
+  set(0.1, 0.3, 0.17, 0.0);    // platform moved 0.3: feet centre +0.15, CoM followed exactly
+  EXPECT_NEAR(mon.result().com_error_max_m, 0.0, 1e-12);
+  set(0.2, 0.3, 0.27, 0.004);  // CoM 0.1 ahead of its reference; left foot slid 4 mm
+  auto r = mon.result();
+  EXPECT_NEAR(r.com_error_max_m, 0.1 - 0.002, 1e-12);  // reference moved 2 mm with the slip
+  EXPECT_NEAR(r.foot_slip_max_m, 0.004, 1e-12);
+  EXPECT_FALSE(r.survived);  // final error 0.098 > 0.05
+  set(0.3, 0.3, 0.172, 0.004);
+  r = mon.result();
+  EXPECT_NEAR(r.com_error_final_m, 0.0, 1e-12);
+  EXPECT_TRUE(r.survived);
+  g.num_non_foot_contacts = 1;
+  set(0.4, 0.3, 0.172, 0.004);
+  EXPECT_FALSE(mon.result().survived);
+  EXPECT_EQ(mon.result().non_foot_contacts, 1);
+}
+
+}  // namespace
+}  // namespace poise::sim
