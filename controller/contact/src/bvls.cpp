@@ -26,6 +26,10 @@ void Bvls::resize(int max_rows, int max_cols) {
   cols_.setZero(max_cols);
   state_.setZero(max_cols);
   rejected_.setZero(max_cols);
+  AtA_.setZero(max_cols, max_cols);
+  Atb_.setZero(max_cols);
+  L_.setZero(max_cols, max_cols);
+  rhs_.setZero(max_cols);
 }
 
 SolverStatus Bvls::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
@@ -65,6 +69,22 @@ SolverStatus Bvls::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
   }
   const double tol = tolerance_ * norm_a * (b.norm() + norm_a * std::sqrt(bound_scale)) + 1e-300;
 
+  // Gram matrix and A^T b (see Nnls): duals and sub-problems use the normal equations, with QR of
+  // the free columns as the fallback when they are ill-conditioned.
+  for (int j = 0; j < n; ++j) {
+    for (int l = 0; l <= j; ++l) {
+      double s = 0.0;
+      for (int i = 0; i < m; ++i)
+        s += A(i, j) * A(i, l);
+      AtA_(j, l) = s;
+      AtA_(l, j) = s;
+    }
+    double s = 0.0;
+    for (int i = 0; i < m; ++i)
+      s += A(i, j) * b[i];
+    Atb_[j] = s;
+  }
+
   // Start with every variable at its lower bound (Stark-Parker's cold start).
   for (int j = 0; j < n; ++j) {
     x[j] = lower[j];
@@ -76,16 +96,10 @@ SolverStatus Bvls::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
   bool x_changed = true;
   for (;;) {
     if (x_changed) {
-      for (int i = 0; i < m; ++i) {
-        double s = b[i];
-        for (int j = 0; j < n; ++j)
-          s -= A(i, j) * x[j];
-        r_[i] = s;
-      }
       for (int j = 0; j < n; ++j) {
-        double s = 0.0;
-        for (int i = 0; i < m; ++i)
-          s += A(i, j) * r_[i];
+        double s = Atb_[j];
+        for (int l = 0; l < n; ++l)
+          s -= AtA_(j, l) * x[l];
         w_[j] = s;
       }
       for (int j = 0; j < n; ++j)
@@ -114,17 +128,26 @@ SolverStatus Bvls::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
         break;
       }
       ++iterations_;
-      // rhs = b - A_bound x_bound, kept in r_ (the residual is recomputed after the inner loop).
       int k = 0;
       for (int j = 0; j < n; ++j)
         if (state_[j] == kFree) cols_[k++] = j;
-      for (int i = 0; i < m; ++i) {
-        double s = b[i];
+      // Normal equations of the free variables: A_F^T A_F z = A_F^T (b - A_B x_B).
+      for (int c = 0; c < k; ++c) {
+        double s = Atb_[cols_[c]];
         for (int j = 0; j < n; ++j)
-          if (state_[j] != kFree) s -= A(i, j) * x[j];
-        r_[i] = s;
+          if (state_[j] != kFree) s -= AtA_(cols_[c], j) * x[j];
+        rhs_[c] = s;
       }
-      detail::subset_least_squares(A, cols_.data(), k, r_.data(), W_, qr_rhs_, diag_, z_.data());
+      if (!detail::subset_normal_equations(AtA_, cols_.data(), k, rhs_.data(), L_, z_.data())) {
+        // rhs = b - A_B x_B in r_ (the residual is recomputed at the end).
+        for (int i = 0; i < m; ++i) {
+          double s = b[i];
+          for (int j = 0; j < n; ++j)
+            if (state_[j] != kFree) s -= A(i, j) * x[j];
+          r_[i] = s;
+        }
+        detail::subset_least_squares(A, cols_.data(), k, r_.data(), W_, qr_rhs_, diag_, z_.data());
+      }
       if (first) {
         first = false;
         int pos_t = 0;

@@ -35,6 +35,10 @@ void Nnls::resize(int max_rows, int max_cols) {
   cols_.setZero(max_cols);
   passive_.setZero(max_cols);
   rejected_.setZero(max_cols);
+  AtA_.setZero(max_cols, max_cols);
+  Atb_.setZero(max_cols);
+  L_.setZero(max_cols, max_cols);
+  rhs_.setZero(max_cols);
 }
 
 SolverStatus Nnls::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
@@ -60,16 +64,29 @@ SolverStatus Nnls::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
     passive_[j] = 0;
     rejected_[j] = 0;
   }
-  for (int i = 0; i < m; ++i)
-    r_[i] = b[i];  // residual b - A x with x = 0
+  // Gram matrix and A^T b: the dual is w = A^T b - A^T A x and the passive-set sub-problems are
+  // solved by Cholesky of A^T A restricted to the set (QR of the columns when ill-conditioned).
+  for (int j = 0; j < n; ++j) {
+    for (int l = 0; l <= j; ++l) {
+      double s = 0.0;
+      for (int i = 0; i < m; ++i)
+        s += A(i, j) * A(i, l);
+      AtA_(j, l) = s;
+      AtA_(l, j) = s;
+    }
+    double s = 0.0;
+    for (int i = 0; i < m; ++i)
+      s += A(i, j) * b[i];
+    Atb_[j] = s;
+  }
 
   SolverStatus status = SolverStatus::kOptimal;
   for (;;) {
-    // Dual w = A^T r.
+    // Dual w = A^T (b - A x).
     for (int j = 0; j < n; ++j) {
-      double s = 0.0;
-      for (int i = 0; i < m; ++i)
-        s += A(i, j) * r_[i];
+      double s = Atb_[j];
+      for (int l = 0; l < n; ++l)
+        s -= AtA_(j, l) * x[l];
       w_[j] = s;
     }
     // Most positive dual among the zero (non-passive, not rejected) variables.
@@ -95,7 +112,11 @@ SolverStatus Nnls::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
       int k = 0;
       for (int j = 0; j < n; ++j)
         if (passive_[j]) cols_[k++] = j;
-      detail::subset_least_squares(A, cols_.data(), k, b.data(), W_, qr_rhs_, diag_, z_.data());
+      for (int c = 0; c < k; ++c)
+        rhs_[c] = Atb_[cols_[c]];
+      if (!detail::subset_normal_equations(AtA_, cols_.data(), k, rhs_.data(), L_, z_.data())) {
+        detail::subset_least_squares(A, cols_.data(), k, b.data(), W_, qr_rhs_, diag_, z_.data());
+      }
       if (first) {
         first = false;
         // The entering variable must move into the positive orthant; otherwise (round-off or a
@@ -141,22 +162,21 @@ SolverStatus Nnls::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
     if (x_changed) {
       for (int j = 0; j < n; ++j)
         rejected_[j] = 0;
-      for (int i = 0; i < m; ++i) {
-        double s = b[i];
-        for (int j = 0; j < n; ++j)
-          s -= A(i, j) * x[j];
-        r_[i] = s;
-      }
     }
     if (status != SolverStatus::kOptimal) break;
   }
-  if (status != SolverStatus::kOptimal) {
-    for (int j = 0; j < n; ++j) {
-      double s = 0.0;
-      for (int i = 0; i < m; ++i)
-        s += A(i, j) * r_[i];
-      w_[j] = s;
-    }
+  // Dual of the returned point from the residual (more accurate than the Gram form).
+  for (int i = 0; i < m; ++i) {
+    double s = b[i];
+    for (int j = 0; j < n; ++j)
+      s -= A(i, j) * x[j];
+    r_[i] = s;
+  }
+  for (int j = 0; j < n; ++j) {
+    double s = 0.0;
+    for (int i = 0; i < m; ++i)
+      s += A(i, j) * r_[i];
+    w_[j] = s;
   }
   return status;
 }

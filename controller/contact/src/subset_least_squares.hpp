@@ -75,3 +75,46 @@ inline void subset_least_squares(const Eigen::Ref<const Eigen::MatrixXd>& A, con
 }
 
 }  // namespace poise::contact::detail
+
+namespace poise::contact::detail {
+
+/// Solves AtA(cols, cols) z = rhs (k x k, rhs[c] for column cols[c]) by Cholesky in the workspace
+/// L (>= k x k). Returns false, leaving z unspecified, when a pivot falls below `pivot_tol` times
+/// the largest diagonal entry: the subset is too ill-conditioned for the normal equations and the
+/// caller must use subset_least_squares() instead.
+inline bool subset_normal_equations(const Eigen::MatrixXd& AtA, const int* cols, int k,
+                                    const double* rhs, Eigen::MatrixXd& L, double* z,
+                                    double pivot_tol = 1e-10) {
+  double max_diag = 0.0;
+  for (int c = 0; c < k; ++c)
+    max_diag = std::max(max_diag, AtA(cols[c], cols[c]));
+  for (int j = 0; j < k; ++j) {
+    double s = AtA(cols[j], cols[j]);
+    for (int p = 0; p < j; ++p)
+      s -= L(j, p) * L(j, p);
+    if (!(s > pivot_tol * max_diag)) return false;
+    const double ljj = std::sqrt(s);
+    L(j, j) = ljj;
+    for (int i = j + 1; i < k; ++i) {
+      double t = AtA(cols[i], cols[j]);
+      for (int p = 0; p < j; ++p)
+        t -= L(i, p) * L(j, p);
+      L(i, j) = t / ljj;
+    }
+  }
+  for (int i = 0; i < k; ++i) {  // L y = rhs
+    double s = rhs[i];
+    for (int p = 0; p < i; ++p)
+      s -= L(i, p) * z[p];
+    z[i] = s / L(i, i);
+  }
+  for (int i = k - 1; i >= 0; --i) {  // L^T z = y
+    double s = z[i];
+    for (int p = i + 1; p < k; ++p)
+      s -= L(p, i) * z[p];
+    z[i] = s / L(i, i);
+  }
+  return true;
+}
+
+}  // namespace poise::contact::detail

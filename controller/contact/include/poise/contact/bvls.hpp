@@ -57,6 +57,10 @@ class Bvls {
   Eigen::VectorXi cols_;
   Eigen::VectorXi state_;
   Eigen::VectorXi rejected_;
+  Eigen::MatrixXd AtA_;  // max_cols x max_cols, Gram matrix
+  Eigen::VectorXd Atb_;
+  Eigen::MatrixXd L_;  // Cholesky workspace
+  Eigen::VectorXd rhs_;
 };
 
 }  // namespace poise::contact

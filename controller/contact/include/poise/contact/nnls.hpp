@@ -54,6 +54,10 @@ class Nnls {
   Eigen::VectorXi cols_;      // max_cols, passive column list
   Eigen::VectorXi passive_;   // max_cols, 1 if in passive set
   Eigen::VectorXi rejected_;  // max_cols
+  Eigen::MatrixXd AtA_;       // max_cols x max_cols, Gram matrix
+  Eigen::VectorXd Atb_;       // max_cols
+  Eigen::MatrixXd L_;         // max_cols x max_cols, Cholesky workspace
+  Eigen::VectorXd rhs_;       // max_cols
 };
 
 }  // namespace poise::contact
