@@ -1,0 +1,142 @@
+#pragma once
+// The state estimator: sensor frame in, state out, once per tick (1 kHz). No DDS, no threads, no
+// clocks; the `poise-estimator` node is a thin shell around Estimator::update().
+//
+// What one update() does (all from the sensor stream, never from ground truth):
+//  1. checks the frame (sizes, finite values, tick order); a bad frame is rejected and the
+//     previous state is held (kNonFiniteInput / kDroppedFrames), a tick gap propagates over the
+//     missed time (kDroppedFrames);
+//  2. detects contact per foot from its F/T normal force with hysteresis (ContactDetector);
+//  3. leg kinematics with the base at identity: foot poses X_BF and foot velocities relative to
+//     the base;
+//  4. contact-aided invariant EKF (invariant_ekf.hpp, which says why this filter): IMU
+//     propagation, touch-down/lift-off of contact points, leg-kinematics corrections;
+//     if the IMU stops changing for `frozen_imu_ticks` ticks (kImuFrozen) the base is tracked by
+//     leg odometry with stance-foot orientation until the IMU changes again (then the filter
+//     restarts from there, kInitializing);
+//  5. outputs: base pose and twist, q/qd, CoM, its velocity and the centroidal momentum (k about
+//     the CoM, l), foot poses/twists, contact states, measured CoP per foot, IMU biases;
+//  6. a plain leg-odometry baseline (IMU orientation + stance-foot kinematics, no filter) runs
+//     alongside for comparison (leg_odometry()).
+// Status bits are those of idl/state.idl (types.hpp). Yaw and absolute position are unobservable:
+// they drift slowly with the gyro bias and foot slip; roll, pitch and velocity are observable.
+
+#include <Eigen/Core>
+#include <array>
+#include <stdexcept>
+
+#include "poise/estimator/contact_detector.hpp"
+#include "poise/estimator/invariant_ekf.hpp"
+#include "poise/estimator/leg_odometry.hpp"
+#include "poise/estimator/types.hpp"
+#include "poise/model/data.hpp"
+#include "poise/model/model.hpp"
+#include "poise/model/robot_config.hpp"
+
+namespace poise::estimator {
+
+/// Thrown by the Estimator constructor for a bad configuration (names the bad field).
+class EstimatorError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+struct EstimatorConfig {
+  double dt = 0.001;  ///< nominal sensor period [s]; a tick gap of g propagates over g * dt
+  ImuNoise noise;     ///< process / measurement noise of the filter
+  /// Contact hysteresis as fractions of the robot's weight m |g| on the foot normal force.
+  double contact_on_fraction = 0.15;
+  double contact_off_fraction = 0.05;
+  /// Identical consecutive IMU samples (gyro, accelerometer and orientation bit for bit) after
+  /// which the IMU counts as frozen.
+  int frozen_imu_ticks = 20;
+  /// A gap between accepted frames longer than this restarts the filter [s].
+  double max_gap = 0.25;
+  /// After a (re)start the state carries kInitializing for this long [s].
+  double initializing_time = 0.5;
+  /// Initial standard deviations (filter start and restart).
+  double init_std_orientation = 0.02;           ///< [rad] per axis
+  double init_std_velocity = 0.05;              ///< [m/s]
+  double init_std_position = 0.01;              ///< [m]
+  double init_std_gyro_bias = 0.01;             ///< [rad/s]
+  double init_std_accel_bias = 0.05;            ///< [m/s^2]
+  Vector3 init_gyro_bias_I = Vector3::Zero();   ///< [rad/s]
+  Vector3 init_accel_bias_I = Vector3::Zero();  ///< [m/s^2]
+  /// The start position: base x, y in W; z such that the lowest sole in contact (of both soles
+  /// when none is) lies at ground_height.
+  double init_base_x = 0.0;
+  double init_base_y = 0.0;
+  double ground_height = 0.0;
+};
+
+class Estimator {
+ public:
+  /// Configures everything (allocates). Throws EstimatorError naming the problem: robot config
+  /// frames unknown to the model, IMU not fixed to the floating base, bad thresholds or noise.
+  Estimator(const model::Model& model, const model::RobotConfig& robot,
+            const EstimatorConfig& config = {});
+
+  /// A state / sensor frame with every vector sized for this robot (configuration time).
+  EstimatorState make_state() const;
+  SensorFrame make_sensor_frame() const;
+
+  /// One tick: consumes `frame`, writes `out` (never a non-finite number), returns its status
+  /// flags (also in out.status_flags). Real-time safe: no allocation, no exception, no I/O.
+  /// `out` must come from make_state(); otherwise kNonFiniteInput is returned and `out` untouched.
+  StatusFlags update(const SensorFrame& frame, EstimatorState& out) noexcept;
+
+  /// Forgets everything; the next frame initialises the filter.
+  void reset() noexcept;
+
+  const EstimatorDiagnostics& diagnostics() const noexcept { return diag_; }
+  /// Plain leg-odometry baseline of the same frames (base pose and velocity of the base origin).
+  const LegOdometry& leg_odometry() const noexcept { return baseline_; }
+  const InvariantEkf& filter() const noexcept { return ekf_; }
+  const model::Model& model() const noexcept { return model_; }
+  bool initialized() const noexcept { return initialized_; }
+  bool imu_frozen() const noexcept { return imu_frozen_; }
+  /// Pose of the IMU frame in the base frame (fixed).
+  const SE3& X_BI() const noexcept { return X_BI_; }
+
+ private:
+  bool frame_is_valid(const SensorFrame& frame) noexcept;
+  void compute_leg_kinematics(const SensorFrame& frame) noexcept;
+  void initialize(const SensorFrame& frame) noexcept;
+  void write_output(const SensorFrame& frame, StatusFlags flags, EstimatorState& out) noexcept;
+  void hold_output(const SensorFrame& frame, StatusFlags flags, EstimatorState& out) noexcept;
+  InvariantEkf::Covariance initial_covariance() const noexcept;
+
+  model::Model model_;
+  model::Data data_;
+  EstimatorConfig config_;
+  std::array<int, kNumFeet> foot_frame_{-1, -1};
+  std::array<double, kNumFeet> sole_height_{0.0, 0.0};
+  SE3 X_BI_, X_IB_;
+  double weight_ = 0.0;
+
+  std::array<ContactDetector, kNumFeet> contact_;
+  InvariantEkf ekf_;
+  LegOdometry baseline_;  ///< IMU orientation + kinematics (comparison)
+  LegOdometry fallback_;  ///< stance-foot orientation + kinematics (IMU frozen)
+
+  // Workspaces (sized at construction).
+  Eigen::VectorXd q_rel_, v_rel_;  ///< base at identity, base twist zero
+  LegKinematics legs_;
+  std::array<Vector3, kNumFeet> omega_F0_B_{Vector3::Zero(), Vector3::Zero()};  ///< J_ang qd
+  std::array<Vector3, kNumFeet> v_F0_B_{Vector3::Zero(), Vector3::Zero()};      ///< J_lin qd
+  Vector3 omega_B_ = Vector3::Zero();  ///< base angular velocity used this tick, base axes
+  EstimatorState held_;                ///< last good output
+
+  bool initialized_ = false;
+  bool imu_frozen_ = false;
+  bool have_last_imu_ = false;
+  int same_imu_count_ = 0;
+  Eigen::Quaterniond last_imu_q_ = Eigen::Quaterniond::Identity();
+  Vector3 last_gyro_ = Vector3::Zero();
+  Vector3 last_accel_ = Vector3::Zero();
+  std::int64_t last_tick_ = 0;
+  double time_since_init_ = 0.0;
+  EstimatorDiagnostics diag_;
+};
+
+}  // namespace poise::estimator

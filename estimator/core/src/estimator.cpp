@@ -1,0 +1,431 @@
+#include "poise/estimator/estimator.hpp"
+
+#include <cmath>
+#include <string>
+
+#include "poise/model/centroidal.hpp"
+#include "poise/model/kinematics.hpp"
+
+namespace poise::estimator {
+
+namespace {
+
+bool positive_finite(double x) {
+  return std::isfinite(x) && x > 0.0;
+}
+
+void require(bool ok, const std::string& what) {
+  if (!ok) throw EstimatorError("Estimator configuration: " + what);
+}
+
+int frame_of(const model::Model& model, const std::string& name, const char* what) {
+  if (!model.has_frame(name))
+    throw EstimatorError(std::string("Estimator configuration: ") + what + " frame '" + name +
+                         "' is not a link of model '" + model.name + "'");
+  return model.frame_id(name);
+}
+
+bool finite(const SE3& X) {
+  return X.R.allFinite() && X.p.allFinite();
+}
+
+}  // namespace
+
+Estimator::Estimator(const model::Model& model, const model::RobotConfig& robot,
+                     const EstimatorConfig& config)
+    : model_(model), data_(model_), config_(config) {
+  require(positive_finite(config.dt), "dt must be finite and > 0");
+  require(std::isfinite(config.contact_on_fraction) && std::isfinite(config.contact_off_fraction) &&
+              config.contact_off_fraction >= 0.0 &&
+              config.contact_off_fraction < config.contact_on_fraction,
+          "contact thresholds must satisfy 0 <= contact_off_fraction < contact_on_fraction");
+  require(config.frozen_imu_ticks >= 2, "frozen_imu_ticks must be >= 2");
+  require(positive_finite(config.max_gap) && config.max_gap > config.dt,
+          "max_gap must be finite and > dt");
+  require(std::isfinite(config.initializing_time) && config.initializing_time >= 0.0,
+          "initializing_time must be finite and >= 0");
+  require(
+      positive_finite(config.init_std_orientation) && positive_finite(config.init_std_velocity) &&
+          positive_finite(config.init_std_position) && positive_finite(config.init_std_gyro_bias) &&
+          positive_finite(config.init_std_accel_bias),
+      "init_std_* must be finite and > 0");
+  require(config.init_gyro_bias_I.allFinite() && config.init_accel_bias_I.allFinite() &&
+              std::isfinite(config.init_base_x) && std::isfinite(config.init_base_y) &&
+              std::isfinite(config.ground_height),
+          "initial biases, base x/y and ground height must be finite");
+
+  const int imu = frame_of(model_, robot.imu_frame, "IMU");
+  if (model_.frames[imu].body != 0) {
+    throw EstimatorError("Estimator configuration: IMU frame '" + robot.imu_frame +
+                         "' is attached to body '" + model_.body_name[model_.frames[imu].body] +
+                         "', not to the floating base '" + model_.body_name[0] +
+                         "' (only a base-mounted IMU is supported)");
+  }
+  X_BI_ = model_.frames[imu].X_BF;
+  X_IB_ = X_BI_.inverse();
+  for (int f = 0; f < kNumFeet; ++f) {
+    foot_frame_[f] =
+        frame_of(model_, robot.feet[f].frame, f == model::kRight ? "right foot" : "left foot");
+    sole_height_[f] = robot.feet[f].sole.height;
+    require(std::isfinite(sole_height_[f]) && sole_height_[f] >= 0.0,
+            "sole height of foot '" + robot.feet[f].frame + "' must be finite and >= 0");
+  }
+  weight_ = model_.total_mass * model_.gravity.norm();
+  require(positive_finite(weight_), "the model's weight (total mass * |g|) must be > 0");
+
+  for (int f = 0; f < kNumFeet; ++f) {
+    contact_[f] = ContactDetector(ContactThresholds{config.contact_on_fraction * weight_,
+                                                    config.contact_off_fraction * weight_});
+  }
+  try {
+    ekf_ = InvariantEkf(config.noise, model_.gravity);
+  } catch (const std::invalid_argument& e) {
+    throw EstimatorError(std::string("Estimator configuration: ") + e.what());
+  }
+  baseline_ = LegOdometry(model_.gravity);
+  fallback_ = LegOdometry(model_.gravity);
+  q_rel_ = model_.neutral();
+  v_rel_ = Eigen::VectorXd::Zero(model_.nv);
+  held_ = make_state();
+}
+
+EstimatorState Estimator::make_state() const {
+  EstimatorState s;
+  s.q = Eigen::VectorXd::Zero(model_.njoints);
+  s.qd = Eigen::VectorXd::Zero(model_.njoints);
+  s.q_model = model_.neutral();
+  s.v_model = Eigen::VectorXd::Zero(model_.nv);
+  return s;
+}
+
+SensorFrame Estimator::make_sensor_frame() const {
+  SensorFrame s;
+  s.q = Eigen::VectorXd::Zero(model_.njoints);
+  s.qd = Eigen::VectorXd::Zero(model_.njoints);
+  s.tau_measured = Eigen::VectorXd::Zero(model_.njoints);
+  return s;
+}
+
+void Estimator::reset() noexcept {
+  initialized_ = false;
+  imu_frozen_ = false;
+  have_last_imu_ = false;
+  same_imu_count_ = 0;
+  for (auto& c : contact_)
+    c.reset(false);
+  diag_ = EstimatorDiagnostics{};
+}
+
+bool Estimator::frame_is_valid(const SensorFrame& frame) noexcept {
+  const Eigen::Index n = model_.njoints;
+  if (frame.q.size() != n || frame.qd.size() != n || frame.tau_measured.size() != n) {
+    diag_.last_error = "sensor frame: q, qd or tau_measured does not have one entry per joint";
+    return false;
+  }
+  if (!frame.q.allFinite()) {
+    diag_.last_error = "sensor frame: non-finite joint position q";
+    return false;
+  }
+  if (!frame.qd.allFinite()) {
+    diag_.last_error = "sensor frame: non-finite joint velocity qd";
+    return false;
+  }
+  if (!frame.tau_measured.allFinite()) {
+    diag_.last_error = "sensor frame: non-finite tau_measured";
+    return false;
+  }
+  if (!frame.imu_q_WI.coeffs().allFinite()) {
+    diag_.last_error = "sensor frame: non-finite IMU orientation";
+    return false;
+  }
+  if (!frame.imu_omega_I.allFinite()) {
+    diag_.last_error = "sensor frame: non-finite IMU angular velocity";
+    return false;
+  }
+  if (!frame.imu_specific_force_I.allFinite()) {
+    diag_.last_error = "sensor frame: non-finite IMU specific force";
+    return false;
+  }
+  for (int f = 0; f < kNumFeet; ++f) {
+    if (!frame.foot_wrench_Fo_F[f].allFinite()) {
+      diag_.last_error = f == 0 ? "sensor frame: non-finite right foot wrench"
+                                : "sensor frame: non-finite left foot wrench";
+      return false;
+    }
+  }
+  return true;
+}
+
+void Estimator::compute_leg_kinematics(const SensorFrame& frame) noexcept {
+  const int n = model_.njoints;
+  q_rel_.tail(n) = frame.q;
+  v_rel_.tail(n) = frame.qd;
+  model::forward_kinematics(model_, data_, q_rel_, v_rel_);
+  for (int f = 0; f < kNumFeet; ++f) {
+    legs_.X_BF[f] = model::frame_placement(model_, data_, foot_frame_[f]);
+    const Motion V = model::frame_velocity(model_, data_, foot_frame_[f]);
+    v_F0_B_[f] = V.head<3>();
+    omega_F0_B_[f] = V.tail<3>();
+  }
+}
+
+InvariantEkf::Covariance Estimator::initial_covariance() const noexcept {
+  InvariantEkf::Covariance P = InvariantEkf::Covariance::Zero();
+  const auto sq = [](double x) { return x * x; };
+  const Matrix3 I3 = Matrix3::Identity();
+  P.block<3, 3>(InvariantEkf::kR, InvariantEkf::kR) = sq(config_.init_std_orientation) * I3;
+  P.block<3, 3>(InvariantEkf::kV, InvariantEkf::kV) = sq(config_.init_std_velocity) * I3;
+  P.block<3, 3>(InvariantEkf::kP, InvariantEkf::kP) = sq(config_.init_std_position) * I3;
+  for (int f = 0; f < kNumFeet; ++f)
+    P.block<3, 3>(InvariantEkf::d_index(f), InvariantEkf::d_index(f)) = I3;
+  P.block<3, 3>(InvariantEkf::kBg, InvariantEkf::kBg) = sq(config_.init_std_gyro_bias) * I3;
+  P.block<3, 3>(InvariantEkf::kBa, InvariantEkf::kBa) = sq(config_.init_std_accel_bias) * I3;
+  return P;
+}
+
+void Estimator::initialize(const SensorFrame& frame) noexcept {
+  // Orientation: the IMU's own estimate when it is a plausible quaternion, else the tilt from
+  // the accelerometer (yaw 0).
+  Matrix3 R_WI;
+  const double qn = frame.imu_q_WI.norm();
+  if (qn > 0.5 && qn < 1.5) {
+    R_WI = frame.imu_q_WI.normalized().toRotationMatrix();
+  } else {
+    const Vector3 f = frame.imu_specific_force_I;
+    R_WI = f.norm() > 1e-6
+               ? Eigen::Quaterniond::FromTwoVectors(f, Vector3::UnitZ()).toRotationMatrix()
+               : Matrix3::Identity();
+  }
+  SE3 X_WB;
+  X_WB.R = R_WI * X_IB_.R;
+  bool any_contact = legs_.contact[0] || legs_.contact[1];
+  double z_min = 0.0;
+  bool first = true;
+  for (int f = 0; f < kNumFeet; ++f) {
+    if (any_contact && !legs_.contact[f]) continue;
+    const Vector3 sole_B = legs_.X_BF[f].act(Vector3(0.0, 0.0, -sole_height_[f]));
+    const double z = (X_WB.R * sole_B).z();
+    if (first || z < z_min) z_min = z;
+    first = false;
+  }
+  X_WB.p = Vector3(config_.init_base_x, config_.init_base_y, config_.ground_height - z_min);
+
+  InvariantEkf::Mean m;
+  m.R_WI = R_WI;
+  m.p_WI = X_WB.act(X_BI_.p);
+  m.v_WI.setZero();
+  m.b_g = config_.init_gyro_bias_I;
+  m.b_a = config_.init_accel_bias_I;
+  m.d_W[0] = m.d_W[1] = m.p_WI;
+  ekf_.reset(m, initial_covariance());
+  for (int f = 0; f < kNumFeet; ++f) {
+    ekf_.set_contact(f, legs_.contact[f], X_IB_.act(legs_.X_BF[f].p));
+  }
+  const Vector3 omega_B = X_BI_.R * (frame.imu_omega_I - m.b_g);
+  for (int f = 0; f < kNumFeet; ++f)
+    legs_.v_BF_B[f] = omega_B.cross(legs_.X_BF[f].p) + v_F0_B_[f];
+  omega_B_ = omega_B;
+  baseline_.reset(X_WB, Vector3::Zero(), legs_);
+  fallback_.reset(X_WB, Vector3::Zero(), legs_);
+  initialized_ = true;
+  imu_frozen_ = false;
+  time_since_init_ = 0.0;
+  ++diag_.resets;
+}
+
+StatusFlags Estimator::update(const SensorFrame& frame, EstimatorState& out) noexcept {
+  ++diag_.ticks;
+  const Eigen::Index n = model_.njoints;
+  if (out.q.size() != n || out.qd.size() != n || out.q_model.size() != model_.nq ||
+      out.v_model.size() != model_.nv) {
+    diag_.last_error = "output state was not made by Estimator::make_state()";
+    return kNonFiniteInput;
+  }
+  if (!frame_is_valid(frame)) {
+    ++diag_.rejected_frames;
+    hold_output(frame, kNonFiniteInput, out);
+    return out.status_flags;
+  }
+
+  StatusFlags flags = kStateOk;
+  double dt = config_.dt;
+  if (initialized_) {
+    const std::int64_t gap = frame.tick - last_tick_;
+    if (gap <= 0) {
+      ++diag_.rejected_frames;
+      diag_.last_error = "sensor frame: tick not after the previous accepted tick";
+      hold_output(frame, kDroppedFrames, out);
+      return out.status_flags;
+    }
+    if (gap > 1) {
+      flags |= kDroppedFrames;
+      diag_.dropped_frames += static_cast<std::uint64_t>(gap - 1);
+      diag_.last_error = "sensor frames dropped";
+    }
+    dt = static_cast<double>(gap) * config_.dt;
+    if (dt > config_.max_gap) initialized_ = false;  // too long to propagate: restart
+  }
+  last_tick_ = frame.tick;
+
+  for (int f = 0; f < kNumFeet; ++f) {
+    legs_.contact[f] = contact_[f].update(frame.foot_wrench_Fo_F[f]);
+    legs_.normal_force[f] = frame.foot_wrench_Fo_F[f][2];
+  }
+
+  // Frozen IMU: every field bit-identical to the previous sample for frozen_imu_ticks samples.
+  const bool same = have_last_imu_ && frame.imu_omega_I == last_gyro_ &&
+                    frame.imu_specific_force_I == last_accel_ &&
+                    frame.imu_q_WI.coeffs() == last_imu_q_.coeffs();
+  same_imu_count_ = same ? same_imu_count_ + 1 : 0;
+  have_last_imu_ = true;
+  last_gyro_ = frame.imu_omega_I;
+  last_accel_ = frame.imu_specific_force_I;
+  last_imu_q_ = frame.imu_q_WI;
+  const bool frozen = same_imu_count_ >= config_.frozen_imu_ticks;
+  if (frozen && !imu_frozen_) diag_.last_error = "IMU frozen: kinematics-only fallback";
+
+  compute_leg_kinematics(frame);
+
+  if (!initialized_) {
+    initialize(frame);
+    flags |= kInitializing;
+    if (frozen) imu_frozen_ = true;  // restart from a frozen IMU: the fallback takes over
+  } else if (!frozen) {
+    if (imu_frozen_) {
+      // The IMU is back: restart the filter from the fallback pose, keeping the biases.
+      const SE3& X_WB = fallback_.X_WB();
+      InvariantEkf::Mean m = ekf_.mean();
+      m.R_WI = X_WB.R * X_BI_.R;
+      m.p_WI = X_WB.act(X_BI_.p);
+      const Vector3 omega_W = m.R_WI * (frame.imu_omega_I - m.b_g);
+      m.v_WI = fallback_.v_WB() + omega_W.cross(m.p_WI - X_WB.p);
+      InvariantEkf::Covariance P = initial_covariance();
+      P.bottomRightCorner<6, 6>() = ekf_.covariance().bottomRightCorner<6, 6>();
+      ekf_.reset(m, P);
+      imu_frozen_ = false;
+      time_since_init_ = 0.0;
+      ++diag_.resets;
+    } else {
+      ekf_.propagate(frame.imu_omega_I, frame.imu_specific_force_I, dt);
+    }
+    omega_B_ = X_BI_.R * (frame.imu_omega_I - ekf_.mean().b_g);
+    for (int f = 0; f < kNumFeet; ++f) {
+      legs_.v_BF_B[f] = omega_B_.cross(legs_.X_BF[f].p) + v_F0_B_[f];
+      const Vector3 s_I = X_IB_.act(legs_.X_BF[f].p);
+      ekf_.set_contact(f, legs_.contact[f], s_I);
+      if (legs_.contact[f]) ekf_.correct(f, s_I);
+    }
+  }
+  if (frozen) {
+    flags |= kImuFrozen;
+    ++diag_.frozen_imu_ticks;
+    const auto& m = ekf_.mean();
+    const Matrix3 R_WB = m.R_WI * X_IB_.R;
+    if (!imu_frozen_) {
+      SE3 X_WB(R_WB, m.p_WI + m.R_WI * X_IB_.p);
+      fallback_.reset(X_WB, m.v_WI, legs_);
+    }
+    imu_frozen_ = true;
+    // Angular velocity from the stance foot that carries most load (it does not rotate).
+    int stance = -1;
+    for (int f = 0; f < kNumFeet; ++f)
+      if (legs_.contact[f] && (stance < 0 || legs_.normal_force[f] > legs_.normal_force[stance]))
+        stance = f;
+    omega_B_ = stance >= 0 ? Vector3(-omega_F0_B_[stance]) : Vector3::Zero();
+    for (int f = 0; f < kNumFeet; ++f)
+      legs_.v_BF_B[f] = omega_B_.cross(legs_.X_BF[f].p) + v_F0_B_[f];
+    fallback_.update(LegOdometry::OrientationSource::kStanceFoot, R_WB, legs_, dt);
+    const SE3& X_WB = fallback_.X_WB();
+    const Matrix3 R_WI = X_WB.R * X_BI_.R;
+    const Vector3 p_WI = X_WB.act(X_BI_.p);
+    const Vector3 v_WI = fallback_.v_WB() + (X_WB.R * omega_B_).cross(p_WI - X_WB.p);
+    ekf_.set_pose_velocity(R_WI, v_WI, p_WI);
+  }
+
+  // Baseline: IMU orientation, raw gyro, stance-foot kinematics, no filter.
+  {
+    LegKinematics legs_baseline = legs_;
+    const Vector3 omega_B_raw = X_BI_.R * frame.imu_omega_I;
+    for (int f = 0; f < kNumFeet; ++f)
+      legs_baseline.v_BF_B[f] = omega_B_raw.cross(legs_.X_BF[f].p) + v_F0_B_[f];
+    const Matrix3 R_WB_imu = frame.imu_q_WI.normalized().toRotationMatrix() * X_IB_.R;
+    if (!(flags & kInitializing))
+      baseline_.update(LegOdometry::OrientationSource::kImu, R_WB_imu, legs_baseline, dt);
+  }
+
+  time_since_init_ += dt;
+  if (time_since_init_ < config_.initializing_time) flags |= kInitializing;
+  if (!legs_.contact[0] && !legs_.contact[1]) {
+    flags |= kNoContact;
+    ++diag_.no_contact_ticks;
+  }
+  write_output(frame, flags, out);
+  return out.status_flags;
+}
+
+void Estimator::write_output(const SensorFrame& frame, StatusFlags flags,
+                             EstimatorState& out) noexcept {
+  const auto& m = ekf_.mean();
+  const int n = model_.njoints;
+  out.tick = frame.tick;
+  out.stamp_ns = frame.stamp_ns;
+  out.X_WB = SE3(m.R_WI * X_IB_.R, m.R_WI * X_IB_.p + m.p_WI);
+  out.omega_WB = out.X_WB.R * omega_B_;
+  out.v_WB = m.v_WI + out.omega_WB.cross(out.X_WB.p - m.p_WI);
+  out.q = frame.q;
+  out.qd = frame.qd;
+  out.q_model.head<3>() = out.X_WB.p;
+  out.q_model.segment<4>(3) = Eigen::Quaterniond(out.X_WB.R).normalized().coeffs();
+  out.q_model.tail(n) = frame.q;
+  out.v_model.head<3>() = out.X_WB.R.transpose() * out.v_WB;
+  out.v_model.segment<3>(3) = omega_B_;
+  out.v_model.tail(n) = frame.qd;
+  model::centroidal_momentum(model_, data_, out.q_model, out.v_model);
+  out.com_W = data_.com;
+  out.com_velocity_W = data_.vcom;
+  out.k_W = data_.hg.head<3>();
+  out.l_W = data_.hg.tail<3>();
+  for (int f = 0; f < kNumFeet; ++f) {
+    FootEstimate& foot = out.feet[f];
+    const Force& w = frame.foot_wrench_Fo_F[f];
+    foot.in_contact = legs_.contact[f];
+    foot.X_WF = model::frame_placement(model_, data_, foot_frame_[f]);
+    foot.V_WF = model::frame_velocity(model_, data_, foot_frame_[f]);
+    foot.normal_force = w[2];
+    Vector3 cop_F;
+    if (foot.in_contact && center_of_pressure(w, sole_height_[f], 0.0, cop_F))
+      foot.cop_W = foot.X_WF.act(cop_F);
+    else
+      foot.cop_W.setZero();
+  }
+  out.gyro_bias_I = m.b_g;
+  out.accel_bias_I = m.b_a;
+  out.status_flags = flags;
+
+  bool ok = finite(out.X_WB) && out.v_WB.allFinite() && out.omega_WB.allFinite() &&
+            out.q_model.allFinite() && out.v_model.allFinite() && out.com_W.allFinite() &&
+            out.com_velocity_W.allFinite() && out.k_W.allFinite() && out.l_W.allFinite() &&
+            out.gyro_bias_I.allFinite() && out.accel_bias_I.allFinite() &&
+            ekf_.covariance().allFinite();
+  for (const auto& foot : out.feet)
+    ok = ok && finite(foot.X_WF) && foot.V_WF.allFinite() && foot.cop_W.allFinite() &&
+         std::isfinite(foot.normal_force);
+  if (!ok) {
+    // Numerical failure: never publish it; restart from the next frame.
+    diag_.last_error = "estimator produced a non-finite state: restarting";
+    initialized_ = false;
+    hold_output(frame, flags | kInitializing, out);
+    return;
+  }
+  held_ = out;
+}
+
+void Estimator::hold_output(const SensorFrame& frame, StatusFlags flags,
+                            EstimatorState& out) noexcept {
+  out = held_;
+  out.tick = frame.tick;
+  out.stamp_ns = frame.stamp_ns;
+  out.status_flags = flags | (initialized_ ? 0u : static_cast<StatusFlags>(kInitializing));
+}
+
+}  // namespace poise::estimator
