@@ -16,6 +16,14 @@ inline Vector6 to_centroidal(const Force& h_O, const Vector3& com) {
   return h;
 }
 
+// data.oYcrb from data.oMi.
+void composite_inertias_world(const Model& model, Data& data) {
+  for (int b = 0; b < model.nbodies; ++b)
+    data.oYcrb[b] = InertiaAtOrigin::from(model.inertia[b], data.oMi[b]);
+  for (int b = model.nbodies - 1; b > 0; --b)
+    data.oYcrb[model.parent[b]] += data.oYcrb[b];
+}
+
 }  // namespace
 
 void center_of_mass(const Model& model, Data& data, const Eigen::Ref<const Eigen::VectorXd>& q) {
@@ -51,19 +59,14 @@ void centroidal_momentum(const Model& model, Data& data, const Eigen::Ref<const 
 
 void com_jacobian(const Model& model, Data& data, const Eigen::Ref<const Eigen::VectorXd>& q) {
   compute_joint_jacobians(model, data, q);
-  for (int b = 0; b < model.nbodies; ++b)
-    data.Ycrb[b] = model.inertia[b].transformed(data.oMi[b]);
-  for (int b = model.nbodies - 1; b > 0; --b)
-    data.Ycrb[model.parent[b]] += data.Ycrb[b];
-  data.mass = data.Ycrb[0].mass;
-  data.com = data.Ycrb[0].com;
+  composite_inertias_world(model, data);
+  const InertiaAtOrigin& Y0 = data.oYcrb[0];
+  data.mass = Y0.mass;
   const double inv_m = data.mass > 0.0 ? 1.0 / data.mass : 0.0;
+  data.com = Y0.h * inv_m;
   for (int k = 0; k < model.nv; ++k) {
     const int b = k < 6 ? 0 : k - 5;
-    const Motion col = data.J.col(k);
-    const Inertia& Y = data.Ycrb[b];
-    // linear momentum of the subtree moving with the column's twist, divided by total mass
-    data.Jcom.col(k) = (Y.mass * inv_m) * (col.head<3>() + col.tail<3>().cross(Y.com));
+    data.Jcom.col(k) = (data.oYcrb[b] * Motion(data.J.col(k))).head<3>() * inv_m;
   }
 }
 
@@ -72,18 +75,15 @@ void centroidal_momentum_matrix(const Model& model, Data& data,
                                 const Eigen::Ref<const Eigen::VectorXd>& v) {
   forward_kinematics(model, data, q, v);
   detail::fill_world_jacobian(model, data);
-  for (int b = 0; b < model.nbodies; ++b)
-    data.Ycrb[b] = model.inertia[b].transformed(data.oMi[b]);
-  for (int b = model.nbodies - 1; b > 0; --b)
-    data.Ycrb[model.parent[b]] += data.Ycrb[b];
-  data.mass = data.Ycrb[0].mass;
-  data.com = data.Ycrb[0].com;
-  const Vector3& c = data.com;
+  composite_inertias_world(model, data);
+  data.mass = data.oYcrb[0].mass;
   const double inv_m = data.mass > 0.0 ? 1.0 / data.mass : 0.0;
+  data.com = data.oYcrb[0].h * inv_m;
+  const Vector3& c = data.com;
 
   for (int k = 0; k < model.nv; ++k) {
     const int b = k < 6 ? 0 : k - 5;
-    const Force h_O = data.Ycrb[b] * Motion(data.J.col(k));
+    const Force h_O = data.oYcrb[b] * Motion(data.J.col(k));
     data.Ag.col(k) = to_centroidal(h_O, c);
   }
   data.Jcom = data.Ag.bottomRows<3>() * inv_m;

@@ -12,6 +12,7 @@ Data::Data(const Model& model)
       a_gf(model.nbodies, Motion::Zero()),
       f(model.nbodies, Force::Zero()),
       Ycrb(model.nbodies),
+      oYcrb(model.nbodies),
       f_ext_W(model.nbodies, Force::Zero()),
       oMf(model.frames.size()),
       tau(Eigen::VectorXd::Zero(model.nv)),

@@ -14,6 +14,7 @@ void clear_external_forces(Data& data) {
 void add_external_wrench(const Model& model, Data& data, int frame_id, const Vector3& point_W,
                          const Vector3& force_W, const Vector3& torque_W) {
   Force& F = data.f_ext_W[model.frames[frame_id].body];
+  data.any_f_ext = true;
   F.head<3>() += force_W;
   F.tail<3>() += torque_W + point_W.cross(force_W);
 }
@@ -27,14 +28,13 @@ const Eigen::VectorXd& rnea(const Model& model, Data& data,
   X0 = base_pose(q);
   data.liMi[0] = X0;
   data.v[0] = v.head<6>();
-  data.a[0] = a.head<6>();
-  Motion a_gf0 = data.a[0];
+  Motion a_gf0 = a.head<6>();
   a_gf0.head<3>() -= X0.R.transpose() * model.gravity;
   data.a_gf[0] = a_gf0;
   {
     const Inertia& I = model.inertia[0];
-    data.f[0] =
-        I * a_gf0 + cross_force(data.v[0], I * data.v[0]) - X0.act_inv_force(data.f_ext_W[0]);
+    data.f[0] = I * a_gf0 + cross_force(data.v[0], I * data.v[0]);
+    if (data.any_f_ext) data.f[0] -= X0.act_inv_force(data.f_ext_W[0]);
   }
   for (int b = 1; b < model.nbodies; ++b) {
     const int p = model.parent[b];
@@ -46,11 +46,10 @@ const Eigen::VectorXd& rnea(const Model& model, Data& data,
     const Motion vj = S * v[6 + j];
     data.v[b] = liMi.act_inv_motion(data.v[p]) + vj;
     const Motion c = cross_motion(data.v[b], vj) + S * a[6 + j];
-    data.a[b] = liMi.act_inv_motion(data.a[p]) + c;
     data.a_gf[b] = liMi.act_inv_motion(data.a_gf[p]) + c;
     const Inertia& I = model.inertia[b];
-    data.f[b] = I * data.a_gf[b] + cross_force(data.v[b], I * data.v[b]) -
-                data.oMi[b].act_inv_force(data.f_ext_W[b]);
+    data.f[b] = I * data.a_gf[b] + cross_force(data.v[b], I * data.v[b]);
+    if (data.any_f_ext) data.f[b] -= data.oMi[b].act_inv_force(data.f_ext_W[b]);
   }
   // Backward pass.
   for (int b = model.nbodies - 1; b > 0; --b) {

@@ -13,19 +13,39 @@ void joint_transform(const Model& model, int b, double qj, SE3& liMi) {
   if (model.joint_type[b] == JointType::kPrismatic) {
     liMi.R = X0.R;
     liMi.p = X0.p + X0.R * (u * qj);
-  } else {
-    const double s = std::sin(qj), c = std::cos(qj);
-    // Rodrigues: R = c I + s [u]x + (1 - c) u u^T
-    Matrix3 Rj = (1.0 - c) * (u * u.transpose());
-    Rj.diagonal().array() += c;
-    Rj(0, 1) -= s * u.z();
-    Rj(1, 0) += s * u.z();
-    Rj(0, 2) += s * u.y();
-    Rj(2, 0) -= s * u.y();
-    Rj(1, 2) -= s * u.x();
-    Rj(2, 1) += s * u.x();
-    liMi.R.noalias() = X0.R * Rj;
-    liMi.p = X0.p;
+    return;
+  }
+  const double s = std::sin(qj), c = std::cos(qj);
+  liMi.p = X0.p;
+  const auto R0 = X0.R.col(0), R1 = X0.R.col(1), R2 = X0.R.col(2);
+  switch (model.axis_id[b]) {
+    case 0:  // rotation about +x
+      liMi.R.col(0) = R0;
+      liMi.R.col(1) = c * R1 + s * R2;
+      liMi.R.col(2) = c * R2 - s * R1;
+      return;
+    case 1:  // +y
+      liMi.R.col(0) = c * R0 - s * R2;
+      liMi.R.col(1) = R1;
+      liMi.R.col(2) = s * R0 + c * R2;
+      return;
+    case 2:  // +z
+      liMi.R.col(0) = c * R0 + s * R1;
+      liMi.R.col(1) = c * R1 - s * R0;
+      liMi.R.col(2) = R2;
+      return;
+    default: {
+      // Rodrigues: R = c I + s [u]x + (1 - c) u u^T
+      Matrix3 Rj = (1.0 - c) * (u * u.transpose());
+      Rj.diagonal().array() += c;
+      Rj(0, 1) -= s * u.z();
+      Rj(1, 0) += s * u.z();
+      Rj(0, 2) += s * u.y();
+      Rj(2, 0) -= s * u.y();
+      Rj(1, 2) -= s * u.x();
+      Rj(2, 1) += s * u.x();
+      liMi.R.noalias() = X0.R * Rj;
+    }
   }
 }
 

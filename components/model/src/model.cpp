@@ -187,6 +187,10 @@ struct Builder {
     m.joint_type.push_back(type);
     m.X_parent_joint.push_back(X);
     m.axis.push_back(axis);
+    int id = -1;
+    for (int k = 0; k < 3; ++k)
+      if (axis == Vector3::Unit(k)) id = k;
+    m.axis_id.push_back(id);
     m.inertia.push_back(Inertia::Zero());
     m.body_name.push_back(link);
     return b;

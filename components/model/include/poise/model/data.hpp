@@ -13,17 +13,19 @@ struct Data {
   explicit Data(const Model& model);
 
   // ---- per body (dim model.nbodies), body quantities in the body frame -------------------------
-  std::vector<SE3> liMi;       ///< X_parent_body at the current q
-  std::vector<SE3> oMi;        ///< X_WB: body pose in world
-  std::vector<Motion> v;       ///< body twist, body frame
-  std::vector<Motion> a;       ///< body spatial acceleration, body frame (FK with a)
-  std::vector<Motion> a_bias;  ///< body spatial acceleration for a = 0 (FK with v)
-  std::vector<Motion> a_gf;    ///< RNEA: acceleration minus gravity, body frame
-  std::vector<Force> f;        ///< RNEA: wrench transmitted by the body's joint, body frame
-  std::vector<Inertia> Ycrb;   ///< composite inertia of the subtree (frame depends on algorithm)
+  std::vector<SE3> liMi;               ///< X_parent_body at the current q
+  std::vector<SE3> oMi;                ///< X_WB: body pose in world
+  std::vector<Motion> v;               ///< body twist, body frame
+  std::vector<Motion> a;               ///< body spatial acceleration, body frame (FK with a)
+  std::vector<Motion> a_bias;          ///< body spatial acceleration for a = 0 (FK with v)
+  std::vector<Motion> a_gf;            ///< RNEA: acceleration minus gravity, body frame
+  std::vector<Force> f;                ///< RNEA: wrench transmitted by the body's joint, body frame
+  std::vector<Inertia> Ycrb;           ///< CRBA: composite inertia of the subtree, body frame
+  std::vector<InertiaAtOrigin> oYcrb;  ///< CMM: composite inertia, world axes, world origin
   /// External wrench on each body, world axes, about the WORLD ORIGIN (fill with
   /// add_external_wrench; cleared by clear_external_forces).
   std::vector<Force> f_ext_W;
+  bool any_f_ext = false;  ///< set by add_external_wrench, cleared by clear_external_forces
 
   // ---- per frame (dim model.frames.size()) ----------------------------------------------------
   std::vector<SE3> oMf;  ///< X_WF (update_frame_placements)

@@ -59,4 +59,37 @@ struct Inertia {
   }
 };
 
+/// Spatial inertia in "origin form": mass, first moment h = m c and rotational inertia about the
+/// frame origin. Sums are plain additions, which makes composite inertias in one frame cheap.
+struct InertiaAtOrigin {
+  double mass = 0.0;
+  Vector3 h = Vector3::Zero();  ///< m * c (3)
+  Matrix3 I = Matrix3::Zero();  ///< about the origin (3x3)
+
+  /// Inertia `Y` given in B, expressed in A about A's origin, with X_AB.
+  static InertiaAtOrigin from(const Inertia& Y, const SE3& X_AB) {
+    InertiaAtOrigin o;
+    o.mass = Y.mass;
+    const Vector3 c = X_AB.act(Y.com);
+    o.h = Y.mass * c;
+    o.I.noalias() = X_AB.R * Y.I_com * X_AB.R.transpose();
+    o.I.diagonal().array() += Y.mass * c.squaredNorm();
+    o.I.noalias() -= Y.mass * c * c.transpose();
+    return o;
+  }
+  InertiaAtOrigin& operator+=(const InertiaAtOrigin& o) {
+    mass += o.mass;
+    h += o.h;
+    I += o.I;
+    return *this;
+  }
+  /// Momentum [l; k_origin] of the body moving with twist v = [v_o; w] (dim 6).
+  Force operator*(const Motion& v) const {
+    Force out;
+    out.head<3>() = mass * v.head<3>() + v.tail<3>().cross(h);
+    out.tail<3>() = I * v.tail<3>() + h.cross(v.head<3>());
+    return out;
+  }
+};
+
 }  // namespace poise::model

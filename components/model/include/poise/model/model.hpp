@@ -71,11 +71,12 @@ struct Model {
   int nbodies = 1;   ///< n + 1
 
   // ---- per body (dim nbodies); body 0 is the floating base -------------------------------------
-  std::vector<int> parent;             ///< parent body (-1 for the base)
-  std::vector<JointType> joint_type;   ///< joint moving the body
-  std::vector<SE3> X_parent_joint;     ///< pose of the body frame in its parent body, at q = 0
-  std::vector<Vector3> axis;           ///< joint axis in the body frame (unit)
-  std::vector<Inertia> inertia;        ///< body inertia incl. merged fixed links, body frame
+  std::vector<int> parent;            ///< parent body (-1 for the base)
+  std::vector<JointType> joint_type;  ///< joint moving the body
+  std::vector<SE3> X_parent_joint;    ///< pose of the body frame in its parent body, at q = 0
+  std::vector<Vector3> axis;          ///< joint axis in the body frame (unit)
+  std::vector<int> axis_id;      ///< 0/1/2 if the axis is exactly +x/+y/+z, else -1 (fast paths)
+  std::vector<Inertia> inertia;  ///< body inertia incl. merged fixed links, body frame
   std::vector<std::string> body_name;  ///< link name of the body
   /// Velocity indices (ascending) of the DoFs that move the body: the base's 6, then the joints
   /// on the path from the root. Used by Jacobians.
