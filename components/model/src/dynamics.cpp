@@ -36,20 +36,32 @@ const Eigen::VectorXd& rnea(const Model& model, Data& data,
     data.f[0] = I * a_gf0 + cross_force(data.v[0], I * data.v[0]);
     if (data.any_f_ext) data.f[0] -= X0.act_inv_force(data.f_ext_W[0]);
   }
+  const bool ext = data.any_f_ext;
   for (int b = 1; b < model.nbodies; ++b) {
     const int p = model.parent[b];
     const int j = b - 1;
     SE3& liMi = data.liMi[b];
     detail::joint_transform(model, b, q[7 + j], liMi);
-    data.oMi[b] = data.oMi[p] * liMi;
-    const Motion S = detail::motion_subspace(model, b);
-    const Motion vj = S * v[6 + j];
-    data.v[b] = liMi.act_inv_motion(data.v[p]) + vj;
-    const Motion c = cross_motion(data.v[b], vj) + S * a[6 + j];
-    data.a_gf[b] = liMi.act_inv_motion(data.a_gf[p]) + c;
+    if (ext) data.oMi[b] = data.oMi[p] * liMi;
+    const Vector3 u_qd = model.axis[b] * v[6 + j];
+    const Vector3 u_qdd = model.axis[b] * a[6 + j];
+    Motion& vb = data.v[b];
+    Motion& ab = data.a_gf[b];
+    vb = liMi.act_inv_motion(data.v[p]);
+    ab = liMi.act_inv_motion(data.a_gf[p]);
+    if (model.joint_type[b] == JointType::kPrismatic) {
+      // v x [u qd; 0] = [w x u qd; 0]
+      ab.head<3>() += vb.tail<3>().cross(u_qd) + u_qdd;
+      vb.head<3>() += u_qd;
+    } else {
+      // v x [0; u qd] = [v_lin x u qd; w x u qd]
+      ab.head<3>() += vb.head<3>().cross(u_qd);
+      ab.tail<3>() += vb.tail<3>().cross(u_qd) + u_qdd;
+      vb.tail<3>() += u_qd;
+    }
     const Inertia& I = model.inertia[b];
-    data.f[b] = I * data.a_gf[b] + cross_force(data.v[b], I * data.v[b]);
-    if (data.any_f_ext) data.f[b] -= data.oMi[b].act_inv_force(data.f_ext_W[b]);
+    data.f[b] = I * ab + cross_force(vb, I * vb);
+    if (ext) data.f[b] -= data.oMi[b].act_inv_force(data.f_ext_W[b]);
   }
   // Backward pass.
   for (int b = model.nbodies - 1; b > 0; --b) {
