@@ -62,6 +62,19 @@ inline FootWrench random_admissible_wrench(std::mt19937& rng, const FootContact&
   return make_foot_wrench(foot, foot.R_WF * f_F, d_x, d_y, tau_n);
 }
 
+/// A non-negative decomposition of a force inside the inscribed pyramid on friction_basis_W:
+/// the tangential parts on the matching edges, the rest of the normal force spread evenly.
+inline Eigen::Vector4d pyramid_decomposition(const FootContact& foot, const Eigen::Vector3d& f_W) {
+  const Eigen::Vector3d f = foot.R_WF.transpose() * f_W;
+  const double s = 1.0 / std::sqrt(1.0 + foot.mu * foot.mu);
+  const double a = foot.mu > 0.0 ? f.x() / (s * foot.mu) : 0.0;
+  const double b = foot.mu > 0.0 ? f.y() / (s * foot.mu) : 0.0;
+  const double c = f.z() / s;
+  const double t = std::max(0.0, (c - std::abs(a) - std::abs(b)) / 4.0);
+  return Eigen::Vector4d(std::max(a, 0.0) + t, std::max(b, 0.0) + t, std::max(-a, 0.0) + t,
+                         std::max(-b, 0.0) + t);
+}
+
 /// Sets the desired rate to the one produced by the given wrenches (feasible by construction).
 inline void set_desired_from_wrenches(ContactProblem& p, const FootWrench wrenches[kMaxFeet]) {
   p.l_dot_desired = p.mass * p.gravity;

@@ -122,6 +122,16 @@ FootWrench make_foot_wrench(const FootContact& foot, const Eigen::Vector3d& forc
   return w;
 }
 
+Eigen::Matrix<double, 3, 4> friction_basis_W(const FootContact& foot) {
+  const double mu = foot.mu;
+  const double s = 1.0 / std::sqrt(1.0 + mu * mu);
+  Eigen::Matrix<double, 3, 4> b;
+  b << mu, 0.0, -mu, 0.0,  //
+      0.0, mu, 0.0, -mu,   //
+      1.0, 1.0, 1.0, 1.0;
+  return foot.R_WF * (s * b);
+}
+
 void momentum_rate_from_wrenches(const ContactProblem& p, ContactSolution& s) {
   Eigen::Vector3d l = p.mass * p.gravity;
   Eigen::Vector3d k = Eigen::Vector3d::Zero();
@@ -140,11 +150,12 @@ double tracking_cost(const ContactProblem& p, const ContactSolution& s) {
          p.weights.w_k * (p.k_dot_desired - s.k_dot_admissible).squaredNorm();
 }
 
-double qp_objective(const ContactProblem& p, const ContactSolution& s) {
+double qp_objective(const ContactProblem& p, const ContactSolution& s,
+                    const Eigen::Matrix<double, 4 * kMaxFeet, 1>& rho) {
   double j = tracking_cost(p, s);
   for (int i = 0; i < kMaxFeet; ++i) {
     if (!p.feet[i].in_contact) continue;
-    j += p.weights.eps_f * s.feet[i].force_W.squaredNorm() +
+    j += p.weights.eps_f * rho.segment<4>(4 * i).squaredNorm() +
          p.weights.eps_tau * s.feet[i].torque_ankle_W.squaredNorm();
   }
   return j;

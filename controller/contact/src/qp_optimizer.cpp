@@ -23,6 +23,7 @@ QpOptimizer::QpOptimizer() : qp_(kMaxVars, 0, kMaxConstraints) {
   A_.setZero();
   b_.setZero();
   y_.setZero();
+  rho_.setZero();
 }
 
 void QpOptimizer::solve(const ContactProblem& p, ContactSolution& solution) {
@@ -42,7 +43,7 @@ void QpOptimizer::solve(const ContactProblem& p, ContactSolution& solution) {
   const int mi = kConstraintsPerFoot * nf;
   n_ = n;
 
-  // Residual M y - c, y = [f_F; m_F] per foot.
+  // Residual M y - c, y = [rho; m_F] per foot; f_F = B rho with B the local pyramid basis.
   M_.setZero();
   c_.setZero();
   A_.setZero();
@@ -53,31 +54,35 @@ void QpOptimizer::solve(const ContactProblem& p, ContactSolution& solution) {
     const FootContact& foot = p.feet[slots[s]];
     const Eigen::Matrix3d& R = foot.R_WF;
     const double h = foot.ankle_height;
+    const Eigen::Matrix<double, 3, 4> B = R.transpose() * friction_basis_W(foot);  // in F
     Eigen::Matrix3d S;  // o x f with o = (0, 0, -h): (h f_y, -h f_x, 0)
     S << 0.0, h, 0.0, -h, 0.0, 0.0, 0.0, 0.0, 0.0;
     const int col = kVarsPerFoot * s;
-    M_.block<3, 3>(0, col) = R;
-    M_.block<3, 3>(3, col) = sw_k * (skew(foot.p_WF - p.com) * R + R * S);
-    M_.block<3, 3>(3, col + 3) = sw_k * R;
-    M_.block<3, 3>(6 + 6 * s, col) = se_f * Eigen::Matrix3d::Identity();
-    M_.block<3, 3>(9 + 6 * s, col) = se_t * S;
-    M_.block<3, 3>(9 + 6 * s, col + 3) = se_t * Eigen::Matrix3d::Identity();
+    M_.block<3, 4>(0, col).noalias() = R * B;
+    M_.block<3, 4>(3, col).noalias() = sw_k * (skew(foot.p_WF - p.com) * R + R * S) * B;
+    M_.block<3, 3>(3, col + 4) = sw_k * R;
+    M_.block<4, 4>(6 + 7 * s, col) = se_f * Eigen::Matrix4d::Identity();
+    M_.block<3, 4>(10 + 7 * s, col).noalias() = se_t * S * B;
+    M_.block<3, 3>(10 + 7 * s, col + 4) = se_t * Eigen::Matrix3d::Identity();
 
-    // Inequalities A y >= b (b = 0 for all rows). Columns: f_x f_y f_z m_x m_y m_z.
+    // Inequalities A y >= 0. Columns: rho_1..4, m_x, m_y, m_z; f_z = B.row(2) rho.
     const int r = kConstraintsPerFoot * s;
-    const double mu = foot.mu;
     const Eigen::Vector4d region = safe_region(foot);
-    A_.row(r + 0).segment<3>(col) << -1.0, -1.0, mu;
-    A_.row(r + 1).segment<3>(col) << -1.0, 1.0, mu;
-    A_.row(r + 2).segment<3>(col) << 1.0, -1.0, mu;
-    A_.row(r + 3).segment<3>(col) << 1.0, 1.0, mu;
-    A_(r + 4, col + 2) = 1.0;                                    // f_z >= 0
-    A_(r + 5, col + 2) = -region[0], A_(r + 5, col + 4) = -1.0;  // -m_y - x_lo f_z >= 0
-    A_(r + 6, col + 2) = region[1], A_(r + 6, col + 4) = 1.0;    // m_y + x_hi f_z >= 0
-    A_(r + 7, col + 2) = -region[2], A_(r + 7, col + 3) = 1.0;   // m_x - y_lo f_z >= 0
-    A_(r + 8, col + 2) = region[3], A_(r + 8, col + 3) = -1.0;   // y_hi f_z - m_x >= 0
-    A_(r + 9, col + 2) = foot.mu_torsion, A_(r + 9, col + 5) = -1.0;
-    A_(r + 10, col + 2) = foot.mu_torsion, A_(r + 10, col + 5) = 1.0;
+    const Eigen::Matrix<double, 1, 4> fz = B.row(2);
+    for (int j = 0; j < 4; ++j)
+      A_(r + j, col + j) = 1.0;                    // rho >= 0
+    A_.block<1, 4>(r + 4, col) = -region[0] * fz;  // -m_y - x_lo f_z >= 0
+    A_(r + 4, col + 5) = -1.0;
+    A_.block<1, 4>(r + 5, col) = region[1] * fz;  // m_y + x_hi f_z >= 0
+    A_(r + 5, col + 5) = 1.0;
+    A_.block<1, 4>(r + 6, col) = -region[2] * fz;  // m_x - y_lo f_z >= 0
+    A_(r + 6, col + 4) = 1.0;
+    A_.block<1, 4>(r + 7, col) = region[3] * fz;  // y_hi f_z - m_x >= 0
+    A_(r + 7, col + 4) = -1.0;
+    A_.block<1, 4>(r + 8, col) = foot.mu_torsion * fz;  // mu_t f_z - m_z >= 0
+    A_(r + 8, col + 6) = -1.0;
+    A_.block<1, 4>(r + 9, col) = foot.mu_torsion * fz;  // mu_t f_z + m_z >= 0
+    A_(r + 9, col + 6) = 1.0;
   }
   G_.noalias() = M_.transpose() * M_;
   g_.noalias() = -M_.transpose() * c_;
@@ -96,11 +101,15 @@ void QpOptimizer::solve(const ContactProblem& p, ContactSolution& solution) {
 
   // Admissibility clean-up in the paper's model.
   const double threshold = 1e-9 * (p.mass * p.gravity.norm() + 1.0);
+  rho_.setZero();
   for (int s = 0; s < nf; ++s) {
     const FootContact& foot = p.feet[slots[s]];
     const Eigen::Vector4d region = safe_region(foot);
-    Eigen::Vector3d f = y_.segment<3>(kVarsPerFoot * s);
-    const Eigen::Vector3d m = y_.segment<3>(kVarsPerFoot * s + 3);
+    const Eigen::Vector4d rho = y_.segment<4>(kVarsPerFoot * s).cwiseMax(0.0);  // round-off
+    rho_.segment<4>(4 * slots[s]) = rho;
+    const Eigen::Vector3d f_W = friction_basis_W(foot) * rho;
+    const Eigen::Vector3d f = foot.R_WF.transpose() * f_W;
+    const Eigen::Vector3d m = y_.segment<3>(kVarsPerFoot * s + 4);
     const double tol = 1e-9 * (f.norm() + m.norm() + threshold);
     if (!(f.z() > threshold)) {
       adjusted_ = adjusted_ || f.norm() > tol;
@@ -108,13 +117,6 @@ void QpOptimizer::solve(const ContactProblem& p, ContactSolution& solution) {
           make_foot_wrench(foot, Eigen::Vector3d::Zero(), 0.5 * (region[0] + region[1]),
                            0.5 * (region[2] + region[3]), 0.0);
       continue;
-    }
-    const double f_t1 = std::abs(f.x()) + std::abs(f.y());
-    if (f_t1 > foot.mu * f.z()) {
-      const double scale = foot.mu * f.z() / f_t1;
-      adjusted_ = adjusted_ || f_t1 - foot.mu * f.z() > tol;
-      f.x() *= scale;
-      f.y() *= scale;
     }
     const double d_x_raw = -m.y() / f.z();
     const double d_y_raw = m.x() / f.z();
@@ -125,7 +127,7 @@ void QpOptimizer::solve(const ContactProblem& p, ContactSolution& solution) {
     const double tau_n = std::clamp(tau_n_raw, -tau_n_max, tau_n_max);
     adjusted_ = adjusted_ || std::abs(d_x - d_x_raw) * f.z() > tol ||
                 std::abs(d_y - d_y_raw) * f.z() > tol || std::abs(tau_n - tau_n_raw) > tol;
-    solution.feet[slots[s]] = make_foot_wrench(foot, foot.R_WF * f, d_x, d_y, tau_n);
+    solution.feet[slots[s]] = make_foot_wrench(foot, f_W, d_x, d_y, tau_n);
   }
   detail::finish(p,
                  qp_status_ == SolverStatus::kIterationLimit ? ContactStatus::kIterationLimit

@@ -20,16 +20,6 @@ double unloaded_threshold(const ContactProblem& p) {
 
 }  // namespace
 
-Eigen::Matrix<double, 3, 4> friction_basis_W(const FootContact& foot) {
-  const double mu = foot.mu;
-  const double s = 1.0 / std::sqrt(1.0 + mu * mu);
-  Eigen::Matrix<double, 3, 4> b;
-  b << mu, 0.0, -mu, 0.0,  //
-      0.0, mu, 0.0, -mu,   //
-      1.0, 1.0, 1.0, 1.0;
-  return foot.R_WF * (s * b);
-}
-
 SequentialOptimizer::SequentialOptimizer() : nnls_(14, 8), bvls_(9, 6) {}
 
 void SequentialOptimizer::solve(const ContactProblem& problem, ContactSolution& solution) {

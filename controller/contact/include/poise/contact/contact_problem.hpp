@@ -115,6 +115,11 @@ Eigen::Vector4d safe_region(const FootContact& foot);
 FootWrench make_foot_wrench(const FootContact& foot, const Eigen::Vector3d& force_W, double d_x,
                             double d_y, double normal_torque);
 
+/// World-frame friction-pyramid basis of a foot (used by both methods): 4 unit columns
+/// beta_ij = R_WF b_j, b_j = (+-mu, 0, 1) and (0, +-mu, 1) normalised. The pyramid is inscribed
+/// in the friction cone (its edges lie on the cone).
+Eigen::Matrix<double, 3, 4> friction_basis_W(const FootContact& foot);
+
 /// Admissible momentum rate from the foot wrenches: l_dot = m g + sum f_i (18),
 /// k_dot = sum (r_i - r_G) x f_i + tau_i (15)-(17).
 void momentum_rate_from_wrenches(const ContactProblem& problem, ContactSolution& solution);
@@ -123,9 +128,11 @@ void momentum_rate_from_wrenches(const ContactProblem& problem, ContactSolution&
 /// |l_dot_d - l_dot_a|^2 + w_k |k_dot_d - k_dot_a|^2.
 double tracking_cost(const ContactProblem& problem, const ContactSolution& solution);
 
-/// Objective of the one-QP method (QpOptimizer) evaluated at any solution's wrenches:
-/// tracking_cost + eps_f sum |f_i|^2 + eps_tau sum |tau_i|^2.
-double qp_objective(const ContactProblem& problem, const ContactSolution& solution);
+/// Objective of the one-QP method (QpOptimizer) at any answer given as wrenches plus the
+/// friction-pyramid magnitudes rho of its forces (4 per foot, foot i at 4 i):
+/// tracking_cost + eps_f |rho|^2 + eps_tau sum |tau_i|^2.
+double qp_objective(const ContactProblem& problem, const ContactSolution& solution,
+                    const Eigen::Matrix<double, 4 * kMaxFeet, 1>& rho);
 
 /// Sets the safe answer: every output zero and the given status.
 void set_safe_solution(ContactStatus status, ContactSolution& solution);

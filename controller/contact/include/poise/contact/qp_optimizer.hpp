@@ -4,16 +4,15 @@
 // method (the paper's baseline, Sec. 4.3). A swap-in for SequentialOptimizer and a reference to
 // compare it against.
 //
-// Variables, per foot in contact (6 per foot, 12 at most): the wrench in the foot frame F,
-//   f (force) and m (moment about the sole point o = (0, 0, -h) below the ankle).
-// Objective (same weights as the sequential method; eq. (20) with w_l = 1, w_f = eps_f,
-// w_tau = eps_tau):
-//   J_qp = |l_dot_d - l_dot|^2 + w_k |k_dot_d - k_dot|^2 + eps_f sum |f_i|^2 + eps_tau sum
-//   |tau_i|^2 with tau_i = R_i (m_i + o_i x f_i) the ankle torque; see qp_objective().
-// Constraints per foot (11):
-//   friction pyramid |f_x| + |f_y| <= mu f_z (4 rows, the same inscribed pyramid as the sequential
-//   method), f_z >= 0, CoP in the safe rectangle (d_x = -m_y / f_z, d_y = m_x / f_z; 4 rows linear
-//   in (f_z, m)), torsion |m_z| <= mu_torsion f_z (2 rows).
+// Variables, per foot in contact (7 per foot, 14 at most): the 4 friction-pyramid magnitudes rho
+//   (the sequential method's basis, so the friction model and the force regularisation are the
+//   same) and m, the moment about the sole point o = (0, 0, -h) below the ankle, in F.
+// Objective (the sequential method's weights; eq. (20) with w_l = 1, w_tau = eps_tau):
+//   J_qp = |l_dot_d - l_dot|^2 + w_k |k_dot_d - k_dot|^2 + eps_f |rho|^2 + eps_tau sum |tau_i|^2
+//   with tau_i = R_i (m_i + o_i x f_i) the ankle torque; see qp_objective().
+// Constraints per foot (10): rho >= 0 (the inscribed pyramid, hence f_z >= 0), CoP in the safe
+//   rectangle (d_x = -m_y / f_z, d_y = m_x / f_z; 4 rows linear in (f_z, m)), torsion
+//   |m_z| <= mu_torsion f_z (2 rows).
 //
 // Modelling difference (stated, not hidden): the paper bounds the normal torque about the CoP,
 // tau_n = m_z - (d_x f_y - d_y f_x), which is bilinear in the wrench; a QP can only bound m_z, the
@@ -33,11 +32,11 @@ namespace poise::contact {
 /// never outputs a non-finite number.
 class QpOptimizer {
  public:
-  static constexpr int kVarsPerFoot = 6;
-  static constexpr int kConstraintsPerFoot = 11;
+  static constexpr int kVarsPerFoot = 7;
+  static constexpr int kConstraintsPerFoot = 10;
   static constexpr int kMaxVars = kVarsPerFoot * kMaxFeet;
   static constexpr int kMaxConstraints = kConstraintsPerFoot * kMaxFeet;
-  static constexpr int kResidualRows = 6 + 6 * kMaxFeet;
+  static constexpr int kResidualRows = 6 + 7 * kMaxFeet;
 
   QpOptimizer();
 
@@ -48,10 +47,13 @@ class QpOptimizer {
   /// True when the last clean-up changed the QP's wrench by more than round-off.
   bool adjusted() const { return adjusted_; }
   SolverStatus qp_status() const { return qp_status_; }
+  /// Pyramid magnitudes of the last QP answer, 4 per foot (foot i at 4 i), zero for feet not in
+  /// contact; with the wrenches of the solution, the arguments of qp_objective().
+  const Eigen::Matrix<double, 4 * kMaxFeet, 1>& rho() const { return rho_; }
   DualQp& qp() { return qp_; }
 
-  /// QP data of the last solve, for the stage benchmark: n = 6 * feet in contact variables,
-  /// 11 * feet inequality rows; G = M^T M (+ a 1e-10 relative ridge), g = -M^T c.
+  /// QP data of the last solve, for the stage benchmark: n = 7 * feet in contact variables,
+  /// 10 * feet inequality rows; G = M^T M (+ a 1e-10 relative ridge), g = -M^T c.
   int num_vars() const { return n_; }
   const Eigen::Matrix<double, kMaxVars, kMaxVars>& hessian() const { return G_; }
   const Eigen::Matrix<double, kMaxVars, 1>& gradient() const { return g_; }
@@ -68,6 +70,7 @@ class QpOptimizer {
   Eigen::Matrix<double, kMaxConstraints, kMaxVars> A_;
   Eigen::Matrix<double, kMaxConstraints, 1> b_;
   Eigen::Matrix<double, kMaxVars, 1> y_;
+  Eigen::Matrix<double, 4 * kMaxFeet, 1> rho_;
   double raw_objective_ = 0.0;
   bool adjusted_ = false;
   SolverStatus qp_status_ = SolverStatus::kOptimal;

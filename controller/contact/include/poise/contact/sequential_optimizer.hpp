@@ -37,9 +37,6 @@
 
 namespace poise::contact {
 
-/// World-frame friction-pyramid basis of a foot: 4 unit columns beta_ij = R_WF b_j.
-Eigen::Matrix<double, 3, 4> friction_basis_W(const FootContact& foot);
-
 /// Intermediate data of the last double-support solve (for tests and the stage benchmark).
 struct SequentialStages {
   Eigen::Matrix<double, 14, 8> Phi = Eigen::Matrix<double, 14, 8>::Zero();  ///< eq. (24)
