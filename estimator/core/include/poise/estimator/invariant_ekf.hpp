@@ -51,9 +51,9 @@ struct ImuNoise {
   double accel = 2e-3;            ///< accelerometer white noise density [m/s^2/sqrt(Hz)]
   double gyro_bias_walk = 1e-4;   ///< gyro bias random walk [rad/s^2/sqrt(Hz)]
   double accel_bias_walk = 1e-3;  ///< accelerometer bias random walk [m/s^3/sqrt(Hz)]
-  double foot_slip = 2e-2;        ///< velocity noise of a stance contact point [m/s/sqrt(Hz)]
+  double foot_slip = 1e-3;        ///< velocity noise of a stance contact point [m/s/sqrt(Hz)]
   double position = 0.0;          ///< extra IMU position process noise [m/s/sqrt(Hz)]
-  double kinematics = 5e-3;       ///< std of the leg-kinematics contact position [m]
+  double kinematics = 3e-3;       ///< std of the leg-kinematics contact position [m]
 };
 
 class InvariantEkf {
