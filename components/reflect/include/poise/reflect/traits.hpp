@@ -24,6 +24,14 @@ struct IsStdArray<std::array<T, N>> : std::true_type {};
 template <class T>
 inline constexpr bool is_array_v = IsStdArray<std::remove_const_t<T>>::value;
 
+/// std::array of float or double.
+template <class T>
+struct IsFloatArray : std::false_type {};
+template <class T, std::size_t N>
+struct IsFloatArray<std::array<T, N>> : std::is_floating_point<T> {};
+template <class T>
+inline constexpr bool is_float_array_v = IsFloatArray<std::remove_const_t<T>>::value;
+
 template <class T>
 struct IsStdVector : std::false_type {};
 template <class T, class A>

@@ -28,6 +28,9 @@ struct ValidationError {
 
 namespace detail {
 
+/// Walks a sample. With kTrackPath = false it only decides valid/invalid (the fast path every
+/// sample takes); with true it also builds the path of the first bad field (only run on failure).
+template <bool kTrackPath>
 struct Validator {
   ValidationError* error;
   char path[96] = {};
@@ -37,7 +40,7 @@ struct Validator {
   void fail(const char* fmt, double a = 0, double b = 0) {
     if (failed) return;
     failed = true;
-    if (error) {
+    if (kTrackPath && error) {
       std::memcpy(error->path, path, sizeof(path));
       std::snprintf(error->reason, sizeof(error->reason), fmt, a, b);
     }
@@ -45,6 +48,7 @@ struct Validator {
 
   // Appends ".name" or "[i]" to the path; returns the old length to restore.
   std::size_t push(std::string_view name) {
+    if constexpr (!kTrackPath) return 0;
     const std::size_t old = path_len;
     const int n = std::snprintf(path + path_len, sizeof(path) - path_len, "%s%.*s",
                                 path_len ? "." : "", static_cast<int>(name.size()), name.data());
@@ -52,12 +56,14 @@ struct Validator {
     return old;
   }
   std::size_t push_index(std::size_t i) {
+    if constexpr (!kTrackPath) return 0;
     const std::size_t old = path_len;
     const int n = std::snprintf(path + path_len, sizeof(path) - path_len, "[%zu]", i);
     if (n > 0) path_len = std::min(sizeof(path) - 1, path_len + static_cast<std::size_t>(n));
     return old;
   }
   void pop(std::size_t old) {
+    if constexpr (!kTrackPath) return;
     path_len = old;
     path[path_len] = '\0';
   }
@@ -67,6 +73,11 @@ struct Validator {
     if (failed) return;
     if constexpr (is_struct_v<T>) {
       msg::visit_fields(v, *this);
+    } else if constexpr (is_float_array_v<T> && !kTrackPath) {
+      // Fast path: NaN and +-inf survive x * 0, finite values give 0; this loop vectorises.
+      typename T::value_type sum = 0;
+      for (const auto& e : v) sum += e * 0;
+      if (sum != 0) fail("non-finite");
     } else if constexpr (is_array_v<T>) {
       for (std::size_t i = 0; i < v.size() && !failed; ++i) {
         const auto old = push_index(i);
@@ -116,9 +127,14 @@ struct Validator {
 /// first offending field. Allocation-free, noexcept.
 template <class T>
 bool validate(const T& sample, ValidationError* error = nullptr) noexcept {
-  detail::Validator v{error};
-  msg::visit_fields(sample, v);
-  return !v.failed;
+  detail::Validator<false> fast{nullptr};
+  msg::visit_fields(sample, fast);
+  if (!fast.failed) return true;
+  if (error) {
+    detail::Validator<true> named{error};
+    msg::visit_fields(sample, named);
+  }
+  return false;
 }
 
 }  // namespace poise::reflect
