@@ -61,6 +61,45 @@ TEST(InvariantEkf, ErrorTransitionMatchesNonlinearPropagation) {
   }
 }
 
+TEST(InvariantEkf, CovariancePropagationIsPhiPPhiTPlusNoise) {
+  // The block-sparse products of propagate() against the dense formula with the same Phi and the
+  // process noise built densely from its definition G Qc G^T dt, G = blockdiag(Ad_X, I).
+  std::mt19937 rng(15);
+  ImuNoise noise;
+  noise.position = 1e-3;
+  for (int trial = 0; trial < 5; ++trial) {
+    Ekf ekf(noise, kGravity);
+    const Ekf::Mean m = random_mean(rng);
+    Eigen::Matrix<double, Ekf::kDim, Ekf::kDim> A;
+    for (int i = 0; i < A.size(); ++i)
+      A(i) = std::uniform_real_distribution<double>(-0.1, 0.1)(rng);
+    const Ekf::Covariance P0 = A * A.transpose();
+    ekf.reset(m, P0);
+    const double dt = 2e-3;
+    const Ekf::Covariance Phi = Ekf::error_transition(m, kGravity, dt);
+    // Ad_X of SE_4(3): rows [R; v^R; p^R; d0^R; d1^R] in the first block column, R on the diagonal.
+    Ekf::Covariance G = Ekf::Covariance::Identity();
+    const Matrix3& R = m.R_WI;
+    const std::array<Vector3, 4> x{m.v_WI, m.p_WI, m.d_W[0], m.d_W[1]};
+    G.block<3, 3>(0, 0) = R;
+    for (int i = 0; i < 4; ++i) {
+      G.block<3, 3>(3 + 3 * i, 0) = model::skew(x[i]) * R;
+      G.block<3, 3>(3 + 3 * i, 3 + 3 * i) = R;
+    }
+    Ekf::ErrorVector qc;
+    qc << Vector3::Constant(noise.gyro * noise.gyro), Vector3::Constant(noise.accel * noise.accel),
+        Vector3::Constant(noise.position * noise.position),
+        Vector3::Constant(noise.foot_slip * noise.foot_slip),
+        Vector3::Constant(noise.foot_slip * noise.foot_slip),
+        Vector3::Constant(noise.gyro_bias_walk * noise.gyro_bias_walk),
+        Vector3::Constant(noise.accel_bias_walk * noise.accel_bias_walk);
+    const Ekf::Covariance expected =
+        Phi * P0 * Phi.transpose() + G * qc.asDiagonal() * G.transpose() * dt;
+    ekf.propagate(random_vec(rng, 1.0), random_vec(rng, 10.0), dt);
+    EXPECT_LT((ekf.covariance() - expected).norm(), 1e-12 * expected.norm());
+  }
+}
+
 TEST(InvariantEkf, ContactMeasurementIsExactlyLinearInTheInvariantError) {
   // z = R_hat s - d_hat + p_hat = J_l(xi_R) (xi_p - xi_d) for ANY error size (no linearisation).
   std::mt19937 rng(12);

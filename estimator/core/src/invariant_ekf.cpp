@@ -80,6 +80,31 @@ InvariantEkf::Covariance InvariantEkf::error_transition(const Mean& m, const Vec
   return Phi;
 }
 
+namespace {
+
+/// out = Phi * M for the error transition of error_transition(): identity plus the blocks
+/// (v,R) (p,R) (p,v) and the bias columns. ~5x fewer operations than the dense product.
+void apply_transition(const InvariantEkf::Covariance& Phi, const InvariantEkf::Covariance& M,
+                      InvariantEkf::Covariance& out) noexcept {
+  using K = InvariantEkf;
+  constexpr int n = K::kDim;
+  out = M;
+  const auto rows = [&](int i) { return M.block<3, n>(i, 0); };
+  const auto blk = [&](int i, int j) { return Phi.block<3, 3>(i, j); };
+  out.block<3, n>(K::kR, 0).noalias() += blk(K::kR, K::kBg) * rows(K::kBg);
+  out.block<3, n>(K::kV, 0).noalias() += blk(K::kV, K::kR) * rows(K::kR);
+  out.block<3, n>(K::kV, 0).noalias() += blk(K::kV, K::kBg) * rows(K::kBg);
+  out.block<3, n>(K::kV, 0).noalias() += blk(K::kV, K::kBa) * rows(K::kBa);
+  out.block<3, n>(K::kP, 0).noalias() += blk(K::kP, K::kR) * rows(K::kR);
+  out.block<3, n>(K::kP, 0).noalias() += blk(K::kP, K::kV) * rows(K::kV);
+  out.block<3, n>(K::kP, 0).noalias() += blk(K::kP, K::kBg) * rows(K::kBg);
+  out.block<3, n>(K::kP, 0).noalias() += blk(K::kP, K::kBa) * rows(K::kBa);
+  for (int f = 0; f < kNumFeet; ++f)
+    out.block<3, n>(K::d_index(f), 0).noalias() += blk(K::d_index(f), K::kBg) * rows(K::kBg);
+}
+
+}  // namespace
+
 void InvariantEkf::propagate(const Vector3& gyro_I, const Vector3& specific_force_I,
                              double dt) noexcept {
   if (!(dt > 0.0)) return;
@@ -105,9 +130,11 @@ void InvariantEkf::propagate(const Vector3& gyro_I, const Vector3& specific_forc
 
   propagate_mean(gyro_I, specific_force_I, dt, g_, mean_);
 
+  // Phi P Phi^T = Phi (Phi P)^T (P symmetric), each product using the block sparsity of Phi.
   Covariance PhiP;
-  PhiP.noalias() = Phi * P_;
-  P_.noalias() = PhiP * Phi.transpose();
+  apply_transition(Phi, P_, PhiP);
+  const Covariance PhiP_T = PhiP.transpose();
+  apply_transition(Phi, PhiP_T, P_);
   P_ += Q * dt;
   P_ = 0.5 * (P_ + P_.transpose()).eval();
 }

@@ -1,0 +1,85 @@
+// poise-bench-estimator: one estimator tick on the project humanoid (issue 7: <= 10 us median),
+// and its parts. Frames: the robot standing at its nominal posture, IMU with seeded noise.
+#include <benchmark/benchmark.h>
+
+#include <random>
+#include <vector>
+
+#include "poise/estimator/estimator.hpp"
+#include "poise/model/kinematics.hpp"
+#include "poise/model/robot_config.hpp"
+
+namespace {
+
+using namespace poise;
+using estimator::Vector3;
+
+struct Setup {
+  model::RobotConfig config = model::load_robot_config(std::string(POISE_SOURCE_DIR) +
+                                                       "/deploy/robots/poise_humanoid/robot.yaml");
+  model::Model model = model::load_robot_model(config);
+  estimator::Estimator est{model, config};
+  std::vector<estimator::SensorFrame> frames;
+
+  Setup() {
+    model::Data data(model);
+    model::forward_kinematics(model, data, config.q_nominal);
+    const model::SE3 X_WI = model::frame_placement(model, data, config.imu_frame_id);
+    std::mt19937 rng(3);
+    std::normal_distribution<double> n(0.0, 1.0);
+    for (int i = 0; i < 1000; ++i) {
+      estimator::SensorFrame f = est.make_sensor_frame();
+      f.q = config.q_nominal.tail(model.njoints);
+      f.imu_q_WI = Eigen::Quaterniond(X_WI.R);
+      f.imu_omega_I = 0.01 * Vector3(n(rng), n(rng), n(rng));
+      f.imu_specific_force_I =
+          X_WI.R.transpose() * Vector3(0, 0, 9.81) + 0.06 * Vector3(n(rng), n(rng), n(rng));
+      for (int s = 0; s < 2; ++s) {
+        f.foot_wrench_Fo_F[s].setZero();
+        f.foot_wrench_Fo_F[s][2] = 0.5 * model.total_mass * 9.81;
+      }
+      frames.push_back(f);
+    }
+  }
+};
+
+void BM_EstimatorTick(benchmark::State& st) {
+  Setup s;
+  estimator::EstimatorState out = s.est.make_state();
+  std::int64_t k = 0;
+  for (auto _ : st) {
+    estimator::SensorFrame& f = s.frames[k % s.frames.size()];
+    f.tick = k++;
+    benchmark::DoNotOptimize(s.est.update(f, out));
+  }
+  st.counters["joints"] = s.model.njoints;
+}
+BENCHMARK(BM_EstimatorTick)->Repetitions(5)->ReportAggregatesOnly(true);
+
+void BM_FilterPropagate(benchmark::State& st) {
+  estimator::InvariantEkf ekf(estimator::ImuNoise{}, Vector3(0, 0, -9.81));
+  ekf.reset(estimator::InvariantEkf::Mean{}, estimator::InvariantEkf::Covariance::Identity());
+  const Vector3 gyro(0.01, -0.02, 0.03), acc(0.1, 0.2, 9.8);
+  for (auto _ : st) {
+    ekf.propagate(gyro, acc, 1e-3);
+    benchmark::DoNotOptimize(ekf.covariance().data());
+  }
+}
+BENCHMARK(BM_FilterPropagate);
+
+void BM_FilterCorrectTwoFeet(benchmark::State& st) {
+  estimator::InvariantEkf ekf(estimator::ImuNoise{}, Vector3(0, 0, -9.81));
+  ekf.reset(estimator::InvariantEkf::Mean{}, estimator::InvariantEkf::Covariance::Identity());
+  const Vector3 s0(0.0, -0.1, -0.9), s1(0.0, 0.1, -0.9);
+  ekf.set_contact(0, true, s0);
+  ekf.set_contact(1, true, s1);
+  for (auto _ : st) {
+    benchmark::DoNotOptimize(ekf.correct(0, s0));
+    benchmark::DoNotOptimize(ekf.correct(1, s1));
+  }
+}
+BENCHMARK(BM_FilterCorrectTwoFeet);
+
+}  // namespace
+
+BENCHMARK_MAIN();
