@@ -359,7 +359,9 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
 
   // solver
   if (const YAML::Node s = root["solver"]) {
-    c.allow(s, "solver", {"dt", "iterations", "contact_erp", "contact_cfm", "friction_anchor"});
+    c.allow(s, "solver", {"dt", "iterations", "contact_erp", "contact_cfm", "friction_anchor",
+                          "residual_threshold", "joint_friction_constraint",
+                          "joint_friction_velocity"});
     SolverConfig& sv = sc.sim.solver;
     sv.dt = c.num(s, "dt", "solver", sv.dt);
     if (!(sv.dt > 0.0 && sv.dt <= 0.01)) c.fail("solver.dt", "must be in (0, 0.01] s");
@@ -369,6 +371,12 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
     sv.contact_erp = c.num(s, "contact_erp", "solver", sv.contact_erp);
     sv.contact_cfm = c.num(s, "contact_cfm", "solver", sv.contact_cfm);
     sv.friction_anchor = c.boolean(s, "friction_anchor", "solver", sv.friction_anchor);
+    sv.residual_threshold = c.num(s, "residual_threshold", "solver", sv.residual_threshold);
+    sv.joint_friction_constraint =
+        c.boolean(s, "joint_friction_constraint", "solver", sv.joint_friction_constraint);
+    sv.joint_friction_velocity =
+        c.num(s, "joint_friction_velocity", "solver", sv.joint_friction_velocity);
+    if (!(sv.joint_friction_velocity > 0.0)) c.fail("solver.joint_friction_velocity", "must be > 0");
   }
 
   // success criteria

@@ -117,7 +117,7 @@ struct Simulator::Impl {
   RobotTree tree;
   int n = 0;  // joints = bodies - 1
   std::vector<std::string> joint_names, body_names, foot_names;
-  Eigen::VectorXd effort, damping;
+  Eigen::VectorXd effort, damping, friction;
   std::vector<Eigen::Isometry3d> X_LK;  // body COM frame K in the URDF body frame L
   double mass = 0.0;
   double dt = 0.001;
@@ -133,6 +133,16 @@ struct Simulator::Impl {
   std::vector<std::unique_ptr<btCollisionShape>> shapes;
   std::vector<std::unique_ptr<btMultiBodyLinkCollider>> colliders;
   std::vector<std::unique_ptr<btMultiBodyConstraint>> constraints;
+  // Joint-limit constraints are in the solver only while their joint is near a limit (each
+  // costs two solver rows per iteration otherwise).
+  struct Limit {
+    int joint = 0;
+    double lower = 0.0, upper = 0.0;
+    btMultiBodyConstraint* constraint = nullptr;
+    bool active = false;
+  };
+  std::vector<Limit> limits;
+  void update_limits();
   std::unique_ptr<btStaticPlaneShape> ground_shape;
   std::unique_ptr<btCollisionObject> ground;
   std::vector<Platform> platforms;
@@ -197,11 +207,15 @@ Simulator::Impl::Impl(const SimulatorConfig& c) : cfg(c), rng(c.imu.seed) {
   n = static_cast<int>(tree.bodies.size()) - 1;
   effort.resize(n);
   damping.resize(n);
+  friction = Eigen::VectorXd::Zero(n);
+  if (!(cfg.solver.joint_friction_velocity > 0.0))
+    throw std::runtime_error("solver.joint_friction_velocity must be > 0");
   for (int i = 0; i < n; ++i) {
     const BodySpec& b = tree.bodies[static_cast<std::size_t>(i + 1)];
     joint_names.push_back(b.joint_name);
     effort[i] = b.effort > 0.0 ? b.effort : std::numeric_limits<double>::infinity();
     damping[i] = b.damping;
+    if (!cfg.solver.joint_friction_constraint) friction[i] = b.friction;
   }
   for (const auto& b : tree.bodies) body_names.push_back(b.name);
   for (const auto& b : tree.bodies) mass += b.mass;
@@ -223,6 +237,7 @@ Simulator::Impl::Impl(const SimulatorConfig& c) : cfg(c), rng(c.imu.seed) {
   info.m_globalCfm = cfg.solver.contact_cfm;
   info.m_solverMode |= SOLVER_USE_2_FRICTION_DIRECTIONS;
   info.m_timeStep = dt;
+  info.m_leastSquaresResidualThreshold = cfg.solver.residual_threshold;
 
   build_robot();
   build_world();
@@ -246,6 +261,8 @@ Simulator::Impl::Impl(const SimulatorConfig& c) : cfg(c), rng(c.imu.seed) {
 
 Simulator::Impl::~Impl() {
   if (world) {
+    for (auto& l : limits)
+      if (!l.active) world->addMultiBodyConstraint(l.constraint);
     for (auto& c : constraints) world->removeMultiBodyConstraint(c.get());
     for (auto& c : colliders) world->removeCollisionObject(c.get());
     if (mb) world->removeMultiBody(mb.get());
@@ -413,10 +430,11 @@ void Simulator::Impl::build_robot() {
     const BodySpec& body = tree.bodies[static_cast<std::size_t>(i + 1)];
     if (body.limited) {
       auto lim = std::make_unique<btMultiBodyJointLimitConstraint>(mb.get(), i, body.lower, body.upper);
-      world->addMultiBodyConstraint(lim.get());
+      world->addMultiBodyConstraint(lim.get());  // all in once: the array keeps its capacity
+      limits.push_back(Limit{i, body.lower, body.upper, lim.get(), true});
       constraints.push_back(std::move(lim));
     }
-    if (body.friction > 0.0) {
+    if (body.friction > 0.0 && cfg.solver.joint_friction_constraint) {
       // Coulomb joint friction: a zero-velocity motor whose force is bounded by the friction.
       auto fr = std::make_unique<btMultiBodyJointMotor>(mb.get(), i, 0.0, body.friction * dt);
       world->addMultiBodyConstraint(fr.get());
@@ -484,6 +502,18 @@ ResolvedPush Simulator::Impl::resolve_push(const Push& p) const {
   r.start_tick = std::llround(p.start / dt);
   r.end_tick = r.start_tick + std::llround(p.duration / dt);
   return r;
+}
+
+void Simulator::Impl::update_limits() {
+  for (Limit& l : limits) {
+    const double q = mb->getJointPos(l.joint), qd = mb->getJointVel(l.joint);
+    // near = within 0.05 rad (or m) plus 20 steps of travel of the limit
+    const double margin = 0.05 + 20.0 * dt * std::abs(qd);
+    const bool near = q - l.lower < margin || l.upper - q < margin;
+    if (near && !l.active) world->addMultiBodyConstraint(l.constraint);
+    if (!near && l.active) world->removeMultiBodyConstraint(l.constraint);
+    l.active = near;
+  }
 }
 
 void Simulator::Impl::update_kinematics() {
@@ -808,7 +838,8 @@ StepStatus Simulator::step(const JointCommand& cmd, SensorFrame& sensors, Ground
     }
     t = std::clamp(t, -s.effort[i], s.effort[i]);
     s.tau[i] = t;
-    mb.addJointTorque(i, t - s.damping[i] * qd);
+    const double fr = s.friction[i] * std::clamp(qd / s.cfg.solver.joint_friction_velocity, -1.0, 1.0);
+    mb.addJointTorque(i, t - s.damping[i] * qd - fr);
   }
   if (!ok) status = StepStatus::kRejectedCommand;
 
@@ -837,6 +868,7 @@ StepStatus Simulator::step(const JointCommand& cmd, SensorFrame& sensors, Ground
   }
 
   s.update_platforms(static_cast<double>(k) * s.dt);
+  s.update_limits();
   s.world->stepSimulation(s.dt, 0, s.dt);
   ++s.tick;
   s.update_kinematics();

@@ -105,6 +105,13 @@ struct SolverConfig {
   double contact_erp = 0.2;      ///< penetration correction factor
   double contact_cfm = 0.0;      ///< constraint force mixing
   bool friction_anchor = true;   ///< anchor static foot contacts (no slow creep)
+  /// Stop iterating once the solver residual is below this (0 = always run all iterations).
+  double residual_threshold = 1e-9;
+  /// URDF joint friction as exact Coulomb friction (one velocity-motor row per joint in the
+  /// contact solver: about doubles the step time of the humanoid) instead of the default smooth
+  /// explicit model tau_f = -friction * clamp(qd / joint_friction_velocity, -1, 1).
+  bool joint_friction_constraint = false;
+  double joint_friction_velocity = 0.01;  ///< [rad/s] or [m/s]
 };
 
 /// Initial state. Unset joints start at 0; the base height is chosen so that the feet rest on

@@ -1,0 +1,86 @@
+// poise-bench-sim: time of one 1 ms simulation step of the project humanoid (target <= 50 us).
+// Counters: p50_us / p99_us / max_us of single steps, rt_factor = 1 ms / mean step time.
+// The robot holds its posture with the PD law evaluated inside the simulator; it is put back to
+// its initial state every 2 s of simulated time (untimed) so it never lies on the floor.
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "poise/sim/scenario.hpp"
+#include "poise/sim/simulator.hpp"
+
+namespace {
+
+using namespace poise::sim;
+
+void run(benchmark::State& state, const std::string& scenario_name, int iterations) {
+  const std::filesystem::path file =
+      std::filesystem::path(POISE_SOURCE_DIR) / "deploy/scenarios" / (scenario_name + ".yaml");
+  Scenario sc;
+  try {
+    sc = load_scenario(file);
+  } catch (const std::exception& e) {
+    state.SkipWithError(e.what());
+    return;
+  }
+  sc.sim.pushes.clear();  // steady standing
+  sc.sim.solver.iterations = iterations;
+  Simulator sim(sc.sim);
+  SensorFrame s = sim.make_sensor_frame();
+  GroundTruth g = sim.make_ground_truth();
+  sim.read(s, g);
+  const Eigen::Isometry3d X0 = g.X_WB;
+  const Eigen::VectorXd q0 = s.q;
+  JointCommand c = sim.make_command();
+  c.mode = CommandMode::kPd;
+  c.q_ref = q0;
+  c.kp.setConstant(300.0);
+  c.kd.setConstant(6.0);
+  for (int k = 0; k < 300; ++k) sim.step(c, s, g);  // settle the contacts
+  std::vector<double> us;
+  us.reserve(1 << 20);
+  long n = 0;
+  for (auto _ : state) {
+    const auto t0 = std::chrono::steady_clock::now();
+    sim.step(c, s, g);
+    const auto t1 = std::chrono::steady_clock::now();
+    if (us.size() < us.capacity()) us.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
+    if (++n % 2000 == 0) {
+      state.PauseTiming();
+      sim.set_state(X0, q0);
+      state.ResumeTiming();
+    }
+  }
+  std::sort(us.begin(), us.end());
+  if (!us.empty()) {
+    state.counters["p50_us"] = us[us.size() / 2];
+    state.counters["p99_us"] = us[us.size() * 99 / 100];
+    state.counters["max_us"] = us.back();
+    double mean = 0.0;
+    for (double v : us) mean += v;
+    mean /= static_cast<double>(us.size());
+    state.counters["rt_factor"] = 1e6 * sim.dt() / mean;
+  }
+  state.counters["joints"] = sim.num_joints();
+}
+
+void BM_StepStandingDoubleSupport(benchmark::State& st) {
+  run(st, "forward_push_double_support", static_cast<int>(st.range(0)));
+}
+void BM_StepSingleSupport(benchmark::State& st) {
+  run(st, "lateral_push_single_support", static_cast<int>(st.range(0)));
+}
+void BM_StepMovingPlatforms(benchmark::State& st) {
+  run(st, "platforms_out_of_phase", static_cast<int>(st.range(0)));
+}
+
+}  // namespace
+
+BENCHMARK(BM_StepStandingDoubleSupport)->Arg(50)->Arg(20)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_StepSingleSupport)->Arg(50)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_StepMovingPlatforms)->Arg(50)->Unit(benchmark::kMicrosecond);
+BENCHMARK_MAIN();
