@@ -1,0 +1,172 @@
+// Eq (33) solver: feasibility, bounds and KKT conditions on seeded random problems, and the
+// bound-free case against a direct solve of the KKT system (Eigen full-pivot LU).
+#include <gtest/gtest.h>
+
+#include <Eigen/LU>
+#include <random>
+
+#include "controller_test_util.hpp"
+#include "poise/controller/acceleration_solver.hpp"
+
+namespace poise::controller {
+namespace {
+
+struct RandomEq33 {
+  int nv, m;
+  Eigen::MatrixXd A, C;
+  Eigen::VectorXd b, w, t, d, lo, hi;
+  double w_b;
+};
+
+RandomEq33 make_problem(std::mt19937& rng, int nv, int m, double bound) {
+  std::normal_distribution<double> N(0.0, 1.0);
+  RandomEq33 p;
+  p.nv = nv;
+  p.m = m;
+  p.A = Eigen::MatrixXd::NullaryExpr(6, nv, [&] { return 10.0 * N(rng); });
+  p.C = Eigen::MatrixXd::NullaryExpr(m, nv, [&] { return N(rng); });
+  p.b = Eigen::VectorXd::NullaryExpr(6, [&] { return 100.0 * N(rng); });
+  p.d = Eigen::VectorXd::NullaryExpr(m, [&] { return N(rng); });
+  p.w = Eigen::VectorXd::NullaryExpr(nv, [&] { return test::uniform(rng, 1e-3, 0.1); });
+  p.t = Eigen::VectorXd::NullaryExpr(nv, [&] { return 5.0 * N(rng); });
+  p.lo =
+      Eigen::VectorXd::NullaryExpr(nv - 6, [&] { return -test::uniform(rng, 0.2, 1.0) * bound; });
+  p.hi = Eigen::VectorXd::NullaryExpr(nv - 6, [&] { return test::uniform(rng, 0.2, 1.0) * bound; });
+  p.w_b = test::uniform(rng, 0.8, 0.99);
+  return p;
+}
+
+TEST(AccelerationSolver, KktConditionsHoldOnRandomProblems) {
+  std::mt19937 rng(33);
+  int with_active = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    const int nv = 6 + 8 + trial % 12;
+    const int m = trial % 13;
+    const RandomEq33 p = make_problem(rng, nv, m, trial % 2 ? 5.0 : 1e3);
+    AccelerationSolver s(nv, 12);
+    Eigen::VectorXd x(nv);
+    const auto r = s.solve(p.A, p.b, p.w_b, p.w, p.t, p.C, p.d, p.lo, p.hi, x);
+    ASSERT_EQ(r.status, contact::SolverStatus::kOptimal) << trial;
+    if (r.bounds_dropped) continue;  // checked in its own test
+    // Equalities and bounds.
+    if (m > 0) {
+      EXPECT_LT((p.C * x - p.d).lpNorm<Eigen::Infinity>(), 1e-8) << trial;
+    }
+    EXPECT_TRUE((x.tail(nv - 6).array() >= p.lo.array() - 1e-8).all()) << trial;
+    EXPECT_TRUE((x.tail(nv - 6).array() <= p.hi.array() + 1e-8).all()) << trial;
+    // Gradient of the objective as written in (33), from the problem data only:
+    // grad = 2 w_b A^T (A x - b) + 2 w .* (x - t) = C^T lambda + [0; mu_lo - mu_hi].
+    const Eigen::VectorXd grad =
+        2.0 * p.w_b * p.A.transpose() * (p.A * x - p.b) + 2.0 * p.w.cwiseProduct(x - p.t);
+    // Bound multipliers: active where x sits on a bound.
+    Eigen::MatrixXd K(nv, m + nv - 6);
+    K.leftCols(m) = p.C.transpose();
+    K.rightCols(nv - 6).setZero();
+    std::vector<int> sign(nv - 6, 0);
+    for (int j = 0; j < nv - 6; ++j) {
+      if (std::abs(x[6 + j] - p.lo[j]) < 1e-8) sign[j] = 1;
+      if (std::abs(x[6 + j] - p.hi[j]) < 1e-8) sign[j] = -1;
+      if (sign[j]) K(6 + j, m + j) = sign[j];
+      with_active += sign[j] != 0;
+    }
+    // Solve grad = K y in least squares; the residual must vanish and bound multipliers >= 0.
+    const Eigen::VectorXd y = K.completeOrthogonalDecomposition().solve(grad);
+    EXPECT_LT((K * y - grad).norm(), 1e-6 * (1.0 + grad.norm())) << trial;
+    for (int j = 0; j < nv - 6; ++j)
+      if (sign[j]) {
+        EXPECT_GE(y[m + j], -1e-6 * (1.0 + grad.norm())) << trial << " bound " << j;
+      }
+  }
+  EXPECT_GT(with_active, 50);  // the bounds were really exercised
+}
+
+TEST(AccelerationSolver, WithoutActiveBoundsEqualsDirectKktSolve) {
+  std::mt19937 rng(34);
+  for (int trial = 0; trial < 50; ++trial) {
+    const int nv = 25, m = 12;
+    const RandomEq33 p = make_problem(rng, nv, m, 1e9);
+    AccelerationSolver s(nv, m);
+    Eigen::VectorXd x(nv);
+    ASSERT_EQ(s.solve(p.A, p.b, p.w_b, p.w, p.t, p.C, p.d, p.lo, p.hi, x).status,
+              contact::SolverStatus::kOptimal);
+    Eigen::MatrixXd KKT = Eigen::MatrixXd::Zero(nv + m, nv + m);
+    KKT.topLeftCorner(nv, nv) = p.w_b * p.A.transpose() * p.A;
+    KKT.topLeftCorner(nv, nv).diagonal() += p.w;
+    KKT.topRightCorner(nv, m) = p.C.transpose();
+    KKT.bottomLeftCorner(m, nv) = p.C;
+    Eigen::VectorXd rhs(nv + m);
+    rhs << p.w_b * p.A.transpose() * p.b + p.w.cwiseProduct(p.t), p.d;
+    const Eigen::VectorXd sol = KKT.fullPivLu().solve(rhs);
+    EXPECT_LT((sol.head(nv) - x).norm(), 1e-7 * (1.0 + x.norm())) << trial;
+  }
+}
+
+TEST(AccelerationSolver, InfeasibleBoundsAreDroppedNotViolatedSilently) {
+  // x[6] is forced to 10 by an equality, but bounded by +-1: infeasible with bounds.
+  std::mt19937 rng(35);
+  RandomEq33 p = make_problem(rng, 10, 1, 1.0);
+  p.C.setZero();
+  p.C(0, 6) = 1.0;
+  p.d[0] = 10.0;
+  AccelerationSolver s(10, 2);
+  Eigen::VectorXd x(10);
+  const auto r = s.solve(p.A, p.b, p.w_b, p.w, p.t, p.C, p.d, p.lo, p.hi, x);
+  EXPECT_TRUE(r.bounds_dropped);
+  EXPECT_EQ(r.status, contact::SolverStatus::kOptimal);
+  EXPECT_NEAR(x[6], 10.0, 1e-9);
+}
+
+TEST(AccelerationSolver, BadInputIsRejectedWithZeroOutput) {
+  AccelerationSolver s(10, 2);
+  Eigen::MatrixXd A = Eigen::MatrixXd::Identity(6, 10), C(1, 10);
+  C.setOnes();
+  Eigen::VectorXd b = Eigen::VectorXd::Ones(6), w = Eigen::VectorXd::Ones(10), t = w, d(1),
+                  lo = -Eigen::VectorXd::Ones(4), hi = Eigen::VectorXd::Ones(4), x(10);
+  d << 0.5;
+  x.setConstant(3.0);
+  EXPECT_EQ(s.solve(A, b, 1.0, w, t, C, d, lo, hi, x).status, contact::SolverStatus::kInvalidInput);
+  EXPECT_TRUE(x.isZero());
+  EXPECT_EQ(s.solve(A, b.head(5), 0.9, w, t, C, d, lo, hi, x).status,
+            contact::SolverStatus::kInvalidInput);
+  b[2] = std::nan("");
+  EXPECT_EQ(s.solve(A, b, 0.9, w, t, C, d, lo, hi, x).status, contact::SolverStatus::kInvalidInput);
+  EXPECT_THROW(AccelerationSolver(3, 1), std::invalid_argument);
+}
+
+TEST(JointAccelerationBounds, ConstantBoundAccelerationReachesTheLimitAtTheHorizon) {
+  std::mt19937 rng(36);
+  const int n = 40;
+  Eigen::VectorXd q(n), qd(n), qmin(n), qmax(n), lo(n), hi(n);
+  for (int j = 0; j < n; ++j) {
+    qmin[j] = test::uniform(rng, -2.0, -0.5);
+    qmax[j] = test::uniform(rng, 0.5, 2.0);
+    q[j] = test::uniform(rng, qmin[j], qmax[j]);
+    qd[j] = test::uniform(rng, -3.0, 3.0);
+  }
+  const double T = 0.1, amax = 1e6;
+  joint_acceleration_bounds(q, qd, qmin, qmax, T, amax, lo, hi);
+  for (int j = 0; j < n; ++j) {
+    // Simulate the bound acceleration for T in small steps (independent of the closed form).
+    double p = q[j], v = qd[j];
+    const int steps = 10000;
+    for (int k = 0; k < steps; ++k) {
+      v += hi[j] * T / steps;
+      p += (v - 0.5 * hi[j] * T / steps) * T / steps;
+    }
+    EXPECT_NEAR(p, qmax[j], 1e-6);
+    EXPECT_LE(lo[j], hi[j]);
+    // The bound decreases as the joint approaches its upper limit.
+    Eigen::VectorXd q2 = q, lo2(n), hi2(n);
+    q2[j] += 0.5 * (qmax[j] - q[j]);
+    joint_acceleration_bounds(q2, qd, qmin, qmax, T, amax, lo2, hi2);
+    EXPECT_LT(hi2[j], hi[j]);
+  }
+  // Clamping and infinite limits.
+  qmin.setConstant(-std::numeric_limits<double>::infinity());
+  qmax.setConstant(std::numeric_limits<double>::infinity());
+  joint_acceleration_bounds(q, qd, qmin, qmax, T, 50.0, lo, hi);
+  EXPECT_TRUE((lo.array() == -50.0).all() && (hi.array() == 50.0).all());
+}
+
+}  // namespace
+}  // namespace poise::controller

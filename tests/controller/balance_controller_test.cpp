@@ -1,0 +1,375 @@
+// The controller's tick on the project humanoid, checked against independent computations:
+// the contact problem against forward kinematics and eqs (10)-(11) by hand; the eq (33) output
+// against finite differences of the foot poses (J qdd + J_dot qd = a_d); the momentum identity
+// A qdd + A_dot qd = hdot_a of the admissible wrenches; the inverse-dynamics base residual against
+// the momentum residual (Newton-Euler of the whole body); fallbacks; bad input.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "controller_test_util.hpp"
+#include "poise/contact/sequential_optimizer.hpp"
+#include "poise/controller/contact_fallback.hpp"
+#include "poise/controller/foot_motion.hpp"
+#include "poise/model/centroidal.hpp"
+#include "poise/model/kinematics.hpp"
+
+namespace poise::controller {
+namespace {
+
+using test::humanoid;
+
+BalanceController make_controller(ControllerConfig cfg = {}) {
+  return BalanceController(humanoid().model, humanoid().robot, cfg);
+}
+
+TEST(BalanceController, ContactProblemMatchesKinematicsAndEquations10And11) {
+  BalanceController c = make_controller();
+  const auto& model = c.model();
+  const auto& robot = c.robot();
+  std::mt19937 rng(1);
+  for (int trial = 0; trial < 20; ++trial) {
+    const RobotState s = test::random_state(c, rng);
+    BalanceReference ref = c.make_reference();
+    contact::ContactProblem p;
+    c.prepare(s, ref, p);
+
+    // Independent kinematics: configuration from the state, model FK and CoM.
+    Eigen::VectorXd q(model.nq), v(model.nv);
+    q.head<3>() = s.X_WB.p;
+    q.segment<4>(3) = Eigen::Quaterniond(s.X_WB.R).coeffs();
+    q.tail(model.njoints) = s.q;
+    v.head<3>() = s.X_WB.R.transpose() * s.v_WB;
+    v.segment<3>(3) = s.X_WB.R.transpose() * s.omega_WB;
+    v.tail(model.njoints) = s.qd;
+    model::Data data(model);
+    model::centroidal_momentum(model, data, q, v);
+    double mass = 0.0;
+    for (const auto& I : model.inertia)
+      mass += I.mass;
+    EXPECT_NEAR(p.mass, mass, 1e-9);
+    EXPECT_LT((p.com - data.com).norm(), 1e-12);
+    EXPECT_EQ(p.gravity, Eigen::Vector3d(0, 0, -9.81));
+
+    Eigen::Vector3d sole_mid = Eigen::Vector3d::Zero();
+    for (int i = 0; i < 2; ++i) {
+      const auto& f = robot.feet[i];
+      const model::SE3 X = model::frame_placement(model, data, f.frame_id);
+      EXPECT_TRUE(p.feet[i].in_contact);
+      EXPECT_LT((p.feet[i].p_WF - X.p).norm(), 1e-12);
+      EXPECT_LT((p.feet[i].R_WF - X.R).norm(), 1e-12);
+      // The sole frame lies h below the ankle along the foot's z: the problem's ankle height.
+      const model::SE3 Xs = model::frame_placement(model, data, f.sole_frame_id);
+      EXPECT_NEAR((X.R.transpose() * (Xs.p - X.p)).z(), -p.feet[i].ankle_height, 1e-9);
+      EXPECT_EQ(p.feet[i].sole.x_max, f.sole.x_max);
+      EXPECT_EQ(p.feet[i].sole.y_min, f.sole.y_min);
+      EXPECT_EQ(p.feet[i].mu, robot.friction_mu);
+      EXPECT_EQ(p.feet[i].mu_torsion, robot.torsional_mu);
+      EXPECT_EQ(p.feet[i].safety_margin, robot.safety_margin);
+      sole_mid += 0.5 * X.act(Eigen::Vector3d(0.5 * (f.sole.x_min + f.sole.x_max),
+                                              0.5 * (f.sole.y_min + f.sole.y_max), -f.sole.height));
+    }
+    // CoM target: above the mid-point of the soles at the nominal CoM height.
+    model::Data dn(model);
+    model::center_of_mass(model, dn, robot.q_nominal);
+    const double nominal_height =
+        dn.com.z() - model::frame_placement(model, dn, robot.feet[0].sole_frame_id).p.z();
+    const Eigen::Vector3d target = sole_mid + Eigen::Vector3d(0, 0, nominal_height);
+    EXPECT_LT((c.diagnostics().com_target_W - target).norm(), 1e-9);
+    // Eqs (10)-(11) by hand with the paper's gains (Z up).
+    const ControllerConfig cfg;
+    for (int a = 0; a < 3; ++a) {
+      const double k = data.hg[a];
+      EXPECT_NEAR(p.k_dot_desired[a], cfg.momentum.gamma11[a] * (0.0 - k), 1e-9);
+      const double ldot = mass * (cfg.momentum.gamma21[a] *
+                                      (c.diagnostics().com_velocity_target_W[a] - data.vcom[a]) +
+                                  cfg.momentum.gamma22[a] * (target[a] - data.com[a]));
+      EXPECT_NEAR(p.l_dot_desired[a], ldot, 1e-8 * (1 + std::abs(ldot)));
+    }
+  }
+}
+
+TEST(BalanceController, SupportsFollowModesAndMeasuredContacts) {
+  BalanceController c = make_controller();
+  RobotState s = test::standing_state(c);
+  BalanceReference ref = c.make_reference();
+  contact::ContactProblem p;
+  s.feet[0].in_contact = false;
+  c.prepare(s, ref, p);
+  EXPECT_FALSE(p.feet[0].in_contact);
+  EXPECT_TRUE(p.feet[1].in_contact);
+  // Single support: the CoM target is above the left sole centre.
+  const auto& f = c.robot().feet[1];
+  const Eigen::Vector3d left = sole_center_W(model::SE3(p.feet[1].R_WF, p.feet[1].p_WF), f.sole);
+  EXPECT_LT((c.diagnostics().com_target_W.head<2>() - left.head<2>()).norm(), 1e-12);
+  ref.feet[0].mode = FootMode::kSupport;
+  ref.feet[1].mode = FootMode::kSwing;
+  c.prepare(s, ref, p);
+  EXPECT_TRUE(p.feet[0].in_contact);
+  EXPECT_FALSE(p.feet[1].in_contact);
+  // A support foot whose CoP is at the sole edge is not resting (Sec. 4.2).
+  ref = c.make_reference();
+  s = test::standing_state(c);
+  s.feet[1].cop_W = s.feet[1].X_WF.act(Eigen::Vector3d(f.sole.x_max - 0.002, 0.0, -f.sole.height));
+  c.prepare(s, ref, p);
+  EXPECT_TRUE(c.diagnostics().resting[0]);
+  EXPECT_FALSE(c.diagnostics().resting[1]);
+}
+
+// Central second difference of the foot frame along q(t) = q (+) (v t + qdd t^2 / 2).
+model::Motion foot_acceleration_fd(const model::Model& model, const Eigen::VectorXd& q,
+                                   const Eigen::VectorXd& v, const Eigen::VectorXd& qdd, int frame,
+                                   double h) {
+  model::Data data(model);
+  Eigen::VectorXd qp(model.nq), qm(model.nq);
+  model::integrate(model, q, h * v + 0.5 * h * h * qdd, 1.0, qp);
+  model::integrate(model, q, -h * v + 0.5 * h * h * qdd, 1.0, qm);
+  model::forward_kinematics(model, data, q);
+  const model::SE3 X0 = model::frame_placement(model, data, frame);
+  model::forward_kinematics(model, data, qp);
+  const model::SE3 Xp = model::frame_placement(model, data, frame);
+  model::forward_kinematics(model, data, qm);
+  const model::SE3 Xm = model::frame_placement(model, data, frame);
+  model::Motion a;
+  a.head<3>() = (Xp.p - 2.0 * X0.p + Xm.p) / (h * h);
+  a.tail<3>() =
+      (model::so3_log(Xp.R * X0.R.transpose()) + model::so3_log(Xm.R * X0.R.transpose())) / (h * h);
+  return a;
+}
+
+TEST(BalanceController, Eq33OutputRealisesFootAccelerationsAndAdmissibleMomentum) {
+  BalanceController c = make_controller();
+  const auto& model = c.model();
+  contact::SequentialOptimizer opt;
+  JointCommand cmd = c.make_command();
+  std::mt19937 rng(2);
+  int checked = 0;
+  for (int trial = 0; trial < 20; ++trial) {
+    RobotState s = test::random_state(c, rng, 0.1, 0.3);
+    BalanceReference ref = c.make_reference();
+    // Swing targets for some trials: the constraint must hold for any a_d.
+    if (trial % 3 == 1) {
+      ref.feet[1].mode = FootMode::kSwing;
+      ref.feet[1].has_target = true;
+      ref.feet[1].X_WF_target = model::SE3(test::random_rotation(rng, 0.2) * s.feet[1].X_WF.R,
+                                           s.feet[1].X_WF.p + test::random_vec3(rng, 0.05));
+    }
+    contact::ContactProblem p;
+    contact::ContactSolution sol;
+    c.prepare(s, ref, p);
+    opt.solve(p, sol);
+    ASSERT_NE(sol.status, contact::ContactStatus::kInvalidInput);
+    c.finish(sol, cmd);
+    const auto& d = c.diagnostics();
+    ASSERT_EQ(d.qp_status, contact::SolverStatus::kOptimal) << trial;
+    ASSERT_EQ(d.contact_source, ContactSource::kSolution);
+    if (d.active_bounds > 0 || d.bounds_dropped) continue;
+    ++checked;
+    const Eigen::VectorXd& qdd = c.generalized_acceleration();
+    // (1) Foot constraints: finite differences of the model's kinematics.
+    for (int i = 0; i < 2; ++i) {
+      const model::Motion fd =
+          foot_acceleration_fd(model, c.configuration(), c.generalized_velocity(), qdd,
+                               c.robot().feet[i].frame_id, 1e-4);
+      const model::Motion& a_d = d.foot_acceleration_desired[i];
+      EXPECT_LT((fd - a_d).norm(), 1e-4 * (1.0 + a_d.norm())) << trial << " foot " << i << "\n"
+                                                              << fd.transpose() << "\n"
+                                                              << a_d.transpose();
+    }
+    // (2) Momentum identity: the admissible rate is the optimiser's and is realised by qdd.
+    model::Vector6 h_opt;
+    h_opt << sol.k_dot_admissible, sol.l_dot_admissible;
+    EXPECT_LT((d.hdot_admissible - h_opt).norm(), 1e-6 * (1.0 + h_opt.norm()));
+    const double scale = p.mass * 9.81;
+    EXPECT_LT((d.hdot_achieved - d.hdot_admissible).norm(), 2e-3 * scale)
+        << trial << "\n achieved " << d.hdot_achieved.transpose() << "\n admissible "
+        << d.hdot_admissible.transpose();
+    // (3) Newton-Euler of the whole body: the RNEA base wrench is the momentum residual moved to
+    // the base origin and base axes.
+    const Eigen::VectorXd& tau = c.inverse_dynamics_torque();
+    const model::Vector6 e = d.hdot_achieved - d.hdot_admissible;  // [k; l] about the CoM
+    const Eigen::Vector3d pB = c.configuration().head<3>();
+    const Eigen::Matrix3d R = s.X_WB.R;
+    const Eigen::Vector3d f_B = R.transpose() * e.tail<3>();
+    const Eigen::Vector3d t_B = R.transpose() * (e.head<3>() + (d.com_W - pB).cross(e.tail<3>()));
+    EXPECT_LT((tau.head<3>() - f_B).norm(), 1e-7 * scale) << trial;
+    EXPECT_LT((tau.segment<3>(3) - t_B).norm(), 1e-7 * scale) << trial;
+    EXPECT_LT(d.base_wrench_residual, 5e-3 * scale);
+    // (4) Command: tau_ff = joint rows of the inverse dynamics (within the effort limits).
+    for (int j = 0; j < model.njoints; ++j)
+      EXPECT_NEAR(cmd.tau_ff[j],
+                  std::clamp(tau[6 + j], -model.limits[j].effort, model.limits[j].effort), 1e-12);
+    EXPECT_EQ(cmd.mode, CommandMode::kTorque);
+  }
+  EXPECT_GT(checked, 10);
+}
+
+TEST(BalanceController, StandingStillNeedsOnlyGravityCompensation) {
+  // At the nominal posture with the CoM target equal to the CoM, the robot at rest: desired and
+  // admissible rates ~0, qdd ~0, and the base residual ~0 (the wrenches carry the weight).
+  BalanceController c = make_controller();
+  RobotState s = test::standing_state(c);
+  BalanceReference ref = c.make_reference();
+  contact::ContactProblem p;
+  c.prepare(s, ref, p);
+  ref.has_com_target = true;
+  ref.com_W = p.com;
+  c.reset();
+  c.prepare(s, ref, p);
+  contact::SequentialOptimizer opt;
+  contact::ContactSolution sol;
+  opt.solve(p, sol);
+  EXPECT_EQ(sol.status, contact::ContactStatus::kOk);
+  JointCommand cmd = c.make_command();
+  c.finish(sol, cmd);
+  const auto& d = c.diagnostics();
+  EXPECT_LT(d.hdot_desired.norm(), 1e-9);
+  // Regularisation bias of the optimiser only (its kOk tolerance: contact::kRateTolerance m g).
+  const double tol = contact::kRateTolerance * p.mass * 9.81;
+  EXPECT_LT(d.hdot_admissible.norm(), tol);
+  EXPECT_LT(c.generalized_acceleration().norm(), 0.5);
+  EXPECT_LT(d.base_wrench_residual, 1.0);
+  // The legs carry the weight: sum of vertical forces = m g.
+  EXPECT_NEAR(d.foot_wrench_W[0][2] + d.foot_wrench_W[1][2], p.mass * 9.81, tol);
+  // References start at the measured state.
+  EXPECT_LT((cmd.q_ref - s.q).cwiseAbs().maxCoeff(), 1e-3);
+}
+
+TEST(BalanceController, FallbackReusesThenDistributesGravity) {
+  ControllerConfig cfg;
+  cfg.fallback.max_reuse_ticks = 2;
+  BalanceController c = make_controller(cfg);
+  RobotState s = test::standing_state(c);
+  BalanceReference ref = c.make_reference();
+  contact::ContactProblem p;
+  contact::ContactSolution sol;
+  contact::SequentialOptimizer opt;
+  JointCommand cmd = c.make_command();
+  c.prepare(s, ref, p);
+  opt.solve(p, sol);
+  c.finish(sol, cmd);
+  const auto first = c.diagnostics().foot_wrench_W;
+  for (int k = 0; k < 2; ++k) {
+    c.prepare(s, ref, p);
+    c.finish_fallback(cmd);
+    EXPECT_EQ(c.diagnostics().contact_source, ContactSource::kReusedSolution);
+    EXPECT_EQ(c.diagnostics().foot_wrench_W[0], first[0]);
+  }
+  c.prepare(s, ref, p);
+  c.finish_fallback(cmd);
+  EXPECT_EQ(c.diagnostics().contact_source, ContactSource::kGravityDistribution);
+  EXPECT_EQ(c.diagnostics().late_solutions, 3u);
+  EXPECT_EQ(cmd.mode, CommandMode::kTorque);
+  // An unusable solution is a fallback too.
+  contact::ContactSolution bad;
+  bad.status = contact::ContactStatus::kSolverFailure;
+  c.prepare(s, ref, p);
+  c.finish(bad, cmd);
+  EXPECT_EQ(c.diagnostics().late_solutions, 4u);
+  EXPECT_NE(c.diagnostics().contact_source, ContactSource::kSolution);
+}
+
+TEST(ContactFallback, GravityDistributionIsStaticEquilibrium) {
+  std::mt19937 rng(4);
+  for (int trial = 0; trial < 50; ++trial) {
+    contact::ContactProblem p;
+    p.mass = test::uniform(rng, 10, 100);
+    p.com = test::random_vec3(rng, 0.2) + Eigen::Vector3d(0, 0, 0.8);
+    p.feet[0].in_contact = trial % 3 != 0;
+    p.feet[1].in_contact = trial % 3 != 1;
+    p.feet[0].p_WF = Eigen::Vector3d(0, -0.1, 0.08) + test::random_vec3(rng, 0.05);
+    p.feet[1].p_WF = Eigen::Vector3d(0, 0.1, 0.08) + test::random_vec3(rng, 0.05);
+    p.feet[0].R_WF = test::random_rotation(rng, 0.2);
+    p.feet[1].R_WF = test::random_rotation(rng, 0.2);
+    contact::ContactSolution s;
+    gravity_distribution(p, s);
+    Eigen::Vector3d f = Eigen::Vector3d::Zero(), k = Eigen::Vector3d::Zero();
+    for (int i = 0; i < 2; ++i) {
+      f += s.feet[i].force_W;
+      k += (p.feet[i].p_WF - p.com).cross(s.feet[i].force_W) + s.feet[i].torque_ankle_W;
+      if (!p.feet[i].in_contact) continue;
+      // The reported CoP reproduces the ankle torque (paper eq. (19)).
+      const auto& ft = p.feet[i];
+      const Eigen::Vector3d d(s.feet[i].cop_F.x(), s.feet[i].cop_F.y(), -ft.ankle_height);
+      const Eigen::Vector3d tau = (ft.R_WF * d).cross(s.feet[i].force_W) +
+                                  ft.R_WF * Eigen::Vector3d(0, 0, s.feet[i].normal_torque);
+      EXPECT_LT((tau - s.feet[i].torque_ankle_W).norm(), 1e-9);
+    }
+    EXPECT_LT((f + p.mass * p.gravity).norm(), 1e-9);
+    EXPECT_LT(k.norm(), 1e-9);
+    EXPECT_LT(s.k_dot_admissible.norm() + s.l_dot_admissible.norm(), 1e-9);
+  }
+  contact::ContactProblem none;
+  none.mass = 50;
+  none.feet[0].in_contact = none.feet[1].in_contact = false;
+  contact::ContactSolution s;
+  gravity_distribution(none, s);
+  EXPECT_EQ(s.status, contact::ContactStatus::kNoContact);
+  EXPECT_LT((s.l_dot_admissible - 50 * none.gravity).norm(), 1e-12);
+}
+
+TEST(BalanceController, ReferencesIntegrateAccelerationsAndStayNearTheState) {
+  BalanceController c = make_controller();
+  RobotState s = test::standing_state(c);
+  BalanceReference ref = c.make_reference();
+  contact::ContactProblem p;
+  contact::ContactSolution sol;
+  contact::SequentialOptimizer opt;
+  JointCommand cmd = c.make_command();
+  ref.has_upper_body_q = true;
+  const int elbow = c.model().joint_index("l_elbow");
+  ref.upper_body_q[elbow] -= 0.5;  // ask the arm to move: large qdd on the elbow
+  Eigen::VectorXd q_ref_prev, qd_ref_prev;
+  for (int k = 0; k < 200; ++k) {
+    c.prepare(s, ref, p);
+    opt.solve(p, sol);
+    c.finish(sol, cmd);
+    const auto& qdd = c.generalized_acceleration();
+    if (k > 0 && c.diagnostics().reference_clamps == 0) {
+      // theta_dot* += qdd dt; theta* += theta_dot* dt (semi-implicit Euler).
+      EXPECT_LT((cmd.qd_ref - (qd_ref_prev + 1e-3 * qdd.tail(c.num_joints()))).norm(), 1e-12);
+      EXPECT_LT((cmd.q_ref - (q_ref_prev + 1e-3 * cmd.qd_ref)).norm(), 1e-12);
+    }
+    q_ref_prev = cmd.q_ref;
+    qd_ref_prev = cmd.qd_ref;
+    // The robot does not move (state frozen): the references saturate at the configured errors.
+    EXPECT_LE((cmd.q_ref - s.q).cwiseAbs().maxCoeff(), 0.05 + 1e-12);
+    EXPECT_LE((cmd.qd_ref - s.qd).cwiseAbs().maxCoeff(), 0.5 + 1e-12);
+  }
+  EXPECT_LT(cmd.q_ref[elbow] - s.q[elbow], -0.04);  // it moves the way the reference asks
+  EXPECT_GT(c.diagnostics().reference_clamps, 0);
+}
+
+TEST(BalanceController, BadInputGivesDampingAndBadConfigThrows) {
+  BalanceController c = make_controller();
+  RobotState s = test::standing_state(c);
+  BalanceReference ref = c.make_reference();
+  contact::ContactProblem p;
+  contact::ContactSolution sol;
+  JointCommand cmd = c.make_command();
+  s.qd[3] = std::nan("");
+  c.prepare(s, ref, p);
+  EXPECT_FALSE(p.feet[0].in_contact || p.feet[1].in_contact);
+  c.finish(sol, cmd);
+  EXPECT_EQ(cmd.mode, CommandMode::kDamping);
+  EXPECT_TRUE(cmd.tau_ff.isZero());
+  RobotState wrong = c.make_state();
+  wrong.q.resize(3);
+  c.prepare(wrong, ref, p);
+  c.finish_fallback(cmd);
+  EXPECT_EQ(cmd.mode, CommandMode::kDamping);
+  JointCommand small;
+  small.resize(2);
+  c.finish(sol, small);
+  EXPECT_TRUE(small.tau_ff.isZero());  // untouched
+
+  ControllerConfig bad;
+  bad.acceleration.w_b = 1.0;
+  EXPECT_THROW(make_controller(bad), ConfigError);
+  model::RobotConfig other = humanoid().robot;
+  other.q_nominal.resize(5);
+  EXPECT_THROW(BalanceController(humanoid().model, other, ControllerConfig{}), ConfigError);
+}
+
+}  // namespace
+}  // namespace poise::controller

@@ -1,0 +1,90 @@
+// Eqs (10)-(11) by hand, component by component, with seeded random inputs; and the config file.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <random>
+
+#include "controller_test_util.hpp"
+#include "poise/controller/controller_config.hpp"
+#include "poise/controller/momentum_rate.hpp"
+
+namespace poise::controller {
+namespace {
+
+TEST(MomentumRate, MatchesEquations10And11ComponentWise) {
+  std::mt19937 rng(10);
+  for (int trial = 0; trial < 50; ++trial) {
+    MomentumGains g;
+    g.gamma11 = test::random_vec3(rng, 10.0).cwiseAbs();
+    g.gamma21 = test::random_vec3(rng, 50.0).cwiseAbs();
+    g.gamma22 = test::random_vec3(rng, 10.0).cwiseAbs();
+    const double m = test::uniform(rng, 1.0, 100.0);
+    const Eigen::Vector3d k = test::random_vec3(rng, 5), kd = test::random_vec3(rng, 5);
+    const Eigen::Vector3d c = test::random_vec3(rng, 1), cd = test::random_vec3(rng, 1);
+    const Eigen::Vector3d v = test::random_vec3(rng, 1), vd = test::random_vec3(rng, 1);
+    const model::Vector6 h = desired_momentum_rate(g, m, k, kd, c, cd, v, vd);
+    for (int i = 0; i < 3; ++i) {
+      const double kdot = g.gamma11[i] * (kd[i] - k[i]);
+      const double ldot = m * g.gamma21[i] * (vd[i] - v[i]) + m * g.gamma22[i] * (cd[i] - c[i]);
+      EXPECT_NEAR(h[i], kdot, 1e-12 * (1 + std::abs(kdot)));
+      EXPECT_NEAR(h[3 + i], ldot, 1e-12 * (1 + std::abs(ldot)));
+    }
+  }
+}
+
+TEST(MomentumRate, PaperDefaultsMappedToZUp) {
+  const ControllerConfig c;
+  // Paper Sec. 4.2, Y up: Gamma21 = diag{40, 20, 40}, Gamma22 = diag{8, 3, 8}; vertical is z here.
+  EXPECT_EQ(c.momentum.gamma11, Eigen::Vector3d(5, 5, 5));
+  EXPECT_EQ(c.momentum.gamma21, Eigen::Vector3d(40, 40, 20));
+  EXPECT_EQ(c.momentum.gamma22, Eigen::Vector3d(8, 8, 3));
+  EXPECT_EQ(c.contact.w_k, 0.1);
+  EXPECT_EQ(c.contact.eps_f, 0.01);
+  EXPECT_EQ(c.contact.eps_cop, 0.01);
+}
+
+TEST(ControllerConfig, ShippedFileLoadsWithTheDefaults) {
+  const ControllerConfig c = load_controller_config(
+      std::string(POISE_SOURCE_DIR) + "/controller/momentum/config/balance_controller.yaml");
+  const ControllerConfig d;
+  EXPECT_EQ(c.momentum.gamma21, d.momentum.gamma21);
+  EXPECT_EQ(c.acceleration.w_b, d.acceleration.w_b);
+  EXPECT_EQ(c.foot.kp, d.foot.kp);
+  EXPECT_EQ(c.feedback.max_position_error, d.feedback.max_position_error);
+}
+
+std::string write_temp(const std::string& name, const std::string& text) {
+  const std::string path = std::string(POISE_BINARY_DIR) + "/" + name;
+  std::ofstream(path) << text;
+  return path;
+}
+
+TEST(ControllerConfig, BadFilesNameTheProblem) {
+  auto expect_error = [](const std::string& text, const std::string& needle) {
+    const std::string p = write_temp("controller_config_bad.yaml", text);
+    try {
+      load_controller_config(p);
+      ADD_FAILURE() << "no error for: " << text;
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    }
+  };
+  expect_error("acceleration: {w_b: 1.0}\n", "w_b");
+  expect_error("momentum: {gamma21: [1, 2]}\n", "gamma21");
+  expect_error("momentum: {gamma22: [1, -2, 3]}\n", "gamma22");
+  expect_error("foot: {kp: abc}\n", "foot.kp");
+  expect_error("fot: {kp: 1}\n", "fot");
+  expect_error("foot: {kq: 1}\n", "foot.kq");
+  expect_error("dt: -1\n", "dt");
+  try {
+    load_controller_config("/nonexistent/controller.yaml");
+    ADD_FAILURE();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/controller.yaml"), std::string::npos);
+  }
+  const std::string p = write_temp("controller_config_ok.yaml", "acceleration: {w_b: 0.9}\n");
+  EXPECT_EQ(load_controller_config(p).acceleration.w_b, 0.9);
+}
+
+}  // namespace
+}  // namespace poise::controller
