@@ -196,7 +196,7 @@ SolverStatus DualQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& G,
       r_[i] = s / R_(i, i);
     }
   };
-  auto dot_np = [&](const Eigen::VectorXd& v) {
+  auto dot_np = [&](const Eigen::Ref<const Eigen::VectorXd>& v) {  // Ref: no copy of x
     double s = 0.0;
     for (int i = 0; i < n; ++i)
       s += v[i] * np_[i];
