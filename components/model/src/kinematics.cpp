@@ -67,13 +67,31 @@ void fk_impl(const Model& model, Data& data, const Eigen::Ref<const Eigen::Vecto
     joint_transform(model, b, q[7 + j], liMi);
     data.oMi[b] = data.oMi[p] * liMi;
     if constexpr (Level >= 1) {
-      const double qd = v[6 + j];
-      const Motion vj = motion_subspace(model, b) * qd;
-      data.v[b] = liMi.act_inv_motion(data.v[p]) + vj;
-      const Motion c = cross_motion(data.v[b], vj);
-      data.a_bias[b] = liMi.act_inv_motion(data.a_bias[p]) + c;
+      const Vector3 u_qd = model.axis[b] * v[6 + j];
+      Motion& vb = data.v[b];
+      Motion& bb = data.a_bias[b];
+      vb = liMi.act_inv_motion(data.v[p]);
+      bb = liMi.act_inv_motion(data.a_bias[p]);
+      // c = v x S qd, added to both the bias and the full acceleration
+      Motion c;
+      if (model.joint_type[b] == JointType::kPrismatic) {
+        c.head<3>() = vb.tail<3>().cross(u_qd);
+        c.tail<3>().setZero();
+        vb.head<3>() += u_qd;
+      } else {
+        c.head<3>() = vb.head<3>().cross(u_qd);
+        c.tail<3>() = vb.tail<3>().cross(u_qd);
+        vb.tail<3>() += u_qd;
+      }
+      bb += c;
       if constexpr (Level >= 2) {
-        data.a[b] = liMi.act_inv_motion(data.a[p]) + motion_subspace(model, b) * a[6 + j] + c;
+        Motion& ab = data.a[b];
+        ab = liMi.act_inv_motion(data.a[p]) + c;
+        const Vector3 u_qdd = model.axis[b] * a[6 + j];
+        if (model.joint_type[b] == JointType::kPrismatic)
+          ab.head<3>() += u_qdd;
+        else
+          ab.tail<3>() += u_qdd;
       }
     }
   }
