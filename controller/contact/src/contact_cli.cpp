@@ -47,10 +47,15 @@ int cli_main(int argc, char** argv) {
   std::string method_name = "sequential";
   std::string input = "-";
   bool pretty = false;
+  int qp_passes = 1;
   solve->add_option("--method", method_name, "sequential (paper, NNLS + BVLS) or qp (one dual QP)")
       ->check(CLI::IsMember({"sequential", "qp"}));
   solve->add_option("--input", input, "read from this file instead of stdin ('-')");
   solve->add_flag("--pretty", pretty, "indent the output");
+  solve
+      ->add_option("--qp-passes", qp_passes,
+                   "qp only: 2 adds a refinement QP with the torsion bound linearised at the CoP")
+      ->check(CLI::Range(1, 2));
   CLI11_PARSE(app, argc, argv);
 
   nlohmann::json in;
@@ -70,6 +75,7 @@ int cli_main(int argc, char** argv) {
     return 2;
   }
   ContactOptimizer optimizer(*parse_method(method_name));
+  optimizer.qp().set_torsion_passes(qp_passes);
   nlohmann::json out;
   bool any_invalid = false;
   try {

@@ -23,6 +23,7 @@ QpOptimizer::QpOptimizer() : qp_(kMaxVars, 0, kMaxConstraints) {
   A_.setZero();
   b_.setZero();
   y_.setZero();
+  y_first_.setZero();
   rho_.setZero();
 }
 
@@ -95,6 +96,30 @@ void QpOptimizer::solve(const ContactProblem& p, ContactSolution& solution) {
       qp_status_ == SolverStatus::kNotPositiveDefinite || qp_status_ == SolverStatus::kInfeasible) {
     set_safe_solution(ContactStatus::kSolverFailure, solution);
     return;
+  }
+  if (passes_ > 1 && qp_status_ == SolverStatus::kOptimal) {
+    // Refinement: torsion rows about the CoP d* of the first pass (linear for fixed d*).
+    const double threshold = 1e-9 * (p.mass * p.gravity.norm() + 1.0);
+    for (int s = 0; s < nf; ++s) {
+      const FootContact& foot = p.feet[slots[s]];
+      const int col = kVarsPerFoot * s;
+      const int r = kConstraintsPerFoot * s;
+      const Eigen::Matrix<double, 3, 4> B = foot.R_WF.transpose() * friction_basis_W(foot);
+      const double f_z = B.row(2).dot(y_.segment<4>(col));
+      if (!(f_z > threshold)) continue;
+      const Eigen::Vector4d region = safe_region(foot);
+      const double d_x = std::clamp(-y_[col + 5] / f_z, region[0], region[1]);
+      const double d_y = std::clamp(y_[col + 4] / f_z, region[2], region[3]);
+      // tau_n = m_z - (d_x f_y - d_y f_x) = m_z - c^T rho
+      const Eigen::Matrix<double, 1, 4> c = d_x * B.row(1) - d_y * B.row(0);
+      A_.block<1, 4>(r + 8, col) = foot.mu_torsion * B.row(2) + c;
+      A_.block<1, 4>(r + 9, col) = foot.mu_torsion * B.row(2) - c;
+    }
+    y_first_ = y_;
+    const SolverStatus second =
+        qp_.solve(G_.topLeftCorner(n, n), g_.head(n), G_.topRows(0).leftCols(n), g_.head(0),
+                  A_.topLeftCorner(mi, n), b_.head(mi), y_.head(n));
+    if (second != SolverStatus::kOptimal) y_ = y_first_;  // keep the first pass
   }
   // J_qp = |M y - c|^2 (the ridge is not part of the objective).
   raw_objective_ = (M_ * y_ - c_).squaredNorm();  // unused columns of M_ are zero

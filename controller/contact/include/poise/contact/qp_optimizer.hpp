@@ -20,6 +20,10 @@
 // in the paper's sense: tau_n is clamped to +-mu_torsion f_z (and round-off outside the pyramid or
 // the rectangle is removed); the admissible rate is then recomputed from the final wrench.
 // adjusted() says whether that clean-up changed the wrench by more than round-off.
+// Optional refinement (set_torsion_passes(2)): a second QP in which each torsion row bounds the
+// normal torque about the first pass's CoP d*, |m_z - (d*_x f_y - d*_y f_x)| <= mu_torsion f_z
+// (linear for fixed d*), which makes the clean-up much smaller at twice the cost. Default: 1 pass,
+// the plain one-QP baseline of the paper.
 
 #include <Eigen/Core>
 
@@ -39,6 +43,11 @@ class QpOptimizer {
   static constexpr int kResidualRows = 6 + 7 * kMaxFeet;
 
   QpOptimizer();
+
+  /// 1 (default): one QP. 2: one refinement QP with the torsion rows linearised at the CoPs of
+  /// the first. Values outside [1, 2] are clamped.
+  void set_torsion_passes(int passes) { passes_ = passes < 1 ? 1 : (passes > 2 ? 2 : passes); }
+  int torsion_passes() const { return passes_; }
 
   void solve(const ContactProblem& problem, ContactSolution& solution);
 
@@ -70,9 +79,11 @@ class QpOptimizer {
   Eigen::Matrix<double, kMaxConstraints, kMaxVars> A_;
   Eigen::Matrix<double, kMaxConstraints, 1> b_;
   Eigen::Matrix<double, kMaxVars, 1> y_;
+  Eigen::Matrix<double, kMaxVars, 1> y_first_;
   Eigen::Matrix<double, 4 * kMaxFeet, 1> rho_;
   double raw_objective_ = 0.0;
   bool adjusted_ = false;
+  int passes_ = 1;
   SolverStatus qp_status_ = SolverStatus::kOptimal;
 };
 
