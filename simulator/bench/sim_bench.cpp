@@ -40,7 +40,8 @@ void run(benchmark::State& state, const std::string& scenario_name, int iteratio
   c.q_ref = q0;
   c.kp.setConstant(300.0);
   c.kd.setConstant(6.0);
-  for (int k = 0; k < 300; ++k) sim.step(c, s, g);  // settle the contacts
+  for (int k = 0; k < 300; ++k)
+    sim.step(c, s, g);  // settle the contacts
   std::vector<double> us;
   us.reserve(1 << 20);
   long n = 0;
@@ -48,7 +49,8 @@ void run(benchmark::State& state, const std::string& scenario_name, int iteratio
     const auto t0 = std::chrono::steady_clock::now();
     sim.step(c, s, g);
     const auto t1 = std::chrono::steady_clock::now();
-    if (us.size() < us.capacity()) us.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
+    if (us.size() < us.capacity())
+      us.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
     if (++n % 2000 == 0) {
       state.PauseTiming();
       sim.set_state(X0, q0);
@@ -61,7 +63,8 @@ void run(benchmark::State& state, const std::string& scenario_name, int iteratio
     state.counters["p99_us"] = us[us.size() * 99 / 100];
     state.counters["max_us"] = us.back();
     double mean = 0.0;
-    for (double v : us) mean += v;
+    for (double v : us)
+      mean += v;
     mean /= static_cast<double>(us.size());
     state.counters["rt_factor"] = 1e6 * sim.dt() / mean;
   }

@@ -13,8 +13,9 @@
 namespace poise::sim {
 
 int sim_cli_main(int argc, char** argv) {
-  CLI::App app{"Run the Bullet simulator alone on a scenario: joints held by PD at the initial "
-               "posture, no balance controller. Prints progress and the scenario monitor's verdict."};
+  CLI::App app{
+      "Run the Bullet simulator alone on a scenario: joints held by PD at the initial "
+      "posture, no balance controller. Prints progress and the scenario monitor's verdict."};
   std::string file;
   double kp = 400.0, kd = 10.0, duration = -1.0;
   bool quiet = false;
@@ -48,15 +49,17 @@ int sim_cli_main(int argc, char** argv) {
       if (!quiet && (k + 1) % 500 == 0) {
         std::printf("  t=%6.2f s  CoM (%.3f, %.3f, %.3f)  foot Fz", g.time, g.com_W.x(),
                     g.com_W.y(), g.com_W.z());
-        for (const auto& f : g.feet) std::printf(" %7.1f", f.force_W.z());
+        for (const auto& f : g.feet)
+          std::printf(" %7.1f", f.force_W.z());
         std::printf("  non-foot contacts %d\n", g.num_non_foot_contacts);
       }
     }
     const auto r = monitor.result();
-    std::printf("%s %s: com_error_max %.3f m, com_error_final %.3f m, foot_slip_max %.4f m, "
-                "non_foot_contact_ticks %d\n",
-                r.survived ? "SURVIVED" : "FAILED", sc.name.c_str(), r.com_error_max_m,
-                r.com_error_final_m, r.foot_slip_max_m, r.non_foot_contacts);
+    std::printf(
+        "%s %s: com_error_max %.3f m, com_error_final %.3f m, foot_slip_max %.4f m, "
+        "non_foot_contact_ticks %d\n",
+        r.survived ? "SURVIVED" : "FAILED", sc.name.c_str(), r.com_error_max_m, r.com_error_final_m,
+        r.foot_slip_max_m, r.non_foot_contacts);
     return r.survived ? 0 : 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "poise sim: %s\n", e.what());

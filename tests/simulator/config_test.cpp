@@ -42,7 +42,8 @@ TEST(SimConfig, MeshOnlyFeetWithSoleConfigStandOnTheSoleBox) {
   c.q_ref = s.q;
   c.kp.setConstant(600);
   c.kd.setConstant(20);
-  for (int k = 0; k < 500; ++k) sim.step(c, s, g);
+  for (int k = 0; k < 500; ++k)
+    sim.step(c, s, g);
   EXPECT_TRUE(g.feet[0].in_contact && g.feet[1].in_contact);
   EXPECT_NEAR(g.feet[0].force_W.z() + g.feet[1].force_W.z(), sim.total_mass() * 9.81,
               0.02 * sim.total_mass() * 9.81);
@@ -98,9 +99,11 @@ TEST(SimConfig, JointNamesAndMapping) {
   std::vector<std::string> other(names.rbegin(), names.rend());
   other.push_back("neck");
   const std::vector<int> map = joint_index_map(names, other);
-  Eigen::VectorXd in = Eigen::VectorXd::LinSpaced(10, 0, 9), out = Eigen::VectorXd::Constant(11, -1);
+  Eigen::VectorXd in = Eigen::VectorXd::LinSpaced(10, 0, 9),
+                  out = Eigen::VectorXd::Constant(11, -1);
   remap_joint_vector(map, in, out);
-  for (int i = 0; i < 10; ++i) EXPECT_EQ(out[9 - i], i);
+  for (int i = 0; i < 10; ++i)
+    EXPECT_EQ(out[9 - i], i);
   EXPECT_EQ(out[10], -1);
   const std::vector<std::string> dup = {"a", "a"};
   EXPECT_THROW(joint_index_map(names, dup), std::runtime_error);

@@ -2,9 +2,9 @@
 // impulse-momentum, lockstep determinism; plus kinematics against an independent URDF chain.
 #include <gtest/gtest.h>
 
+#include <urdf_parser/urdf_parser.h>
 #include <cmath>
 #include <random>
-#include <urdf_parser/urdf_parser.h>
 
 #include "poise/sim/simulator.hpp"
 #include "sim_test_util.hpp"
@@ -39,7 +39,8 @@ TEST(SimPhysics, FreeFallingRobotAcceleratesAtG) {
     JointCommand cmd = posture_command(sim, s, 200.0, 5.0);
     cmd.q_ref.array() += 0.2;
     const int steps = 400;
-    for (int k = 0; k < steps; ++k) sim.step(cmd, s, g);
+    for (int k = 0; k < steps; ++k)
+      sim.step(cmd, s, g);
     const double t = steps * sim.dt();
     const Eigen::Vector3d gvec = cfg.world.gravity;
     // A rigid body falls exactly; an articulated one with moving joints only up to the
@@ -47,12 +48,15 @@ TEST(SimPhysics, FreeFallingRobotAcceleratesAtG) {
     const double tol = biped ? 1e-3 * 9.81 * t : 1e-9;
     EXPECT_NEAR((g.com_vel_W - v0 - gvec * t).norm(), 0.0, tol) << "biped=" << biped;
     // Semi-implicit Euler: x_N = x_0 + v_0 t + g dt^2 N(N+1)/2
-    const Eigen::Vector3d expected = c0 + v0 * t + gvec * sim.dt() * sim.dt() * steps * (steps + 1) / 2.0;
+    const Eigen::Vector3d expected =
+        c0 + v0 * t + gvec * sim.dt() * sim.dt() * steps * (steps + 1) / 2.0;
     EXPECT_NEAR((g.com_W - expected).norm(), 0.0, tol * t) << "biped=" << biped;
     // And close to the continuous-time parabola (1/2 g t^2) within the O(dt) integration error.
-    EXPECT_NEAR((g.com_W - (c0 + v0 * t + 0.5 * gvec * t * t)).norm(), 0.0, 0.5 * 9.81 * sim.dt() * t + 1e-9);
+    EXPECT_NEAR((g.com_W - (c0 + v0 * t + 0.5 * gvec * t * t)).norm(), 0.0,
+                0.5 * 9.81 * sim.dt() * t + 1e-9);
     EXPECT_EQ(g.num_non_foot_contacts, 0);
-    for (const auto& f : g.feet) EXPECT_FALSE(f.in_contact);
+    for (const auto& f : g.feet)
+      EXPECT_FALSE(f.in_contact);
   }
 }
 
@@ -69,7 +73,8 @@ TEST(SimPhysics, PassiveRobotLyingOnGroundCarriesItsWeight) {
   JointCommand cmd = sim.make_command();
   cmd.mode = CommandMode::kDamping;
   cmd.kd.setConstant(2.0);
-  for (int k = 0; k < 2500; ++k) sim.step(cmd, s, g);
+  for (int k = 0; k < 2500; ++k)
+    sim.step(cmd, s, g);
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   const int window = 500;
   for (int k = 0; k < window; ++k) {
@@ -105,9 +110,11 @@ TEST(SimPhysics, PushChangesMomentumByForceTimesDuration) {
     const Eigen::Vector3d l0 = m * g.com_vel_W;
     JointCommand cmd = sim.make_command();
     const int steps = 250;
-    for (int k = 0; k < steps; ++k) sim.step(cmd, s, g);
+    for (int k = 0; k < steps; ++k)
+      sim.step(cmd, s, g);
     const Eigen::Vector3d dl = m * g.com_vel_W - l0;
-    const Eigen::Vector3d expected = p.force_W * p.duration + m * cfg.world.gravity * steps * sim.dt();
+    const Eigen::Vector3d expected =
+        p.force_W * p.duration + m * cfg.world.gravity * steps * sim.dt();
     // exact for the rigid box; within 0.1 % for the articulated biped (see free fall)
     const double tol = trial == 2 ? 1e-3 * expected.norm() : 1e-9 * expected.norm() + 1e-12;
     EXPECT_NEAR((dl - expected).norm(), 0.0, tol) << "trial " << trial;
@@ -151,7 +158,8 @@ void run_scenario(GroundTruth& g, std::vector<double>& trace) {
     sim.step(cmd, s, g);
     trace.insert(trace.end(), g.X_WB.matrix().data(), g.X_WB.matrix().data() + 16);
     trace.insert(trace.end(), g.com_W.data(), g.com_W.data() + 3);
-    for (const auto& f : g.feet) trace.insert(trace.end(), f.force_W.data(), f.force_W.data() + 3);
+    for (const auto& f : g.feet)
+      trace.insert(trace.end(), f.force_W.data(), f.force_W.data() + 3);
     trace.insert(trace.end(), s.q.data(), s.q.data() + s.q.size());
     trace.insert(trace.end(), s.imu_specific_force_I.data(), s.imu_specific_force_I.data() + 3);
   }
@@ -176,15 +184,15 @@ TEST(SimPhysics, LockstepRunsAreBitIdentical) {
 
 // Independent forward kinematics: compose the URDF joint transforms directly with urdfdom.
 Eigen::Isometry3d urdf_fk(const urdf::ModelInterface& model, const std::string& link_name,
-                          const Eigen::Isometry3d& X_WB,
-                          const std::map<std::string, double>& q) {
+                          const Eigen::Isometry3d& X_WB, const std::map<std::string, double>& q) {
   Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
   urdf::LinkConstSharedPtr link = model.getLink(link_name);
   while (link->parent_joint) {
     const urdf::Joint& j = *link->parent_joint;
     const auto& p = j.parent_to_joint_origin_transform;
     Eigen::Isometry3d Xj = Eigen::Isometry3d::Identity();
-    Xj.linear() = Eigen::Quaterniond(p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z).toRotationMatrix();
+    Xj.linear() = Eigen::Quaterniond(p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z)
+                      .toRotationMatrix();
     Xj.translation() << p.position.x, p.position.y, p.position.z;
     Eigen::Isometry3d Xq = Eigen::Isometry3d::Identity();
     const Eigen::Vector3d axis(j.axis.x, j.axis.y, j.axis.z);
@@ -214,7 +222,8 @@ TEST(SimPhysics, LinkPosesMatchIndependentUrdfKinematics) {
       qm[sim.joint_names()[static_cast<std::size_t>(i)]] = q[i];
     }
     Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();
-    X_WB.linear() = Eigen::Quaterniond(Eigen::Vector4d(u(rng), u(rng), u(rng), 1.0).normalized()).toRotationMatrix();
+    X_WB.linear() = Eigen::Quaterniond(Eigen::Vector4d(u(rng), u(rng), u(rng), 1.0).normalized())
+                        .toRotationMatrix();
     X_WB.translation() << u(rng), u(rng), 1.0 + u(rng);
     sim.set_state(X_WB, q);
     for (const char* link : {"pelvis", "imu_link", "l_sole", "r_sole", "l_shank", "r_thigh"}) {

@@ -66,7 +66,8 @@ TEST(SimScenario, SchemaErrorsNameTheKey) {
   EXPECT_NE(e.find("success.com_error_max_m: must be a number"), std::string::npos) << e;
   e = error_of(base + "dds: {vendor: zeromq}\n");
   EXPECT_NE(e.find("dds.vendor"), std::string::npos) << e;
-  e = error_of(std::string(kInline).replace(std::string(kInline).find("urdf/biped.urdf"), 15, "urdf/none.urdf"));
+  e = error_of(std::string(kInline).replace(std::string(kInline).find("urdf/biped.urdf"), 15,
+                                            "urdf/none.urdf"));
   EXPECT_NE(e.find("robot.urdf: file 'urdf/none.urdf' not found"), std::string::npos) << e;
   e = error_of(base + "sensors: {imu: {gyro_noise_std: -1}}\n");
   EXPECT_NE(e.find("sensors.imu.gyro_noise_std"), std::string::npos) << e;
@@ -91,7 +92,8 @@ TEST(SimScenario, PaperScenariosLoadAndStandOnTheirSupports) {
     c.q_ref = s.q;
     c.kp.setConstant(300);
     c.kd.setConstant(6);
-    for (int k = 0; k < 100; ++k) sim.step(c, s, g);
+    for (int k = 0; k < 100; ++k)
+      sim.step(c, s, g);
     // the supporting feet carry the robot, nothing else touches
     double fz = 0.0;
     for (std::size_t f = 0; f < g.feet.size(); ++f) {
@@ -138,7 +140,7 @@ TEST(SimScenario, MonitorMeasuresComErrorAndSlipAgainstTheSupports) {
     mon.update(g);
   };
   set(0.0, 0.0, 0.02, 0.0);
-  set(0.1, 0.3, 0.17, 0.0);    // platform moved 0.3: feet centre +0.15, CoM followed exactly
+  set(0.1, 0.3, 0.17, 0.0);  // platform moved 0.3: feet centre +0.15, CoM followed exactly
   EXPECT_NEAR(mon.result().com_error_max_m, 0.0, 1e-12);
   set(0.2, 0.3, 0.27, 0.004);  // CoM 0.1 ahead of its reference; left foot slid 4 mm
   auto r = mon.result();

@@ -31,7 +31,8 @@ struct Rig {
     cmd.kd.setConstant(kd);
   }
   void run(int steps) {
-    for (int k = 0; k < steps; ++k) sim.step(cmd, s, g);
+    for (int k = 0; k < steps; ++k)
+      sim.step(cmd, s, g);
   }
 };
 
@@ -261,7 +262,8 @@ TEST(SimSensors, StepDoesNotAllocateWithEigen) {
   r.run(20);
   Eigen::internal::set_is_malloc_allowed(false);
   r.run(100);
-  const bool pushed = r.sim.add_push(Push{"pelvis", Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 5, 0), 0.2, 0.01});
+  const bool pushed =
+      r.sim.add_push(Push{"pelvis", Eigen::Vector3d::Zero(), Eigen::Vector3d(0, 5, 0), 0.2, 0.01});
   r.run(100);
   Eigen::internal::set_is_malloc_allowed(true);
   EXPECT_TRUE(pushed);

@@ -22,7 +22,8 @@ TEST(SimWatchdog, DampsWhenCommandsStopAndResumesWhenTheyReturn) {
   }
   const std::int64_t last = now - kMs;
   // silence: active while the gap is <= 5 ms, stale after
-  for (; now <= last + 5 * kMs; now += kMs) EXPECT_EQ(w.update(now), CommandWatchdog::State::kActive) << now;
+  for (; now <= last + 5 * kMs; now += kMs)
+    EXPECT_EQ(w.update(now), CommandWatchdog::State::kActive) << now;
   EXPECT_EQ(w.update(last + 5 * kMs + 1), CommandWatchdog::State::kStale);
   EXPECT_TRUE(w.damping());
   EXPECT_EQ(w.stale_events(), 1);

@@ -1,20 +1,20 @@
 #include "robot_tree.hpp"
 
+#include <urdf_parser/urdf_parser.h>
 #include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
-#include <urdf_parser/urdf_parser.h>
 
 namespace poise::sim::detail {
 namespace {
 
 Eigen::Isometry3d to_iso(const urdf::Pose& p) {
   Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
-  X.linear() =
-      Eigen::Quaterniond(p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z).normalized()
-          .toRotationMatrix();
+  X.linear() = Eigen::Quaterniond(p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z)
+                   .normalized()
+                   .toRotationMatrix();
   X.translation() = Eigen::Vector3d(p.position.x, p.position.y, p.position.z);
   return X;
 }
@@ -48,8 +48,8 @@ struct Builder {
         auto shift = [](double mass, const Eigen::Vector3d& d) {
           return mass * (d.squaredNorm() * Eigen::Matrix3d::Identity() - d * d.transpose());
         };
-        body.inertia_com_L = body.inertia_com_L + shift(m0, body.com_L - com) + I_C_L +
-                             shift(m1, c - com);
+        body.inertia_com_L =
+            body.inertia_com_L + shift(m0, body.com_L - com) + I_C_L + shift(m1, c - com);
         body.com_L = com;
         body.mass = m;
       }

@@ -11,7 +11,8 @@ namespace poise::sim::detail {
 /// Collision primitive in the body frame L (the URDF frame of the body's own link).
 struct ShapeSpec {
   enum class Type { kBox, kSphere, kCylinder } type = Type::kBox;
-  Eigen::Vector3d size = Eigen::Vector3d::Zero();  ///< box half extents | (radius) | (radius, length)
+  Eigen::Vector3d size =
+      Eigen::Vector3d::Zero();  ///< box half extents | (radius) | (radius, length)
   Eigen::Isometry3d X_LS = Eigen::Isometry3d::Identity();
 };
 
@@ -20,8 +21,8 @@ struct BodySpec {
   int parent = -1;   ///< parent body index, -1 for the root (floating base)
   enum class Joint { kRoot, kRevolute, kPrismatic } joint = Joint::kRoot;
   std::string joint_name;
-  Eigen::Vector3d axis_L = Eigen::Vector3d::UnitZ();        ///< joint axis in L (unit)
-  Eigen::Isometry3d X_PJ = Eigen::Isometry3d::Identity();   ///< joint frame in parent L at q=0
+  Eigen::Vector3d axis_L = Eigen::Vector3d::UnitZ();       ///< joint axis in L (unit)
+  Eigen::Isometry3d X_PJ = Eigen::Isometry3d::Identity();  ///< joint frame in parent L at q=0
   bool limited = false;
   double lower = 0.0, upper = 0.0;
   double effort = 0.0;  ///< 0 = unlimited
@@ -40,7 +41,7 @@ struct FrameSpec {
 };
 
 struct RobotTree {
-  std::vector<BodySpec> bodies;  ///< bodies[0] is the root; parents precede children
+  std::vector<BodySpec> bodies;   ///< bodies[0] is the root; parents precede children
   std::vector<FrameSpec> frames;  ///< every URDF link
   const FrameSpec* find_frame(const std::string& name) const;
 };

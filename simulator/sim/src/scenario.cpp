@@ -25,14 +25,16 @@ struct Ctx {
   [[noreturn]] void fail(const std::string& key, const std::string& msg) const {
     throw std::runtime_error(what + ": " + key + ": " + msg);
   }
-  void allow(const YAML::Node& n, const std::string& key, std::initializer_list<const char*> keys) const {
+  void allow(const YAML::Node& n, const std::string& key,
+             std::initializer_list<const char*> keys) const {
     if (!n) return;
     if (!n.IsMap()) fail(key, "must be a mapping");
     for (const auto& kv : n) {
       const std::string k = kv.first.as<std::string>();
       if (std::none_of(keys.begin(), keys.end(), [&](const char* a) { return k == a; })) {
         std::string list;
-        for (const char* a : keys) list += std::string(list.empty() ? "" : ", ") + a;
+        for (const char* a : keys)
+          list += std::string(list.empty() ? "" : ", ") + a;
         fail(key.empty() ? k : key + "." + k, "unknown key (allowed: " + list + ")");
       }
     }
@@ -64,7 +66,8 @@ struct Ctx {
   Eigen::Vector3d vec3(const YAML::Node& n, const std::string& key) const {
     if (!n.IsSequence() || n.size() != 3) fail(key, "must be a list of 3 numbers");
     Eigen::Vector3d v;
-    for (int i = 0; i < 3; ++i) v[i] = num(n[i], key + "[" + std::to_string(i) + "]");
+    for (int i = 0; i < 3; ++i)
+      v[i] = num(n[i], key + "[" + std::to_string(i) + "]");
     return v;
   }
   fs::path path(const YAML::Node& n, const std::string& key) const {
@@ -105,7 +108,8 @@ Sinusoid sinusoid(const Ctx& c, const YAML::Node& n, const std::string& key, boo
   return s;
 }
 
-void load_robot(const Ctx& c, const YAML::Node& n, Scenario& sc, std::vector<std::pair<std::string, double>>& nominal) {
+void load_robot(const Ctx& c, const YAML::Node& n, Scenario& sc,
+                std::vector<std::pair<std::string, double>>& nominal) {
   const std::string key = "robot";
   if (!n) c.fail(key, "is required");
   c.allow(n, key, {"config", "urdf", "feet", "imu_frame", "self_collision", "damping_mode_kd"});
@@ -143,8 +147,9 @@ void load_robot(const Ctx& c, const YAML::Node& n, Scenario& sc, std::vector<std
     for (std::size_t j = 0; j < m.joint_names.size(); ++j)
       nominal.emplace_back(m.joint_names[j], rc.q_nominal[7 + static_cast<Eigen::Index>(j)]);
 #else
-    c.fail(key + ".config", "this build has no robot-configuration loader (poise_model); use "
-                            "'urdf' + 'feet'");
+    c.fail(key + ".config",
+           "this build has no robot-configuration loader (poise_model); use "
+           "'urdf' + 'feet'");
 #endif
   } else {
     if (!n["urdf"]) c.fail(key, "needs 'config' or 'urdf'");
@@ -199,9 +204,9 @@ void load_world(const Ctx& c, const YAML::Node& n, Scenario& sc) {
     for (std::size_t i = 0; i < ps.size(); ++i) {
       const YAML::Node p = ps[i];
       const std::string pk = key + ".platforms[" + std::to_string(i) + "]";
-      c.allow(p, pk, {"name", "foot", "size", "position", "auto_place", "roll_deg", "pitch_deg",
-                      "yaw_deg", "friction", "translation", "rotation", "motion_start",
-                      "motion_ramp"});
+      c.allow(p, pk,
+              {"name", "foot", "size", "position", "auto_place", "roll_deg", "pitch_deg", "yaw_deg",
+               "friction", "translation", "rotation", "motion_start", "motion_ramp"});
       PlatformConfig pc;
       pc.name = p["name"] ? c.str(p["name"], pk + ".name") : "platform" + std::to_string(i);
       if (p["foot"]) pc.foot = c.str(p["foot"], pk + ".foot");
@@ -219,7 +224,8 @@ void load_world(const Ctx& c, const YAML::Node& n, Scenario& sc) {
       pc.friction = c.num(p, "friction", pk, pc.friction);
       if (pc.friction < 0.0) c.fail(pk + ".friction", "must be >= 0");
       if (p["translation"])
-        pc.translation = sinusoid(c, p["translation"], pk + ".translation", false, pc.translation_axis);
+        pc.translation =
+            sinusoid(c, p["translation"], pk + ".translation", false, pc.translation_axis);
       if (p["rotation"])
         pc.rotation = sinusoid(c, p["rotation"], pk + ".rotation", true, pc.rotation_axis);
       pc.motion_start = c.num(p, "motion_start", pk, 0.0);
@@ -243,8 +249,9 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
     throw std::runtime_error(what + ": invalid YAML: " + e.what());
   }
   if (!root.IsMap()) throw std::runtime_error(what + ": the top level must be a mapping");
-  c.allow(root, "", {"name", "description", "robot", "world", "initial", "disturbances",
-                     "duration", "success", "sensors", "solver", "dds"});
+  c.allow(root, "",
+          {"name", "description", "robot", "world", "initial", "disturbances", "duration",
+           "success", "sensors", "solver", "dds"});
   Scenario sc;
   if (!root["name"]) c.fail("name", "is required");
   sc.name = c.str(root["name"], "name");
@@ -260,8 +267,9 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
   // initial state
   InitialState& ini = sc.sim.initial;
   if (const YAML::Node n = root["initial"]) {
-    c.allow(n, "initial", {"posture", "joints", "base_xy", "base_height", "base_rpy_deg",
-                           "clearance", "support"});
+    c.allow(
+        n, "initial",
+        {"posture", "joints", "base_xy", "base_height", "base_rpy_deg", "clearance", "support"});
     std::string posture = n["posture"] ? c.str(n["posture"], "initial.posture") : "nominal";
     if (posture != "nominal" && posture != "zero")
       c.fail("initial.posture", "must be 'nominal' or 'zero'");
@@ -290,7 +298,8 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
       ini.base_position.x() = c.num(n["base_xy"][0], "initial.base_xy[0]");
       ini.base_position.y() = c.num(n["base_xy"][1], "initial.base_xy[1]");
     }
-    if (n["base_height"] && !(n["base_height"].IsScalar() && n["base_height"].as<std::string>() == "auto")) {
+    if (n["base_height"] &&
+        !(n["base_height"].IsScalar() && n["base_height"].as<std::string>() == "auto")) {
       ini.auto_base_height = false;
       ini.base_position.z() = c.num(n["base_height"], "initial.base_height");
     }
@@ -310,8 +319,10 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
     }
   }
   bool support_ok = sc.support == "double";
-  for (const auto& f : sc.sim.robot.feet) support_ok = support_ok || f.name == sc.support;
-  if (!support_ok) c.fail("initial.support", "must be 'double' or a foot name, got '" + sc.support + "'");
+  for (const auto& f : sc.sim.robot.feet)
+    support_ok = support_ok || f.name == sc.support;
+  if (!support_ok)
+    c.fail("initial.support", "must be 'double' or a foot name, got '" + sc.support + "'");
 
   // disturbances
   if (const YAML::Node d = root["disturbances"]) {
@@ -343,7 +354,8 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
     ImuNoiseConfig& imu = sc.sim.imu;
     if (s["seed"]) {
       const double seed = c.num(s["seed"], "sensors.seed");
-      if (seed < 0.0 || seed != std::floor(seed)) c.fail("sensors.seed", "must be a non-negative integer");
+      if (seed < 0.0 || seed != std::floor(seed))
+        c.fail("sensors.seed", "must be a non-negative integer");
       imu.seed = static_cast<std::uint64_t>(seed);
     }
     if (const YAML::Node i = s["imu"]) {
@@ -359,9 +371,9 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
 
   // solver
   if (const YAML::Node s = root["solver"]) {
-    c.allow(s, "solver", {"dt", "iterations", "contact_erp", "contact_cfm", "friction_anchor",
-                          "residual_threshold", "joint_friction_constraint",
-                          "joint_friction_velocity"});
+    c.allow(s, "solver",
+            {"dt", "iterations", "contact_erp", "contact_cfm", "friction_anchor",
+             "residual_threshold", "joint_friction_constraint", "joint_friction_velocity"});
     SolverConfig& sv = sc.sim.solver;
     sv.dt = c.num(s, "dt", "solver", sv.dt);
     if (!(sv.dt > 0.0 && sv.dt <= 0.01)) c.fail("solver.dt", "must be in (0, 0.01] s");
@@ -376,13 +388,15 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
         c.boolean(s, "joint_friction_constraint", "solver", sv.joint_friction_constraint);
     sv.joint_friction_velocity =
         c.num(s, "joint_friction_velocity", "solver", sv.joint_friction_velocity);
-    if (!(sv.joint_friction_velocity > 0.0)) c.fail("solver.joint_friction_velocity", "must be > 0");
+    if (!(sv.joint_friction_velocity > 0.0))
+      c.fail("solver.joint_friction_velocity", "must be > 0");
   }
 
   // success criteria
   if (const YAML::Node s = root["success"]) {
-    c.allow(s, "success", {"com_error_max_m", "com_error_final_m", "foot_slip_max_m",
-                           "recovery_time_s", "allow_non_foot_contacts", "min_base_height_m"});
+    c.allow(s, "success",
+            {"com_error_max_m", "com_error_final_m", "foot_slip_max_m", "recovery_time_s",
+             "allow_non_foot_contacts", "min_base_height_m"});
     SuccessCriteria& k = sc.success;
     k.com_error_max_m = c.num(s, "com_error_max_m", "success", k.com_error_max_m);
     k.com_error_final_m = c.num(s, "com_error_final_m", "success", k.com_error_final_m);
@@ -418,9 +432,11 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
     const std::string& foot = sc.sim.world.platforms[i].foot;
     if (foot.empty()) continue;
     bool found = false;
-    for (const auto& f : sc.sim.robot.feet) found = found || f.name == foot;
+    for (const auto& f : sc.sim.robot.feet)
+      found = found || f.name == foot;
     if (!found)
-      c.fail("world.platforms[" + std::to_string(i) + "].foot", "'" + foot + "' is not a foot of the robot");
+      c.fail("world.platforms[" + std::to_string(i) + "].foot",
+             "'" + foot + "' is not a foot of the robot");
   }
   return sc;
 }
@@ -449,7 +465,8 @@ ScenarioMonitor::ScenarioMonitor(const Scenario& scenario, std::vector<int> plat
   for (std::size_t f = 0; f < scenario.sim.robot.feet.size(); ++f)
     if (scenario.support == "double" || scenario.sim.robot.feet[f].name == scenario.support)
       support_feet_.push_back(static_cast<int>(f));
-  for (const Push& p : scenario.sim.pushes) last_push_end_ = std::max(last_push_end_, p.start + p.duration);
+  for (const Push& p : scenario.sim.pushes)
+    last_push_end_ = std::max(last_push_end_, p.start + p.duration);
   foot_in_support_0_.assign(scenario.sim.robot.feet.size(), Eigen::Vector3d::Zero());
   r_.last_recovery_time_s = std::numeric_limits<double>::infinity();
 }
@@ -462,7 +479,8 @@ void ScenarioMonitor::update(const GroundTruth& g) {
                : Eigen::Isometry3d::Identity();
   };
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();
-  for (int f : support_feet_) centre += g.feet[static_cast<std::size_t>(f)].X_WF.translation().head<2>();
+  for (int f : support_feet_)
+    centre += g.feet[static_cast<std::size_t>(f)].X_WF.translation().head<2>();
   centre /= static_cast<double>(std::max<std::size_t>(1, support_feet_.size()));
   if (!initialised_) {
     com_offset_ = g.com_W.head<2>() - centre;
@@ -480,8 +498,8 @@ void ScenarioMonitor::update(const GroundTruth& g) {
     const auto& ft = g.feet[static_cast<std::size_t>(f)];
     if (!ft.in_contact) continue;
     const Eigen::Vector3d p = support_pose(f).inverse() * ft.X_WF.translation();
-    r_.foot_slip_max_m =
-        std::max(r_.foot_slip_max_m, (p - foot_in_support_0_[static_cast<std::size_t>(f)]).head<2>().norm());
+    r_.foot_slip_max_m = std::max(
+        r_.foot_slip_max_m, (p - foot_in_support_0_[static_cast<std::size_t>(f)]).head<2>().norm());
   }
   if (g.num_non_foot_contacts > 0) ++r_.non_foot_contacts;
   r_.min_base_height_m = std::min(r_.min_base_height_m, g.X_WB.translation().z());
@@ -494,7 +512,8 @@ ScenarioMonitor::Result ScenarioMonitor::result() const {
                                ? std::max(0.0, last_bad_time_ - last_push_end_)
                                : std::numeric_limits<double>::infinity();
   r.survived = initialised_ && r.com_error_max_m <= k.com_error_max_m &&
-               r.com_error_final_m <= k.com_error_final_m && r.foot_slip_max_m <= k.foot_slip_max_m &&
+               r.com_error_final_m <= k.com_error_final_m &&
+               r.foot_slip_max_m <= k.foot_slip_max_m &&
                (k.allow_non_foot_contacts || r.non_foot_contacts == 0) &&
                r.min_base_height_m >= k.min_base_height_m &&
                (std::isinf(k.recovery_time_s) || r.last_recovery_time_s <= k.recovery_time_s);

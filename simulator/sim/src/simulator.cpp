@@ -50,9 +50,15 @@ constexpr int kEnvGroup = 2;
 constexpr int kGroundIndex = -1;  // collision-object user index of the ground
 // platform k has user index -2 - k; robot bodies have their body index (>= 0)
 
-btVector3 bt(const Eigen::Vector3d& v) { return btVector3(v.x(), v.y(), v.z()); }
-Eigen::Vector3d eig(const btVector3& v) { return Eigen::Vector3d(v.x(), v.y(), v.z()); }
-btQuaternion bt(const Eigen::Quaterniond& q) { return btQuaternion(q.x(), q.y(), q.z(), q.w()); }
+btVector3 bt(const Eigen::Vector3d& v) {
+  return btVector3(v.x(), v.y(), v.z());
+}
+Eigen::Vector3d eig(const btVector3& v) {
+  return Eigen::Vector3d(v.x(), v.y(), v.z());
+}
+btQuaternion bt(const Eigen::Quaterniond& q) {
+  return btQuaternion(q.x(), q.y(), q.z(), q.w());
+}
 btTransform bt(const Eigen::Isometry3d& X) {
   return btTransform(bt(Eigen::Quaterniond(X.linear())), bt(Eigen::Vector3d(X.translation())));
 }
@@ -217,8 +223,10 @@ Simulator::Impl::Impl(const SimulatorConfig& c) : cfg(c), rng(c.imu.seed) {
     damping[i] = b.damping;
     if (!cfg.solver.joint_friction_constraint) friction[i] = b.friction;
   }
-  for (const auto& b : tree.bodies) body_names.push_back(b.name);
-  for (const auto& b : tree.bodies) mass += b.mass;
+  for (const auto& b : tree.bodies)
+    body_names.push_back(b.name);
+  for (const auto& b : tree.bodies)
+    mass += b.mass;
   resolve_feet_and_imu();
 
   collision_config = std::make_unique<btDefaultCollisionConfiguration>();
@@ -243,7 +251,8 @@ Simulator::Impl::Impl(const SimulatorConfig& c) : cfg(c), rng(c.imu.seed) {
   build_world();
 
   pushes.reserve(cfg.pushes.size() + static_cast<std::size_t>(std::max(0, cfg.max_live_pushes)));
-  for (const Push& p : cfg.pushes) pushes.push_back(resolve_push(p));
+  for (const Push& p : cfg.pushes)
+    pushes.push_back(resolve_push(p));
 
   const std::size_t nb = tree.bodies.size();
   X_WK.assign(nb, Eigen::Isometry3d::Identity());
@@ -263,10 +272,13 @@ Simulator::Impl::~Impl() {
   if (world) {
     for (auto& l : limits)
       if (!l.active) world->addMultiBodyConstraint(l.constraint);
-    for (auto& c : constraints) world->removeMultiBodyConstraint(c.get());
-    for (auto& c : colliders) world->removeCollisionObject(c.get());
+    for (auto& c : constraints)
+      world->removeMultiBodyConstraint(c.get());
+    for (auto& c : colliders)
+      world->removeCollisionObject(c.get());
     if (mb) world->removeMultiBody(mb.get());
-    for (auto& p : platforms) world->removeRigidBody(p.body.get());
+    for (auto& p : platforms)
+      world->removeRigidBody(p.body.get());
     if (ground) world->removeCollisionObject(ground.get());
   }
   constraints.clear();
@@ -304,8 +316,8 @@ void Simulator::Impl::resolve_feet_and_imu() {
       box.type = ShapeSpec::Type::kBox;
       box.size = 0.5 * Eigen::Vector3d(s.x_max - s.x_min, s.y_max - s.y_min, s.thickness);
       Eigen::Isometry3d X_FS = Eigen::Isometry3d::Identity();
-      X_FS.translation() =
-          Eigen::Vector3d(0.5 * (s.x_min + s.x_max), 0.5 * (s.y_min + s.y_max), -s.height + 0.5 * s.thickness);
+      X_FS.translation() = Eigen::Vector3d(0.5 * (s.x_min + s.x_max), 0.5 * (s.y_min + s.y_max),
+                                           -s.height + 0.5 * s.thickness);
       box.X_LS = fr->X_LF * X_FS;
       body.shapes.push_back(box);
     }
@@ -375,8 +387,8 @@ void Simulator::Impl::build_robot() {
       mb->setupRevolute(i, body.mass, bt(principal[b]), body.parent - 1, rot_parent_to_this, axis,
                         parent_com_to_pivot, pivot_to_com, disable_parent_collision);
     else
-      mb->setupPrismatic(i, body.mass, bt(principal[b]), body.parent - 1, rot_parent_to_this,
-                         axis, parent_com_to_pivot, pivot_to_com, disable_parent_collision);
+      mb->setupPrismatic(i, body.mass, bt(principal[b]), body.parent - 1, rot_parent_to_this, axis,
+                         parent_com_to_pivot, pivot_to_com, disable_parent_collision);
   }
   mb->finalizeMultiDof();
   mb->setLinearDamping(0.0);
@@ -429,7 +441,8 @@ void Simulator::Impl::build_robot() {
   for (int i = 0; i < n; ++i) {
     const BodySpec& body = tree.bodies[static_cast<std::size_t>(i + 1)];
     if (body.limited) {
-      auto lim = std::make_unique<btMultiBodyJointLimitConstraint>(mb.get(), i, body.lower, body.upper);
+      auto lim =
+          std::make_unique<btMultiBodyJointLimitConstraint>(mb.get(), i, body.lower, body.upper);
       world->addMultiBodyConstraint(lim.get());  // all in once: the array keeps its capacity
       limits.push_back(Limit{i, body.lower, body.upper, lim.get(), true});
       constraints.push_back(std::move(lim));
@@ -445,8 +458,10 @@ void Simulator::Impl::build_robot() {
 
 void Simulator::Impl::build_world() {
   if (cfg.world.ground.enabled) {
-    if (!(cfg.world.ground.friction >= 0.0)) throw std::runtime_error("world.ground.friction must be >= 0");
-    ground_shape = std::make_unique<btStaticPlaneShape>(btVector3(0, 0, 1), cfg.world.ground.height);
+    if (!(cfg.world.ground.friction >= 0.0))
+      throw std::runtime_error("world.ground.friction must be >= 0");
+    ground_shape =
+        std::make_unique<btStaticPlaneShape>(btVector3(0, 0, 1), cfg.world.ground.height);
     ground = std::make_unique<btCollisionObject>();
     ground->setCollisionShape(ground_shape.get());
     ground->setFriction(cfg.world.ground.friction);
@@ -559,7 +574,8 @@ double Simulator::Impl::lowest_foot_point(int foot, const Eigen::Vector3d& norma
   const Foot& f = feet[static_cast<std::size_t>(foot)];
   const Eigen::Isometry3d X_WF = frame_pose(f.body, f.X_KF);
   double lo = std::numeric_limits<double>::infinity();
-  for (const auto& c : f.sole_corners_F) lo = std::min(lo, normal.dot(X_WF * c));
+  for (const auto& c : f.sole_corners_F)
+    lo = std::min(lo, normal.dot(X_WF * c));
   return lo;
 }
 
@@ -569,8 +585,7 @@ void Simulator::Impl::apply_initial_state() {
     feet[i].X_KF = X_LK[static_cast<std::size_t>(fr->body)].inverse() * fr->X_LF;
   }
   {
-    const std::string imu =
-        cfg.robot.imu_frame.empty() ? tree.bodies[0].name : cfg.robot.imu_frame;
+    const std::string imu = cfg.robot.imu_frame.empty() ? tree.bodies[0].name : cfg.robot.imu_frame;
     const detail::FrameSpec* fr = tree.find_frame(imu);
     imu_body = fr->body;
     X_KI = X_LK[static_cast<std::size_t>(fr->body)].inverse() * fr->X_LF;
@@ -600,7 +615,8 @@ void Simulator::Impl::apply_initial_state() {
   if (ini.auto_base_height) {
     double support_top = cfg.world.ground.enabled ? cfg.world.ground.height : 0.0;
     for (const Platform& p : platforms)
-      if (p.cfg.auto_place) support_top = std::max(support_top, cfg.world.ground.height + 2.0 * p.cfg.half_extents.z());
+      if (p.cfg.auto_place)
+        support_top = std::max(support_top, cfg.world.ground.height + 2.0 * p.cfg.half_extents.z());
     double lo = std::numeric_limits<double>::infinity();
     for (std::size_t f = 0; f < feet.size(); ++f)
       lo = std::min(lo, lowest_foot_point(static_cast<int>(f), Eigen::Vector3d::UnitZ()));
@@ -615,7 +631,8 @@ void Simulator::Impl::apply_initial_state() {
     const Foot& foot = feet[static_cast<std::size_t>(f)];
     const Eigen::Isometry3d X_WF = frame_pose(foot.body, foot.X_KF);
     Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-    for (const auto& c : foot.sole_corners_F) centre += X_WF * c;
+    for (const auto& c : foot.sole_corners_F)
+      centre += X_WF * c;
     centre /= static_cast<double>(foot.sole_corners_F.size());
     const Eigen::Vector3d nrm = p.R_incline.col(2);
     const double top = lowest_foot_point(f, nrm) - ini.clearance;
@@ -634,7 +651,8 @@ void Simulator::Impl::set_state(const Eigen::Isometry3d& X_WB, const Eigen::Vect
   const Eigen::Isometry3d X_WK0 = X_WB * X_LK[0];
   mb->setBasePos(bt(Eigen::Vector3d(X_WK0.translation())));
   mb->setWorldToBaseRot(bt(Eigen::Quaterniond(X_WK0.linear()).conjugate()));
-  mb->setBaseVel(bt(Eigen::Vector3d(v_WB + omega_WB.cross(X_WK0.translation() - X_WB.translation()))));
+  mb->setBaseVel(
+      bt(Eigen::Vector3d(v_WB + omega_WB.cross(X_WK0.translation() - X_WB.translation()))));
   mb->setBaseOmega(bt(omega_WB));
   for (int i = 0; i < n; ++i) {
     mb->setJointPos(i, q[i]);
@@ -642,7 +660,8 @@ void Simulator::Impl::set_state(const Eigen::Isometry3d& X_WB, const Eigen::Vect
   }
   mb->updateCollisionObjectWorldTransforms(scratch_q, scratch_m);
   update_kinematics();
-  for (auto& c : colliders) world->updateSingleAabb(c.get());
+  for (auto& c : colliders)
+    world->updateSingleAabb(c.get());
   const Eigen::Isometry3d X_WI = frame_pose(imu_body, X_KI);
   imu_v_prev = point_velocity(imu_body, X_WI.translation());
   imu_a.setZero();
@@ -673,9 +692,11 @@ void Simulator::Impl::fill(SensorFrame& s, GroundTruth& g, bool measure_imu) {
   s.imu_omega_I = R_WI.transpose() * w_W[static_cast<std::size_t>(imu_body)] + nz.gyro_bias;
   s.imu_specific_force_I = R_WI.transpose() * (imu_a - cfg.world.gravity) + nz.accel_bias;
   if (nz.gyro_noise_std > 0.0)
-    for (int k = 0; k < 3; ++k) s.imu_omega_I[k] += nz.gyro_noise_std * normal(rng);
+    for (int k = 0; k < 3; ++k)
+      s.imu_omega_I[k] += nz.gyro_noise_std * normal(rng);
   if (nz.accel_noise_std > 0.0)
-    for (int k = 0; k < 3; ++k) s.imu_specific_force_I[k] += nz.accel_noise_std * normal(rng);
+    for (int k = 0; k < 3; ++k)
+      s.imu_specific_force_I[k] += nz.accel_noise_std * normal(rng);
 
   // Base, CoM
   g.X_WB = X_WK[0] * X_LK[0].inverse();
@@ -724,11 +745,11 @@ void Simulator::Impl::fill(SensorFrame& s, GroundTruth& g, bool measure_imu) {
       const double ln = pt.getAppliedImpulse();
       const bool touching = ln > 0.0 || pt.getDistance() < 0.0;
       if (!touching) continue;
-      const Eigen::Vector3d f =
-          sign *
-          (eig(pt.m_normalWorldOnB) * ln + eig(pt.m_lateralFrictionDir1) * pt.m_appliedImpulseLateral1 +
-           eig(pt.m_lateralFrictionDir2) * pt.m_appliedImpulseLateral2) /
-          dt;
+      const Eigen::Vector3d f = sign *
+                                (eig(pt.m_normalWorldOnB) * ln +
+                                 eig(pt.m_lateralFrictionDir1) * pt.m_appliedImpulseLateral1 +
+                                 eig(pt.m_lateralFrictionDir2) * pt.m_appliedImpulseLateral2) /
+                                dt;
       g.total_contact_force_W += f;
       if (foot < 0) {
         if (!g.non_foot_contact[static_cast<std::size_t>(body)]) ++g.num_non_foot_contacts;
@@ -736,7 +757,8 @@ void Simulator::Impl::fill(SensorFrame& s, GroundTruth& g, bool measure_imu) {
         continue;
       }
       FootContactTruth& ft = g.feet[static_cast<std::size_t>(foot)];
-      const Eigen::Vector3d p = eig(robot_is_a ? pt.getPositionWorldOnA() : pt.getPositionWorldOnB());
+      const Eigen::Vector3d p =
+          eig(robot_is_a ? pt.getPositionWorldOnA() : pt.getPositionWorldOnB());
       ft.force_W += f;
       ft.torque_Fo_W += (p - ft.X_WF.translation()).cross(f);
       ft.cop_W += ln * p;
@@ -765,16 +787,36 @@ Simulator::Simulator(const SimulatorConfig& config) {
 }
 Simulator::~Simulator() = default;
 
-const std::vector<std::string>& Simulator::joint_names() const { return impl_->joint_names; }
-int Simulator::num_joints() const { return impl_->n; }
-const std::vector<std::string>& Simulator::body_names() const { return impl_->body_names; }
-const std::vector<std::string>& Simulator::foot_names() const { return impl_->foot_names; }
-double Simulator::total_mass() const { return impl_->mass; }
-double Simulator::dt() const { return impl_->dt; }
-std::int64_t Simulator::tick() const { return impl_->tick; }
-double Simulator::time() const { return static_cast<double>(impl_->tick) * impl_->dt; }
-const Eigen::VectorXd& Simulator::effort_limits() const { return impl_->effort; }
-double Simulator::damping_kd() const { return impl_->cfg.robot.damping_mode_kd; }
+const std::vector<std::string>& Simulator::joint_names() const {
+  return impl_->joint_names;
+}
+int Simulator::num_joints() const {
+  return impl_->n;
+}
+const std::vector<std::string>& Simulator::body_names() const {
+  return impl_->body_names;
+}
+const std::vector<std::string>& Simulator::foot_names() const {
+  return impl_->foot_names;
+}
+double Simulator::total_mass() const {
+  return impl_->mass;
+}
+double Simulator::dt() const {
+  return impl_->dt;
+}
+std::int64_t Simulator::tick() const {
+  return impl_->tick;
+}
+double Simulator::time() const {
+  return static_cast<double>(impl_->tick) * impl_->dt;
+}
+const Eigen::VectorXd& Simulator::effort_limits() const {
+  return impl_->effort;
+}
+double Simulator::damping_kd() const {
+  return impl_->cfg.robot.damping_mode_kd;
+}
 
 SensorFrame Simulator::make_sensor_frame() const {
   SensorFrame s;
@@ -799,7 +841,9 @@ JointCommand Simulator::make_command() const {
   return c;
 }
 
-void Simulator::read(SensorFrame& sensors, GroundTruth& truth) { impl_->fill(sensors, truth, false); }
+void Simulator::read(SensorFrame& sensors, GroundTruth& truth) {
+  impl_->fill(sensors, truth, false);
+}
 
 StepStatus Simulator::step(const JointCommand& cmd, SensorFrame& sensors, GroundTruth& truth) {
   Impl& s = *impl_;
@@ -838,7 +882,8 @@ StepStatus Simulator::step(const JointCommand& cmd, SensorFrame& sensors, Ground
     }
     t = std::clamp(t, -s.effort[i], s.effort[i]);
     s.tau[i] = t;
-    const double fr = s.friction[i] * std::clamp(qd / s.cfg.solver.joint_friction_velocity, -1.0, 1.0);
+    const double fr =
+        s.friction[i] * std::clamp(qd / s.cfg.solver.joint_friction_velocity, -1.0, 1.0);
     mb.addJointTorque(i, t - s.damping[i] * qd - fr);
   }
   if (!ok) status = StepStatus::kRejectedCommand;

@@ -14,10 +14,10 @@
 namespace poise::sim {
 
 struct SuccessCriteria {
-  double com_error_max_m = std::numeric_limits<double>::infinity();  ///< over the whole run
+  double com_error_max_m = std::numeric_limits<double>::infinity();    ///< over the whole run
   double com_error_final_m = std::numeric_limits<double>::infinity();  ///< at the end
-  double foot_slip_max_m = std::numeric_limits<double>::infinity();  ///< of a supporting foot
-  double recovery_time_s = std::numeric_limits<double>::infinity();  ///< after the last push
+  double foot_slip_max_m = std::numeric_limits<double>::infinity();    ///< of a supporting foot
+  double recovery_time_s = std::numeric_limits<double>::infinity();    ///< after the last push
   bool allow_non_foot_contacts = false;  ///< a knee / hand / trunk touching = fall
   double min_base_height_m = 0.0;        ///< base below this height = fall
 };

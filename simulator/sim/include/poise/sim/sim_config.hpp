@@ -28,9 +28,9 @@ struct FootConfig {
 
 /// Robot side of the simulation.
 struct RobotConfig {
-  std::string urdf_path;          ///< URDF file (absolute, or relative to the working dir)
-  std::vector<FootConfig> feet;   ///< at least one
-  std::string imu_frame;          ///< URDF link name of the IMU frame (default: root link)
+  std::string urdf_path;         ///< URDF file (absolute, or relative to the working dir)
+  std::vector<FootConfig> feet;  ///< at least one
+  std::string imu_frame;         ///< URDF link name of the IMU frame (default: root link)
   bool self_collision = false;
   /// Damping gain used in damping mode and by the watchdog [N m s/rad] (all joints).
   double damping_mode_kd = 5.0;
@@ -82,29 +82,29 @@ struct WorldConfig {
 /// External push: force_W applied at point_L (in the link frame of `link`) during
 /// [start, start + duration).
 struct Push {
-  std::string link;  ///< URDF link name
+  std::string link;                                   ///< URDF link name
   Eigen::Vector3d point_L = Eigen::Vector3d::Zero();  ///< [m]
   Eigen::Vector3d force_W = Eigen::Vector3d::Zero();  ///< [N]
-  double start = 0.0;     ///< [s]
-  double duration = 0.0;  ///< [s]
+  double start = 0.0;                                 ///< [s]
+  double duration = 0.0;                              ///< [s]
 };
 
 /// IMU noise model: white Gaussian noise (std per axis, per sample) plus a constant bias.
 struct ImuNoiseConfig {
-  double gyro_noise_std = 0.0;  ///< [rad/s]
-  Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();  ///< [rad/s]
-  double accel_noise_std = 0.0;  ///< [m/s^2]
+  double gyro_noise_std = 0.0;                           ///< [rad/s]
+  Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();   ///< [rad/s]
+  double accel_noise_std = 0.0;                          ///< [m/s^2]
   Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();  ///< [m/s^2]
   std::uint64_t seed = 1;
 };
 
 /// Contact / solver settings. Defaults were measured on the project humanoid (README).
 struct SolverConfig {
-  double dt = 0.001;             ///< step [s]; one substep per step
-  int iterations = 50;           ///< sequential-impulse iterations
-  double contact_erp = 0.2;      ///< penetration correction factor
-  double contact_cfm = 0.0;      ///< constraint force mixing
-  bool friction_anchor = true;   ///< anchor static foot contacts (no slow creep)
+  double dt = 0.001;            ///< step [s]; one substep per step
+  int iterations = 50;          ///< sequential-impulse iterations
+  double contact_erp = 0.2;     ///< penetration correction factor
+  double contact_cfm = 0.0;     ///< constraint force mixing
+  bool friction_anchor = true;  ///< anchor static foot contacts (no slow creep)
   /// Stop iterating once the solver residual is below this (0 = always run all iterations).
   double residual_threshold = 1e-9;
   /// URDF joint friction as exact Coulomb friction (one velocity-motor row per joint in the
@@ -120,7 +120,7 @@ struct InitialState {
   Eigen::Vector3d base_position = Eigen::Vector3d(0.0, 0.0, 1.0);  ///< [m]
   Eigen::Vector4d base_orientation_wxyz = Eigen::Vector4d(1.0, 0.0, 0.0, 0.0);
   bool auto_base_height = true;
-  double clearance = 0.0;  ///< gap between the lowest sole corner and its support [m]
+  double clearance = 0.0;                ///< gap between the lowest sole corner and its support [m]
   std::vector<std::string> joint_names;  ///< joints to set (any order, subset)
   std::vector<double> joint_positions;   ///< same size
   Eigen::Vector3d base_linear_velocity = Eigen::Vector3d::Zero();  ///< in W [m/s]

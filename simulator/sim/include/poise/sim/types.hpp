@@ -24,13 +24,13 @@ enum class CommandMode : std::uint8_t {
 /// One joint command (controller -> robot). All vectors have dim n = Simulator::num_joints().
 /// The applied torque is clamped to the URDF effort limit of each joint.
 struct JointCommand {
-  std::int64_t tick = -1;         ///< tick k of the sensor frame this command derives from
+  std::int64_t tick = -1;  ///< tick k of the sensor frame this command derives from
   CommandMode mode = CommandMode::kTorque;
-  Eigen::VectorXd tau_ff;         ///< feed-forward torque [N m] or force [N] (dim n)
-  Eigen::VectorXd q_ref;          ///< reference position [rad] or [m] (dim n)
-  Eigen::VectorXd qd_ref;         ///< reference velocity [rad/s] or [m/s] (dim n)
-  Eigen::VectorXd kp;             ///< position gain [N m/rad] (dim n)
-  Eigen::VectorXd kd;             ///< velocity gain [N m s/rad] (dim n)
+  Eigen::VectorXd tau_ff;  ///< feed-forward torque [N m] or force [N] (dim n)
+  Eigen::VectorXd q_ref;   ///< reference position [rad] or [m] (dim n)
+  Eigen::VectorXd qd_ref;  ///< reference velocity [rad/s] or [m/s] (dim n)
+  Eigen::VectorXd kp;      ///< position gain [N m/rad] (dim n)
+  Eigen::VectorXd kd;      ///< velocity gain [N m s/rad] (dim n)
 
   /// Zero command of dim n (mode torque, all zeros). Allocates: configuration time only.
   void resize(int n);
@@ -38,8 +38,8 @@ struct JointCommand {
 
 /// What a real robot could publish on the sensor topic at 1 kHz.
 struct SensorFrame {
-  std::int64_t tick = 0;  ///< tick number k (0 after reset)
-  double time = 0.0;      ///< robot time [s] = k * dt
+  std::int64_t tick = 0;         ///< tick number k (0 after reset)
+  double time = 0.0;             ///< robot time [s] = k * dt
   Eigen::VectorXd q;             ///< joint positions [rad | m] (dim n)
   Eigen::VectorXd qd;            ///< joint velocities [rad/s | m/s] (dim n)
   Eigen::VectorXd tau_measured;  ///< joint torque actually applied by the actuator (dim n)
@@ -73,11 +73,11 @@ struct GroundTruth {
   std::int64_t tick = 0;
   double time = 0.0;
   Eigen::Isometry3d X_WB = Eigen::Isometry3d::Identity();  ///< base (URDF root link) pose
-  Eigen::Vector3d v_WB = Eigen::Vector3d::Zero();      ///< base origin velocity, in W [m/s]
-  Eigen::Vector3d omega_WB = Eigen::Vector3d::Zero();  ///< base angular velocity, in W [rad/s]
-  Eigen::Vector3d com_W = Eigen::Vector3d::Zero();     ///< whole-body centre of mass [m]
-  Eigen::Vector3d com_vel_W = Eigen::Vector3d::Zero(); ///< its velocity [m/s]
-  std::vector<FootContactTruth> feet;                  ///< one per foot
+  Eigen::Vector3d v_WB = Eigen::Vector3d::Zero();          ///< base origin velocity, in W [m/s]
+  Eigen::Vector3d omega_WB = Eigen::Vector3d::Zero();      ///< base angular velocity, in W [rad/s]
+  Eigen::Vector3d com_W = Eigen::Vector3d::Zero();         ///< whole-body centre of mass [m]
+  Eigen::Vector3d com_vel_W = Eigen::Vector3d::Zero();     ///< its velocity [m/s]
+  std::vector<FootContactTruth> feet;                      ///< one per foot
   /// Per simulated body (order of Simulator::body_names()): 1 when a body that is not a foot
   /// touches the environment this tick.
   std::vector<std::uint8_t> non_foot_contact;
