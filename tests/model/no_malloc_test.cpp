@@ -28,6 +28,21 @@ void operator delete(void* p, std::size_t) noexcept {
 namespace poise::model {
 namespace {
 
+#ifdef NDEBUG
+#error "this test needs eigen_assert active (no NDEBUG)"
+#endif
+
+TEST(NoMallocDeathTest, GuardIsActiveInThisBuild) {
+  // Proves the check below can fail: a dynamic Eigen allocation while forbidden aborts.
+  EXPECT_DEATH(
+      {
+        Eigen::internal::set_is_malloc_allowed(false);
+        Eigen::VectorXd x(100);
+        x.setZero();
+      },
+      "");
+}
+
 TEST(NoMalloc, OneTickOfEveryAlgorithm) {
   for (const std::string& path : test::all_urdfs()) {
     const Model model = build_model_from_urdf_file(path);
