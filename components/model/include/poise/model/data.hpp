@@ -22,8 +22,9 @@ struct Data {
   std::vector<Force> f;                ///< RNEA: wrench transmitted by the body's joint, body frame
   std::vector<Inertia> Ycrb;           ///< CRBA: composite inertia of the subtree, body frame
   std::vector<InertiaAtOrigin> oYcrb;  ///< CMM: composite inertia, world axes, world origin
-  /// External wrench on each body, world axes, about the WORLD ORIGIN (fill with
-  /// add_external_wrench; cleared by clear_external_forces).
+  /// External wrench on each body, world axes, about the WORLD ORIGIN. Fill it with
+  /// add_external_wrench and reset it with clear_external_forces; if you write it directly, also
+  /// set any_f_ext = true, or rnea ignores it.
   std::vector<Force> f_ext_W;
   bool any_f_ext = false;  ///< set by add_external_wrench, cleared by clear_external_forces
 
