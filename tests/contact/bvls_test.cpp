@@ -113,7 +113,9 @@ TEST(Bvls, InteriorSolutionIsUnconstrainedLeastSquares) {
 TEST(Bvls, IterationCapAndBadInput) {
   std::mt19937 rng(11);
   const Eigen::MatrixXd A = random_matrix(rng, 6, 6);
-  const Eigen::VectorXd b = A * Eigen::VectorXd::Constant(6, 0.5);
+  Eigen::VectorXd x_out(6);
+  x_out << 2, -1, 0.5, 3, -2, 0.5;  // several variables must end on a bound
+  const Eigen::VectorXd b = A * x_out;
   const Eigen::VectorXd lo = Eigen::VectorXd::Zero(6), hi = Eigen::VectorXd::Ones(6);
   Bvls solver(6, 6);
   solver.set_max_iterations(1);

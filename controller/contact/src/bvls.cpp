@@ -92,6 +92,59 @@ SolverStatus Bvls::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
     rejected_[j] = 0;
   }
 
+  // Warm start (Stark-Parker's alternative start): solve with every non-fixed variable free; move
+  // the variables that leave their bounds onto the violated bound and re-solve, until the free
+  // solution is inside its bounds. The result is a feasible point from which the main loop
+  // continues; if a sub-problem is ill-conditioned the cold start above is kept.
+  {
+    for (int j = 0; j < n; ++j)
+      if (lower[j] < upper[j]) state_[j] = kFree;
+    bool done = false;
+    while (!done && iterations_ < max_iterations_) {
+      ++iterations_;
+      int k = 0;
+      for (int j = 0; j < n; ++j)
+        if (state_[j] == kFree) cols_[k++] = j;
+      if (k == 0) {
+        done = true;
+        break;
+      }
+      for (int c = 0; c < k; ++c) {
+        double s = Atb_[cols_[c]];
+        for (int j = 0; j < n; ++j)
+          if (state_[j] != kFree) s -= AtA_(cols_[c], j) * x[j];
+        rhs_[c] = s;
+      }
+      if (!detail::subset_normal_equations(AtA_, cols_.data(), k, rhs_.data(), L_, z_.data())) {
+        break;
+      }
+      bool inside = true;
+      for (int c = 0; c < k; ++c) {
+        const int j = cols_[c];
+        if (z_[c] < lower[j]) {
+          x[j] = lower[j];
+          state_[j] = kAtLower;
+          inside = false;
+        } else if (z_[c] > upper[j]) {
+          x[j] = upper[j];
+          state_[j] = kAtUpper;
+          inside = false;
+        }
+      }
+      if (inside) {
+        for (int c = 0; c < k; ++c)
+          x[cols_[c]] = z_[c];
+        done = true;
+      }
+    }
+    if (!done) {  // back to the cold start
+      for (int j = 0; j < n; ++j) {
+        x[j] = lower[j];
+        state_[j] = kAtLower;
+      }
+    }
+  }
+
   SolverStatus status = SolverStatus::kOptimal;
   bool x_changed = true;
   for (;;) {

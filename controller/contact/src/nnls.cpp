@@ -80,6 +80,36 @@ SolverStatus Nnls::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
     Atb_[j] = s;
   }
 
+  // Warm start: the unconstrained least-squares solution, pruned repeatedly to its positive
+  // entries, gives a feasible point (x_P > 0, x_Z = 0) from which Lawson-Hanson continues; when the
+  // unconstrained solution is already non-negative this is the answer. If a sub-problem is
+  // ill-conditioned the solver starts cold from x = 0.
+  {
+    int k = n;
+    for (int j = 0; j < n; ++j)
+      cols_[j] = j;
+    while (k > 0 && iterations_ < max_iterations_) {
+      ++iterations_;
+      for (int c = 0; c < k; ++c)
+        rhs_[c] = Atb_[cols_[c]];
+      if (!detail::subset_normal_equations(AtA_, cols_.data(), k, rhs_.data(), L_, z_.data())) {
+        break;
+      }
+      int kept = 0;
+      for (int c = 0; c < k; ++c) {
+        if (z_[c] > 0.0) cols_[kept++] = cols_[c];
+      }
+      if (kept == k) {
+        for (int c = 0; c < k; ++c) {
+          x[cols_[c]] = z_[c];
+          passive_[cols_[c]] = 1;
+        }
+        break;
+      }
+      k = kept;
+    }
+  }
+
   SolverStatus status = SolverStatus::kOptimal;
   for (;;) {
     // Dual w = A^T (b - A x).
