@@ -38,7 +38,7 @@ RandomEq33 make_problem(std::mt19937& rng, int nv, int m, double bound) {
 
 TEST(AccelerationSolver, KktConditionsHoldOnRandomProblems) {
   std::mt19937 rng(33);
-  int with_active = 0;
+  int with_active = 0, used_fast = 0;
   for (int trial = 0; trial < 200; ++trial) {
     const int nv = 6 + 8 + trial % 12;
     const int m = trial % 13;
@@ -48,6 +48,14 @@ TEST(AccelerationSolver, KktConditionsHoldOnRandomProblems) {
     const auto r = s.solve(p.A, p.b, p.w_b, p.w, p.t, p.C, p.d, p.lo, p.hi, x);
     ASSERT_EQ(r.status, contact::SolverStatus::kOptimal) << trial;
     if (r.bounds_dropped) continue;  // checked in its own test
+    // The fast equality-only path and the active-set path agree.
+    AccelerationSolver slow(nv, 12);
+    slow.set_fast_path(false);
+    Eigen::VectorXd x2(nv);
+    ASSERT_EQ(slow.solve(p.A, p.b, p.w_b, p.w, p.t, p.C, p.d, p.lo, p.hi, x2).status,
+              contact::SolverStatus::kOptimal);
+    EXPECT_LT((x - x2).norm(), 1e-7 * (1.0 + x.norm())) << trial;
+    used_fast += r.used_active_set ? 0 : 1;
     // Equalities and bounds.
     if (m > 0) {
       EXPECT_LT((p.C * x - p.d).lpNorm<Eigen::Infinity>(), 1e-8) << trial;
@@ -78,6 +86,7 @@ TEST(AccelerationSolver, KktConditionsHoldOnRandomProblems) {
       }
   }
   EXPECT_GT(with_active, 50);  // the bounds were really exercised
+  EXPECT_GT(used_fast, 50);    // and so was the fast path
 }
 
 TEST(AccelerationSolver, WithoutActiveBoundsEqualsDirectKktSolve) {

@@ -111,13 +111,17 @@ void BM_Eq33_Alone(benchmark::State& st) {
   for (int i = 0; i < 2; ++i)
     d.segment<6>(6 * i) = c.diagnostics().foot_acceleration_desired[i] - d.segment<6>(6 * i);
   Eigen::VectorXd x(s.model.nv);
+  int active_set = 0;
   for (auto _ : st) {
     auto r =
         solver.solve(c.centroidal_matrix(), b, s.ctrl.config().acceleration.w_b, c.qp_weights(),
                      c.qp_targets(), c.foot_jacobians(), d, c.qdd_lower(), c.qdd_upper(), x);
+    active_set += r.used_active_set;
     benchmark::DoNotOptimize(r);
     benchmark::DoNotOptimize(x.data());
   }
+  st.counters["active_set_path"] =
+      benchmark::Counter(active_set, benchmark::Counter::kAvgIterations);
 }
 BENCHMARK(BM_Eq33_Alone)->Unit(benchmark::kMicrosecond);
 

@@ -1,5 +1,6 @@
 #include "poise/controller/acceleration_solver.hpp"
 
+#include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -21,6 +22,45 @@ void AccelerationSolver::resize(int nv, int max_eq) {
     A_in_(n + j, 6 + j) = -1.0;
   }
   b_in_.setZero(2 * n);
+  L_.setZero(nv, nv);
+  Y_.setZero(nv, max_eq);
+  S_.setZero(max_eq, max_eq);
+  u_.setZero(nv);
+  lambda_.setZero(max_eq);
+  r_.setZero(max_eq);
+}
+
+bool AccelerationSolver::solve_equality_only(const Eigen::Ref<const Eigen::MatrixXd>& C,
+                                             const Eigen::Ref<const Eigen::VectorXd>& d,
+                                             Eigen::Ref<Eigen::VectorXd> x) {
+  // G x + g = C^T lambda, C x = d.  With G = L L^T, Y = L^-1 C^T, u = L^-1 g:
+  //   (Y^T Y) lambda = d + Y^T u,   x = L^-T (Y lambda - u).
+  const Eigen::Index m = C.rows();
+  L_ = G_;
+  Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt_g(L_);
+  if (llt_g.info() != Eigen::Success) return false;
+  const auto L = llt_g.matrixL();
+  u_ = g_;
+  L.solveInPlace(u_);
+  if (m > 0) {
+    auto Y = Y_.leftCols(m);
+    Y = C.transpose();
+    L.solveInPlace(Y);
+    auto S = S_.topLeftCorner(m, m);
+    S.noalias() = Y.transpose() * Y;
+    auto lambda = lambda_.head(m);
+    lambda = d;
+    lambda.noalias() += Y.transpose() * u_;
+    Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt_s(S);
+    if (llt_s.info() != Eigen::Success) return false;
+    llt_s.solveInPlace(lambda);
+    x.noalias() = Y * lambda;
+    x -= u_;
+  } else {
+    x = -u_;
+  }
+  L.transpose().solveInPlace(x);
+  return x.allFinite();
 }
 
 AccelerationSolver::Result AccelerationSolver::solve(
@@ -47,6 +87,18 @@ AccelerationSolver::Result AccelerationSolver::solve(
   b_in_.head(n) = lo;
   b_in_.tail(n) = -hi;
 
+  if (fast_path_ && solve_equality_only(C, d, x)) {
+    bool inside = true;
+    for (int j = 0; j < n && inside; ++j) {
+      const double tol = 1e-9 * (1.0 + std::abs(x[6 + j]));
+      inside = x[6 + j] >= lo[j] - tol && x[6 + j] <= hi[j] + tol;
+    }
+    if (inside) {
+      r.status = contact::SolverStatus::kOptimal;
+      return r;
+    }
+  }
+  r.used_active_set = true;
   r.status = qp_.solve(G_, g_, C, d, A_in_, b_in_, x);
   r.iterations = qp_.iterations();
   if (r.status == contact::SolverStatus::kInfeasible) {

@@ -9,7 +9,11 @@
 // matrix (6 x nv), b = hdot_a - A_dot qd (6). The diagonal term carries the paper's upper-body
 // objective (1 - w_b) |qdd_u,d - qdd_u|^2 (w_j = 1 - w_b, t_j = qdd_u,d on upper-body joints)
 // plus a small posture prior on every DoF (see AccelerationConfig::posture_weight); the caller
-// combines them into (w, t). Solved as a strictly convex QP by the Goldfarb-Idnani dual method
+// combines them into (w, t).
+//
+// Method: first the equality-constrained problem alone, by Cholesky factorisations of G and of the
+// Schur complement C G^-1 C^T (fast, the usual case); if that solution violates a joint bound, the
+// whole problem is solved as a strictly convex QP by the Goldfarb-Idnani dual method
 // (poise::contact::DualQp); when the bounds make it infeasible it is solved again without them.
 
 #include <Eigen/Core>
@@ -32,7 +36,11 @@ class AccelerationSolver {
     bool bounds_dropped = false;  ///< infeasible with bounds: this is the bound-free solution
     int iterations = 0;
     int active_bounds = 0;
+    bool used_active_set = false;  ///< a bound was violated by the fast solution: DualQp was used
   };
+
+  /// Disables the fast equality-only path (every solve goes through DualQp); for tests.
+  void set_fast_path(bool enabled) { fast_path_ = enabled; }
 
   /// A: 6 x nv, b: 6, w_b in (0, 1), w: nv (>= 0, with w_b A^T A + diag(w) positive definite),
   /// t: nv, C: m x nv (m <= max_eq), d: m, lo, hi: nv - 6 (lo <= hi), x: nv (output).
@@ -53,9 +61,18 @@ class AccelerationSolver {
   const contact::DualQp& qp() const { return qp_; }
 
  private:
+  bool solve_equality_only(const Eigen::Ref<const Eigen::MatrixXd>& C,
+                           const Eigen::Ref<const Eigen::VectorXd>& d,
+                           Eigen::Ref<Eigen::VectorXd> x);
+
   int nv_ = 0;
   int max_eq_ = 0;
+  bool fast_path_ = true;
   contact::DualQp qp_;
+  Eigen::MatrixXd L_;  // Cholesky factor of G (in place)
+  Eigen::MatrixXd Y_;  // L^-1 C^T (nv x max_eq)
+  Eigen::MatrixXd S_;  // Schur complement Y^T Y (max_eq x max_eq), factorised in place
+  Eigen::VectorXd u_, lambda_, r_;
   Eigen::MatrixXd G_;
   Eigen::VectorXd g_;
   Eigen::MatrixXd A_in_;  // 2 (nv - 6) x nv: [I; -I] on the joint columns
