@@ -1,9 +1,13 @@
 // Proves that solve() of every contact solver and optimiser never allocates: the library sources
-// are compiled into this test with EIGEN_RUNTIME_NO_MALLOC (Eigen asserts on any heap allocation
-// while allocation is forbidden), and a replaced global operator new counts every other
-// allocation.
+// are compiled into this test with EIGEN_RUNTIME_NO_MALLOC and assertions on (Eigen asserts on any
+// heap allocation of its own, which goes through malloc, while allocation is forbidden), and a
+// replaced global operator new counts every other allocation.
 #ifndef EIGEN_RUNTIME_NO_MALLOC
 #error "this test must be compiled with EIGEN_RUNTIME_NO_MALLOC"
+#endif
+#ifdef NDEBUG
+#error \
+    "this test needs assertions: Eigen's no-malloc check is an eigen_assert (compile with -UNDEBUG)"
 #endif
 
 #include <atomic>
