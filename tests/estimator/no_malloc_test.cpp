@@ -1,0 +1,75 @@
+// One estimator tick allocates nothing: built against copies of the estimator and model libraries
+// compiled with EIGEN_RUNTIME_NO_MALLOC (Eigen asserts on any heap allocation while forbidden);
+// the global operator new is counted as well (std:: containers). Covers the normal tick, a
+// rejected frame, dropped frames, the frozen-IMU fallback and lift-off.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <new>
+
+#include "estimator_test_util.hpp"
+
+static std::atomic<long> g_news{0};
+void* operator new(std::size_t n) {
+  ++g_news;
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept {
+  std::free(p);
+}
+void operator delete(void* p, std::size_t) noexcept {
+  std::free(p);
+}
+
+namespace poise::estimator {
+namespace {
+
+TEST(EstimatorNoMalloc, EveryKindOfTickIsAllocationFree) {
+  test::StandingRobot robot;
+  Estimator est(robot.model, robot.config);
+  SensorFrame frame = est.make_sensor_frame();
+  EstimatorState state = est.make_state();
+  std::int64_t k = 0;
+  for (int i = 0; i < 100; ++i) {  // warm up: initialised and converging
+    robot.fill(k++, frame);
+    est.update(frame, state);
+  }
+  // Frames prepared beforehand (the generator itself is not under test).
+  std::vector<SensorFrame> frames(300, est.make_sensor_frame());
+  for (auto& f : frames)
+    robot.fill(k++, f);
+  frames[10].q[2] = std::nan("");  // rejected
+  for (int i = 20; i < 40; ++i)
+    frames[i].tick += 5;  // a gap, then steady
+  for (int i = 40; i < 300; ++i)
+    frames[i].tick += 5;
+  for (int i = 50; i < 120; ++i) {  // frozen IMU
+    frames[i].imu_omega_I = frames[49].imu_omega_I;
+    frames[i].imu_specific_force_I = frames[49].imu_specific_force_I;
+    frames[i].imu_q_WI = frames[49].imu_q_WI;
+  }
+  for (int i = 150; i < 200; ++i)
+    frames[i].foot_wrench_Fo_F[0].setZero();  // lift-off
+  for (int i = 200; i < 210; ++i) {           // no contact
+    frames[i].foot_wrench_Fo_F[0].setZero();
+    frames[i].foot_wrench_Fo_F[1].setZero();
+  }
+
+  StatusFlags seen = 0;
+  Eigen::internal::set_is_malloc_allowed(false);
+  const long before = g_news.load();
+  for (const auto& f : frames)
+    seen |= est.update(f, state);
+  const long news = g_news.load() - before;
+  Eigen::internal::set_is_malloc_allowed(true);
+  EXPECT_EQ(news, 0);
+  EXPECT_TRUE(seen & kNonFiniteInput);
+  EXPECT_TRUE(seen & kDroppedFrames);
+  EXPECT_TRUE(seen & kImuFrozen);
+  EXPECT_TRUE(seen & kNoContact);
+}
+
+}  // namespace
+}  // namespace poise::estimator
