@@ -20,6 +20,11 @@
 //     alongside for comparison (leg_odometry()).
 // Status bits are those of idl/state.idl (types.hpp). Yaw and absolute position are unobservable:
 // they drift slowly with the gyro bias and foot slip; roll, pitch and velocity are observable.
+// While standing still, the horizontal accelerometer bias and the tilt cannot be told apart
+// (a bias b shows up as a tilt error of about b / 9.81 rad).
+// LIMITATION: a stance foot is modelled as fixed in W (with a small random walk, noise.foot_slip).
+// On moving supports (the paper's platforms) that model is wrong: the base velocity then comes
+// out relative to the support. Not handled yet (it needs contact-point velocity states).
 
 #include <Eigen/Core>
 #include <array>
