@@ -1,0 +1,19 @@
+#pragma once
+// The distributed launcher and the push verb.
+
+namespace poise::launch {
+
+/// `poise run SCENARIO` (distributed mode): starts poise-sim, poise-estimator, poise-contact and
+/// poise-controller as separate processes on a fresh loopback DDS domain, runs the scenario
+/// (lockstep by default, --realtime for wall-clock time), prints progress and a one-line verdict,
+/// writes the JSON result (--output, default results/<scenario>.json). Every child is bounded in
+/// time and killed by pid on exit, on Ctrl-C and when any child fails (which is then named, with
+/// its last stderr lines). Returns 0 when the robot survived, 1 when it did not, 2 on errors.
+/// argv[0] is the program name as shown in --help.
+int run_distributed(int argc, char** argv);
+
+/// `poise push --link L --force FX FY FZ [--point X Y Z] [--duration S] [--start T]`: publishes
+/// one Disturbance (PUSH) on poise/disturbance and waits until a subscriber matched.
+int push_main(int argc, char** argv);
+
+}  // namespace poise::launch

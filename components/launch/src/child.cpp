@@ -1,0 +1,99 @@
+#include "child.hpp"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <thread>
+
+namespace poise::launch {
+
+Child::Child(std::string name, std::vector<std::string> argv, const std::filesystem::path& log_dir)
+    : name_(std::move(name)),
+      argv_(std::move(argv)),
+      out_path_(log_dir / (name_ + ".out")),
+      err_path_(log_dir / (name_ + ".err")) {
+  const int out = ::open(out_path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  const int err = ::open(err_path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (out < 0 || err < 0)
+    throw std::runtime_error("cannot create the log files of " + name_ + " in " + log_dir.string());
+  std::vector<char*> args;
+  for (auto& a : argv_)
+    args.push_back(a.data());
+  args.push_back(nullptr);
+  pid_ = ::fork();
+  if (pid_ < 0) throw std::runtime_error("fork failed for " + name_);
+  if (pid_ == 0) {
+    ::setpgid(0, 0);
+    ::dup2(out, STDOUT_FILENO);
+    ::dup2(err, STDERR_FILENO);
+    const int devnull = ::open("/dev/null", O_RDONLY);
+    if (devnull >= 0) ::dup2(devnull, STDIN_FILENO);
+    ::execv(args[0], args.data());
+    const std::string msg = "exec " + argv_[0] + " failed\n";
+    [[maybe_unused]] auto w = ::write(STDERR_FILENO, msg.data(), msg.size());
+    ::_exit(127);
+  }
+  ::close(out);
+  ::close(err);
+}
+
+Child::~Child() {
+  if (!exit_code_) stop(2000);
+}
+
+std::string Child::command_line() const {
+  std::string s;
+  for (const auto& a : argv_)
+    s += (s.empty() ? "" : " ") + a;
+  return s;
+}
+
+std::optional<int> Child::poll() {
+  if (exit_code_ || pid_ <= 0) return exit_code_;
+  int status = 0;
+  if (::waitpid(pid_, &status, WNOHANG) == pid_)
+    exit_code_ = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  return exit_code_;
+}
+
+int Child::stop(int grace_ms) {
+  if (poll()) return *exit_code_;
+  ::kill(pid_, SIGTERM);
+  const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(grace_ms);
+  while (!poll() && std::chrono::steady_clock::now() < end)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  if (!poll()) {
+    ::kill(pid_, SIGKILL);
+    int status = 0;
+    ::waitpid(pid_, &status, 0);
+    exit_code_ = 128 + SIGKILL;
+  }
+  return *exit_code_;
+}
+
+std::string Child::stderr_tail(int n) const {
+  return tail_lines(err_path_, n);
+}
+
+std::string tail_lines(const std::filesystem::path& path, int n) {
+  std::ifstream in(path);
+  if (!in) return "";
+  std::vector<std::string> lines;
+  std::string line;
+  while (std::getline(in, line)) {
+    lines.push_back(line);
+    if (static_cast<int>(lines.size()) > n) lines.erase(lines.begin());
+  }
+  std::string out;
+  for (const auto& l : lines)
+    out += l + "\n";
+  return out;
+}
+
+}  // namespace poise::launch

@@ -1,0 +1,46 @@
+#pragma once
+// A child process of the launcher: stdout and stderr go to files, it gets its own process group
+// (so the terminal's Ctrl-C reaches the launcher, which stops the children in order), and it is
+// always ended by its pid.
+
+#include <sys/types.h>
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace poise::launch {
+
+class Child {
+ public:
+  /// Starts argv[0] (a path). Throws std::runtime_error when fork or exec preparation fails.
+  Child(std::string name, std::vector<std::string> argv, const std::filesystem::path& log_dir);
+  ~Child();
+  Child(const Child&) = delete;
+  Child& operator=(const Child&) = delete;
+
+  const std::string& name() const { return name_; }
+  pid_t pid() const { return pid_; }
+  std::string command_line() const;
+  /// The exit code (128 + signal when killed) once the child ended, else nullopt. Non-blocking.
+  std::optional<int> poll();
+  /// SIGTERM, wait up to `grace_ms`, then SIGKILL. Returns the exit code.
+  int stop(int grace_ms);
+  const std::filesystem::path& stdout_path() const { return out_path_; }
+  const std::filesystem::path& stderr_path() const { return err_path_; }
+  /// The last `n` lines of the child's stderr.
+  std::string stderr_tail(int n) const;
+
+ private:
+  std::string name_;
+  std::vector<std::string> argv_;
+  std::filesystem::path out_path_, err_path_;
+  pid_t pid_ = -1;
+  std::optional<int> exit_code_;
+};
+
+/// The last `n` lines of a text file ("" if unreadable).
+std::string tail_lines(const std::filesystem::path& path, int n);
+
+}  // namespace poise::launch

@@ -1,0 +1,352 @@
+// `poise run SCENARIO` in its distributed form: four processes over loopback DDS.
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/file.h>
+#include <unistd.h>
+#include <CLI/CLI.hpp>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "child.hpp"
+#include "poise/dds/vendor.hpp"
+#include "poise/launch/launch.hpp"
+#include "poise/sim/scenario.hpp"
+
+namespace poise::launch {
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+std::atomic<bool> g_interrupted{false};
+extern "C" void on_interrupt(int) {
+  g_interrupted.store(true);
+}
+
+/// Claims a DDS domain no other `poise run` or test on this machine holds: an exclusive lock on
+/// /tmp/poise-dds-domain-<id>.lock (held until the process ends), ids 100..231 from a pid-derived
+/// start (the same scheme as tests/dds).
+int claim_domain() {
+  const int first = 100 + static_cast<int>(::getpid() % 132);
+  for (int k = 0; k < 132; ++k) {
+    const int id = 100 + (first - 100 + k) % 132;
+    const std::string path = "/tmp/poise-dds-domain-" + std::to_string(id) + ".lock";
+    const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0666);
+    if (fd < 0) continue;
+    if (::flock(fd, LOCK_EX | LOCK_NB) == 0) return id;  // fd stays open: lock held
+    ::close(fd);
+  }
+  throw std::runtime_error("no free DDS domain in 100..231 (use --domain)");
+}
+
+/// "cyclonedds" (scenario files) -> "cyclone"; validates.
+std::string vendor_name(const std::string& v) {
+  const std::string n = v == "cyclonedds" ? "cyclone" : v == "fastrtps" ? "fastdds" : v;
+  return std::string(dds::to_string(dds::parse_vendor(n)));
+}
+
+fs::path bin_dir() {
+  if (const char* e = std::getenv("POISE_BIN_DIR"); e && *e) return e;
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  return ec ? fs::path(".") : exe.parent_path();
+}
+
+Json read_json(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) return Json();
+  try {
+    return Json::parse(in);
+  } catch (...) {
+    return Json();
+  }
+}
+
+struct Settings {
+  std::string scenario;
+  bool realtime = false;
+  std::string dds_all, dds_sim, dds_estimator, dds_contact, dds_controller;
+  int domain = -1;
+  std::string output, log_dir;
+  double duration = -1.0;
+  bool ground_truth_state = false;
+  std::string method = "sequential";
+  double contact_deadline_us = -1.0;
+  int command_timeout_ms = 2000;
+  double timeout_s = -1.0;
+  bool quiet = false;
+};
+
+}  // namespace
+
+int run_distributed(int argc, char** argv) {
+  Settings s;
+  CLI::App app{
+      "Run a scenario with every component in its own process over DDS (loopback): "
+      "poise-sim, poise-estimator, poise-contact, poise-controller."};
+  app.name(argc > 0 ? argv[0] : "poise run");
+  app.add_option("scenario", s.scenario, "scenario YAML file")
+      ->required()
+      ->check(CLI::ExistingFile);
+  bool lockstep_flag = false;
+  auto* lock = app.add_flag("--lockstep", lockstep_flag,
+                            "simulator steps k+1 only after command k (default)");
+  app.add_flag("--realtime", s.realtime, "simulator ticks at 1 kHz on the wall clock")
+      ->excludes(lock);
+  const auto vendors = CLI::IsMember({"fastdds", "cyclone", "cyclonedds"});
+  app.add_option("--dds", s.dds_all,
+                 "DDS vendor of every component (default: scenario hint, else "
+                 "cyclone)")
+      ->check(vendors);
+  app.add_option("--dds-sim", s.dds_sim, "vendor of the simulator")->check(vendors);
+  app.add_option("--dds-estimator", s.dds_estimator, "vendor of the estimator")->check(vendors);
+  app.add_option("--dds-contact", s.dds_contact, "vendor of the contact optimiser")->check(vendors);
+  app.add_option("--dds-controller", s.dds_controller, "vendor of the controller")->check(vendors);
+  app.add_option("--domain", s.domain, "DDS domain id (default: a free one in 100..231)")
+      ->check(CLI::Range(0, 232));
+  app.add_option("--output", s.output, "JSON result file (default: results/<scenario>.json)");
+  app.add_option("--log-dir", s.log_dir,
+                 "children's stdout/stderr and summaries "
+                 "(default: results/<scenario>.logs)");
+  app.add_option("--duration", s.duration, "override the scenario duration [s]");
+  app.add_flag("--ground-truth-state", s.ground_truth_state,
+               "DEBUG: the estimator sends the simulator's ground truth as the state");
+  app.add_option("--method", s.method, "contact optimiser: sequential (paper) or qp")
+      ->check(CLI::IsMember({"sequential", "qp"}))
+      ->capture_default_str();
+  app.add_option("--contact-deadline-us", s.contact_deadline_us,
+                 "controller's wait for a contact solution (default 400 real time, 1e6 lockstep)");
+  app.add_option("--command-timeout-ms", s.command_timeout_ms,
+                 "lockstep: simulator's wait for a joint command")
+      ->capture_default_str();
+  app.add_option("--timeout", s.timeout_s,
+                 "wall-clock bound of the whole run [s] "
+                 "(default: 60 + 30 x duration lockstep, 60 + duration real time)");
+  app.add_flag("-q,--quiet", s.quiet, "only the verdict line");
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    const sim::Scenario scenario = sim::load_scenario(s.scenario);
+    const double duration = s.duration > 0 ? s.duration : scenario.duration;
+    // Vendors: scenario hints, then --dds, then per component.
+    std::string all = scenario.dds.vendor.empty() ? "cyclone" : vendor_name(scenario.dds.vendor);
+    if (!s.dds_all.empty()) all = vendor_name(s.dds_all);
+    std::map<std::string, std::string> vendor{
+        {"sim", all}, {"estimator", all}, {"contact", all}, {"controller", all}};
+    if (s.dds_all.empty())
+      for (const auto& [component, v] : scenario.dds.per_component)
+        vendor[component == "simulator" ? "sim" : component] = vendor_name(v);
+    if (!s.dds_sim.empty()) vendor["sim"] = vendor_name(s.dds_sim);
+    if (!s.dds_estimator.empty()) vendor["estimator"] = vendor_name(s.dds_estimator);
+    if (!s.dds_contact.empty()) vendor["contact"] = vendor_name(s.dds_contact);
+    if (!s.dds_controller.empty()) vendor["controller"] = vendor_name(s.dds_controller);
+
+    const int domain = s.domain >= 0 ? s.domain : claim_domain();
+    const fs::path output =
+        s.output.empty() ? fs::path("results") / (scenario.name + ".json") : fs::path(s.output);
+    const fs::path logs =
+        s.log_dir.empty() ? fs::path("results") / (scenario.name + ".logs") : fs::path(s.log_dir);
+    fs::create_directories(logs);
+    if (output.has_parent_path()) fs::create_directories(output.parent_path());
+    for (const char* n : {"sim", "estimator", "contact", "controller"})
+      fs::remove(logs / (std::string(n) + ".summary.json"));
+    const double deadline_us =
+        s.contact_deadline_us > 0 ? s.contact_deadline_us : (s.realtime ? 400.0 : 1e6);
+    const double timeout_s =
+        s.timeout_s > 0 ? s.timeout_s : (s.realtime ? 60.0 + duration : 60.0 + 30.0 * duration);
+    const std::string robot = scenario.robot_config.empty() ? "" : scenario.robot_config.string();
+    const fs::path bin = bin_dir();
+
+    auto common = [&](const std::string& name) {
+      std::vector<std::string> a{(bin / ("poise-" + name)).string(),
+                                 "--dds",
+                                 vendor[name],
+                                 "--domain",
+                                 std::to_string(domain),
+                                 "--summary",
+                                 (logs / (name + ".summary.json")).string()};
+      if (!robot.empty() && name != "sim") {
+        a.push_back("--robot");
+        a.push_back(robot);
+      }
+      return a;
+    };
+    std::vector<std::string> sim_args = common("sim");
+    sim_args.insert(sim_args.end(), {fs::absolute(s.scenario).string(), "--progress",
+                                     s.realtime ? "--realtime" : "--lockstep",
+                                     "--command-timeout-ms", std::to_string(s.command_timeout_ms)});
+    if (s.duration > 0) sim_args.insert(sim_args.end(), {"--duration", std::to_string(s.duration)});
+    std::vector<std::string> est_args = common("estimator");
+    if (s.ground_truth_state) est_args.push_back("--ground-truth-state");
+    std::vector<std::string> contact_args = common("contact");
+    contact_args.insert(contact_args.end(), {"--method", s.method});
+    std::vector<std::string> ctrl_args = common("controller");
+    ctrl_args.insert(ctrl_args.end(), {"--contact-deadline-us", std::to_string(deadline_us)});
+
+    if (!s.quiet)
+      std::printf(
+          "poise run %s: %s, %.1f s, domain %d, dds sim=%s estimator=%s contact=%s "
+          "controller=%s, logs in %s\n",
+          scenario.name.c_str(), s.realtime ? "real time" : "lockstep", duration, domain,
+          vendor["sim"].c_str(), vendor["estimator"].c_str(), vendor["contact"].c_str(),
+          vendor["controller"].c_str(), logs.c_str());
+    std::fflush(stdout);
+
+    struct sigaction sa {};
+    sa.sa_handler = on_interrupt;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, nullptr);
+    sigaction(SIGTERM, &sa, nullptr);
+
+    std::vector<std::unique_ptr<Child>> children;
+    children.push_back(std::make_unique<Child>("sim", sim_args, logs));
+    children.push_back(std::make_unique<Child>("contact", contact_args, logs));
+    children.push_back(std::make_unique<Child>("estimator", est_args, logs));
+    children.push_back(std::make_unique<Child>("controller", ctrl_args, logs));
+    Child& sim = *children[0];
+
+    const auto t_start = std::chrono::steady_clock::now();
+    std::string failure;
+    std::ifstream progress;
+    std::string partial;
+    int sim_code = -1;
+    for (;;) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      if (!progress.is_open()) progress.open(sim.stdout_path());
+      if (progress.is_open()) {  // relay the simulator's progress lines
+        progress.clear();
+        std::string line;
+        while (std::getline(progress, line)) {
+          if (progress.eof()) {  // incomplete line: keep for later
+            partial += line;
+            break;
+          }
+          line = partial + line;
+          partial.clear();
+          if (!s.quiet && line.rfind("progress ", 0) == 0) std::printf("  %s\n", line.c_str() + 9);
+        }
+        std::fflush(stdout);
+      }
+      if (auto code = sim.poll()) {
+        sim_code = *code;
+        break;
+      }
+      for (auto& c : children) {
+        if (c.get() == &sim) continue;
+        if (auto code = c->poll()) {
+          failure = c->name() + " exited early with code " + std::to_string(*code);
+          break;
+        }
+      }
+      if (!failure.empty()) break;
+      if (g_interrupted.load()) {
+        failure = "interrupted";
+        break;
+      }
+      if (std::chrono::steady_clock::now() - t_start > std::chrono::duration<double>(timeout_s)) {
+        failure = "timeout: the run took more than " + std::to_string(timeout_s) + " s";
+        break;
+      }
+    }
+    // Stop the simulator first (it writes its result), then the others (they write summaries).
+    if (!failure.empty()) sim_code = sim.stop(3000);
+    for (auto& c : children)
+      c->stop(3000);
+
+    if (!failure.empty() || (sim_code != 0 && sim_code != 3)) {
+      if (failure.empty()) failure = "sim exited with code " + std::to_string(sim_code);
+      std::fprintf(stderr, "poise run %s: FAILED: %s\n", scenario.name.c_str(), failure.c_str());
+      for (auto& c : children) {
+        const std::string tail = c->stderr_tail(8);
+        const bool culprit = failure.rfind(c->name() + " ", 0) == 0;
+        if (culprit || failure.rfind("sim", 0) == 0 || failure.rfind("timeout", 0) == 0)
+          std::fprintf(stderr, "--- last stderr lines of %s (pid %d, %s):\n%s", c->name().c_str(),
+                       static_cast<int>(c->pid()), c->stderr_path().c_str(), tail.c_str());
+      }
+      if (failure != "interrupted") return 2;
+      return 130;
+    }
+
+    const Json sim_r = read_json(logs / "sim.summary.json");
+    const Json ctrl_r = read_json(logs / "controller.summary.json");
+    const Json est_r = read_json(logs / "estimator.summary.json");
+    const Json con_r = read_json(logs / "contact.summary.json");
+    if (sim_r.is_null()) {
+      std::fprintf(stderr, "poise run: the simulator wrote no result (%s)\n",
+                   (logs / "sim.summary.json").c_str());
+      return 2;
+    }
+    auto diag = [](const Json& j, const char* key) -> std::uint64_t {
+      return j.is_object() && j.contains("diagnostics") ? j["diagnostics"].value(key, 0ULL) : 0ULL;
+    };
+    Json r;
+    r["scenario"] = scenario.name;
+    r["survived"] = sim_r.value("survived", false);
+    r["completed"] = sim_r.value("completed", false);
+    for (const char* k :
+         {"com_error_max_m", "com_error_final_m", "foot_slip_max_m", "non_foot_contacts",
+          "min_base_height_m", "tick_latency_us", "realtime_factor", "sim_time_s", "wall_time_s",
+          "command_timeouts", "damping_ticks", "watchdog_stale_events"})
+      r[k] = sim_r.value(k, Json());
+    const std::uint64_t misses_sim = diag(sim_r, "deadline_misses");
+    const std::uint64_t misses_ctrl = diag(ctrl_r, "deadline_misses");
+    r["deadline_misses"] = misses_sim + misses_ctrl;
+    r["deadline_misses_by_node"] = {{"sim", misses_sim}, {"controller", misses_ctrl}};
+    r["rejected_samples"] = diag(sim_r, "rejected_samples") + diag(ctrl_r, "rejected_samples") +
+                            diag(est_r, "rejected_samples") + diag(con_r, "rejected_samples");
+    r["errors"] = {{"sim", diag(sim_r, "errors")},
+                   {"estimator", diag(est_r, "errors")},
+                   {"contact", diag(con_r, "errors")},
+                   {"controller", diag(ctrl_r, "errors")}};
+    r["compute_us_max"] = {{"sim", sim_r.value("compute_us_max_all", 0.0)},
+                           {"estimator", est_r.value("compute_us_max_all", 0.0)},
+                           {"contact", con_r.value("compute_us_max_all", 0.0)},
+                           {"controller", ctrl_r.value("compute_us_max_all", 0.0)}};
+    r["state_source"] = s.ground_truth_state ? "ground_truth" : "estimator";
+    r["dds"] = vendor;
+    r["domain"] = domain;
+    r["mode"] = s.realtime ? "realtime" : "lockstep";
+    r["contact_method"] = s.method;
+    r["pids"] = Json::object();
+    for (auto& c : children)
+      r["pids"][c->name()] = c->pid();
+    {
+      std::ofstream out(output);
+      out << r.dump(2) << "\n";
+    }
+    const Json& lat = r["tick_latency_us"];
+    std::printf(
+        "%s %s (%s, %s): com_error max %.3f m final %.3f m, foot slip %.4f m, non-foot contacts "
+        "%d, tick latency p50/p99/max %.0f/%.0f/%.0f us, deadline misses %llu, %.2fx real time "
+        "-> %s\n",
+        r["survived"].get<bool>() ? "SURVIVED" : "FAILED", scenario.name.c_str(),
+        s.realtime ? "realtime" : "lockstep",
+        vendor["sim"] == vendor["controller"] && vendor["sim"] == vendor["estimator"] &&
+                vendor["sim"] == vendor["contact"]
+            ? vendor["sim"].c_str()
+            : "mixed dds",
+        r.value("com_error_max_m", 0.0), r.value("com_error_final_m", 0.0),
+        r.value("foot_slip_max_m", 0.0), r.value("non_foot_contacts", 0),
+        lat.is_object() ? lat.value("p50", 0.0) : 0.0,
+        lat.is_object() ? lat.value("p99", 0.0) : 0.0,
+        lat.is_object() ? lat.value("max", 0.0) : 0.0,
+        static_cast<unsigned long long>(misses_sim + misses_ctrl), r.value("realtime_factor", 0.0),
+        output.c_str());
+    std::fflush(stdout);
+    return r["survived"].get<bool>() ? 0 : 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "poise run: %s\n", e.what());
+    return 2;
+  }
+}
+
+}  // namespace poise::launch

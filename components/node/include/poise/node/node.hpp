@@ -1,0 +1,148 @@
+#pragma once
+// The runtime every Poise node shares.
+//
+//   poise::node::NodeOptions options;               // --robot, --name, --summary, --dds ...
+//   CLI::App app{"..."};
+//   poise::node::add_node_options(app, options, "estimator");
+//   CLI11_PARSE(app, argc, argv);
+//   poise::node::Node node(options);                // participant, diagnostics, signals
+//   ... subscribers, publishers; node.watch(subscriber);
+//   while (node.running()) { ...; node.tick_done(k, compute_ns); node.poll(); }
+//
+// Diagnostics ("poise/diagnostics", best-effort keep-last 1, ~10 Hz): node name, vendor, health,
+// heartbeat, ticks, compute time p50/p99/max over the window since the previous publication,
+// deadline misses, rejected samples (sum over the watched subscribers), type mismatches, errors
+// and the last error. poll() publishes them when due; call it from the loop thread.
+//
+// Threading: every member except the constructor is meant for the node's loop thread only.
+// Real-time behaviour: tick_done(), deadline_miss(), publish() and poll() do not allocate and do
+// not throw; error() logs at most once a second (the others are counted).
+
+#include <CLI/CLI.hpp>
+
+#include <cstdarg>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <poise/msg/diagnostics.h>
+
+#include "poise/dds/cli.hpp"
+#include "poise/dds/dds.hpp"
+#include "poise/node/compute_stats.hpp"
+#include "poise/node/shutdown.hpp"
+#include "poise/node/tick_timer.hpp"
+#include "poise/reflect/validate.hpp"
+
+namespace poise::node {
+
+/// Options common to every node.
+struct NodeOptions {
+  std::string name;     ///< node name in logs and diagnostics (default: the node kind)
+  std::string robot;    ///< robot configuration YAML (default: the project humanoid)
+  std::string summary;  ///< write a JSON summary (last diagnostics + node figures) at exit
+  dds::DdsOptions dds = dds::dds_options_from_env();
+  double diagnostics_hz = 10.0;
+};
+
+/// deploy/robots/poise_humanoid/robot.yaml, located like the DDS configurations (source tree
+/// of this build, or relative to the executable).
+std::string default_robot_config();
+
+/// Adds --name, --robot, --summary and the DDS options (--dds, --domain, --dds-config).
+/// `kind` is the default name ("sim", "estimator", ...).
+void add_node_options(CLI::App& app, NodeOptions& options, const std::string& kind);
+
+class Node {
+ public:
+  /// Sets the log name, installs the SIGINT/SIGTERM handlers, joins the domain and creates the
+  /// diagnostics publisher. Throws std::runtime_error (DDS failure) at configuration time.
+  explicit Node(const NodeOptions& options);
+  ~Node();
+  Node(const Node&) = delete;
+  Node& operator=(const Node&) = delete;
+
+  dds::Participant& participant() noexcept { return *participant_; }
+  const NodeOptions& options() const noexcept { return options_; }
+  const std::string& name() const noexcept { return options_.name; }
+
+  /// Sums this subscriber's rejected / deserialize-error / type-mismatch counters into the
+  /// diagnostics. The subscriber must outlive the node's last poll().
+  template <class S>
+  void watch(const S& subscriber) {
+    watched_.push_back(&subscriber.counters());
+  }
+
+  /// False once a shutdown was requested (signal or request_shutdown()).
+  bool running() const noexcept { return !shutdown_requested(); }
+
+  /// One handled tick: its number and the node's compute time for it [ns].
+  void tick_done(std::uint64_t tick, std::int64_t compute_ns) noexcept;
+  /// A tick that missed its deadline (counted; the caller logs via error() if it wants).
+  void deadline_miss() noexcept { ++deadline_misses_; }
+  std::uint64_t deadline_misses() const noexcept { return deadline_misses_; }
+  std::uint64_t ticks() const noexcept { return ticks_; }
+
+  /// Counts an error, keeps its text as the last error and logs it (at most one line per second;
+  /// lines in between are counted and reported with the next one).
+  void error(const char* format, ...) noexcept __attribute__((format(printf, 2, 3)));
+  std::uint64_t errors() const noexcept { return errors_; }
+
+  /// Sets the health reported from now on.
+  void set_health(msg::NodeHealth health) noexcept { health_ = health; }
+
+  /// Publishes `sample` unless it holds a non-finite number or an out-of-range length (the same
+  /// check receivers make): then nothing is sent, the error is counted and logged with the
+  /// field, and false is returned. Never throws, no allocation.
+  template <class P, class T>
+  bool publish(P& publisher, const T& sample) noexcept {
+    reflect::ValidationError why;
+    if (!reflect::validate(sample, &why)) {
+      ++non_finite_;
+      error("not publishing %s: %s: %s", publisher.topic_name().c_str(), why.path, why.reason);
+      return false;
+    }
+    if (!publisher.publish(sample)) {
+      error("publish on %s failed", publisher.topic_name().c_str());
+      return false;
+    }
+    return true;
+  }
+  /// Samples refused by publish() since start.
+  std::uint64_t non_finite_refused() const noexcept { return non_finite_; }
+
+  /// Publishes the diagnostics if due (at diagnostics_hz). Returns the monotonic time [ns] of
+  /// the next publication, so a loop can bound its waits by it.
+  std::int64_t poll() noexcept;
+  /// Publishes the diagnostics now.
+  void publish_diagnostics() noexcept;
+  /// The last published diagnostics sample.
+  const msg::Diagnostics& diagnostics() const noexcept { return diag_; }
+
+  /// Writes the summary file (--summary) if one was asked for: {"node", "diagnostics" (the last
+  /// sample, JSON form), "compute_us_max_all", plus the members of `extra_json` (a JSON object
+  /// text, may be empty)}. Configuration time (allocates); never throws (logs on failure).
+  void write_summary(const std::string& extra_json = "");
+
+ private:
+  NodeOptions options_;
+  std::unique_ptr<dds::Participant> participant_;
+  std::unique_ptr<dds::Publisher<msg::Diagnostics>> diag_pub_;
+  std::vector<const dds::SubscriberCounters*> watched_;
+  msg::Diagnostics diag_;
+  ComputeStats compute_;
+  msg::NodeHealth health_ = msg::HEALTH_OK;
+  std::uint64_t last_tick_ = 0;
+  std::uint64_t ticks_ = 0;
+  std::uint64_t deadline_misses_ = 0;
+  std::uint64_t errors_ = 0;
+  std::uint64_t non_finite_ = 0;
+  std::uint64_t suppressed_logs_ = 0;
+  std::int64_t last_log_ns_ = 0;
+  std::int64_t period_ns_ = 100'000'000;
+  std::int64_t next_diag_ns_ = 0;
+  char last_error_[256] = {};
+};
+
+}  // namespace poise::node

@@ -1,0 +1,148 @@
+#include "poise/node/node.hpp"
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "poise/reflect/json.hpp"
+
+namespace poise::node {
+namespace fs = std::filesystem;
+
+std::string default_robot_config() {
+  const fs::path rel = "deploy/robots/poise_humanoid/robot.yaml";
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    for (fs::path dir = exe.parent_path(); !dir.empty() && dir != dir.root_path();
+         dir = dir.parent_path()) {
+      if (fs::exists(dir / rel)) return (dir / rel).string();
+    }
+  }
+#ifdef POISE_SOURCE_DIR
+  if (fs::exists(fs::path(POISE_SOURCE_DIR) / rel))
+    return (fs::path(POISE_SOURCE_DIR) / rel).string();
+#endif
+  return rel.string();
+}
+
+void add_node_options(CLI::App& app, NodeOptions& options, const std::string& kind) {
+  options.name = kind;
+  if (options.robot.empty()) options.robot = default_robot_config();
+  app.add_option("--name", options.name, "node name in logs and diagnostics")
+      ->capture_default_str();
+  app.add_option("--robot", options.robot, "robot configuration YAML")
+      ->capture_default_str()
+      ->check(CLI::ExistingFile);
+  app.add_option("--summary", options.summary,
+                 "write a JSON summary (last diagnostics and node figures) to this file at exit");
+  app.add_option("--diagnostics-hz", options.diagnostics_hz, "diagnostics publication rate [Hz]")
+      ->check(CLI::Range(0.1, 1000.0))
+      ->capture_default_str();
+  dds::add_dds_options(app, options.dds);
+}
+
+Node::Node(const NodeOptions& options) : options_(options) {
+  dds::set_log_name(options_.name);
+  install_shutdown_handlers();
+  options_.dds.participant_name = "poise/" + options_.name;
+  participant_ = std::make_unique<dds::Participant>(options_.dds);
+  diag_pub_ = std::make_unique<dds::Publisher<msg::Diagnostics>>(*participant_);
+  diag_.node(options_.name.substr(0, 32));
+  diag_.dds_vendor(std::string(dds::to_string(participant_->vendor())));
+  period_ns_ = static_cast<std::int64_t>(1e9 / options_.diagnostics_hz);
+  next_diag_ns_ = now_ns() + period_ns_;
+  dds::log(dds::LogLevel::info, "%s on %s, domain %d", options_.name.c_str(),
+           std::string(dds::to_string(participant_->vendor())).c_str(), participant_->domain_id());
+}
+
+Node::~Node() = default;
+
+void Node::tick_done(std::uint64_t tick, std::int64_t compute_ns) noexcept {
+  last_tick_ = tick;
+  ++ticks_;
+  compute_.add(static_cast<double>(compute_ns) * 1e-3);
+}
+
+void Node::error(const char* format, ...) noexcept {
+  ++errors_;
+  va_list args;
+  va_start(args, format);
+  std::vsnprintf(last_error_, sizeof(last_error_), format, args);
+  va_end(args);
+  const std::int64_t now = now_ns();
+  if (now - last_log_ns_ < 1'000'000'000) {
+    ++suppressed_logs_;
+    return;
+  }
+  last_log_ns_ = now;
+  if (suppressed_logs_)
+    dds::log(dds::LogLevel::warn, "%s (%llu more errors since the last line)", last_error_,
+             static_cast<unsigned long long>(suppressed_logs_));
+  else
+    dds::log(dds::LogLevel::warn, "%s", last_error_);
+  suppressed_logs_ = 0;
+}
+
+std::int64_t Node::poll() noexcept {
+  const std::int64_t now = now_ns();
+  if (now >= next_diag_ns_) {
+    publish_diagnostics();
+    next_diag_ns_ += period_ns_;
+    if (next_diag_ns_ <= now) next_diag_ns_ = now + period_ns_;
+  }
+  return next_diag_ns_;
+}
+
+void Node::publish_diagnostics() noexcept {
+  std::uint64_t rejected = 0, mismatches = participant_->type_mismatches();
+  for (const auto* c : watched_)
+    rejected += c->rejected.load() + c->deserialize_errors.load();
+  const WindowStats w = compute_.window();
+  diag_.header().tick(last_tick_);
+  diag_.health(
+      health_ != msg::HEALTH_OK
+          ? health_
+          : (errors_ || rejected || deadline_misses_ ? msg::HEALTH_DEGRADED : msg::HEALTH_OK));
+  diag_.heartbeat(diag_.heartbeat() + 1);
+  diag_.ticks(ticks_);
+  diag_.compute_us_p50(w.p50);
+  diag_.compute_us_p99(w.p99);
+  diag_.compute_us_max(w.max);
+  diag_.deadline_misses(deadline_misses_);
+  diag_.rejected_samples(rejected);
+  diag_.type_mismatches(mismatches);
+  diag_.errors(errors_);
+  diag_.last_error() = last_error_;
+  diag_pub_->publish(diag_);
+}
+
+void Node::write_summary(const std::string& extra_json) {
+  if (options_.summary.empty()) return;
+  try {
+    publish_diagnostics();
+    nlohmann::json j;
+    j["node"] = options_.name;
+    j["diagnostics"] = reflect::to_json(diag_);
+    j["compute_us_max_all"] = compute_.max_all();
+    j["non_finite_refused"] = non_finite_;
+    if (!extra_json.empty()) {
+      const auto extra = nlohmann::json::parse(extra_json);
+      for (auto it = extra.begin(); it != extra.end(); ++it)
+        j[it.key()] = it.value();
+    }
+    const std::string tmp = options_.summary + ".tmp";
+    {
+      std::ofstream out(tmp);
+      out << j.dump(2) << "\n";
+    }
+    std::filesystem::rename(tmp, options_.summary);
+  } catch (const std::exception& e) {
+    dds::log(dds::LogLevel::error, "cannot write the summary %s: %s", options_.summary.c_str(),
+             e.what());
+  }
+}
+
+}  // namespace poise::node

@@ -1,0 +1,126 @@
+// poise-contact: the contact-force optimiser (paper Sec. 3.3-3.4) as a DDS node.
+//
+// ------------------------------------------------------------------------------------------------
+// Contract
+//   subscribes  poise/contact_problem   ContactProblem   1 kHz  reliable, keep-last 1
+//   publishes   poise/contact_solution  ContactSolution  one per problem, header (tick) copied
+//                                                         reliable, keep-last 1
+//               poise/diagnostics       Diagnostics      ~10 Hz best-effort, keep-last 1
+//   method      --method sequential (paper: NNLS + BVLS) | qp (one Goldfarb-Idnani QP)
+//   bad input   a problem with a non-finite number, a bad length or an inconsistent geometry is
+//               answered with status CONTACT_INVALID_INPUT and the library's safe answer (every
+//               wrench zero), and counted (diagnostics errors / rejected_samples). A sample too
+//               malformed to read its tick is counted and not answered.
+//   never       publishes a non-finite number (checked before publishing).
+// ------------------------------------------------------------------------------------------------
+// The problem topic is read as raw CDR so that a problem failing validation still yields its tick
+// (the typed subscriber would drop it silently for the sender).
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+#include <cstring>
+#include <exception>
+
+#include "poise/contact_node/contact_messages.hpp"
+#include "poise/node/mailbox.hpp"
+#include "poise/node/node.hpp"
+
+namespace {
+
+using namespace poise;
+
+/// One received problem, as the loop thread sees it.
+struct Incoming {
+  msg::ContactProblem problem;
+  bool readable = false;  ///< CDR decoded (the header is meaningful)
+  bool valid = false;     ///< passed the IDL validation (finite, lengths)
+  char why[200] = {};
+};
+
+int run(int argc, char** argv) {
+  node::NodeOptions options;
+  std::string method_name = "sequential";
+  CLI::App app{"Contact-force optimiser node: contact problem k in, contact solution k out."};
+  node::add_node_options(app, options, "contact");
+  app.add_option("--method", method_name, "sequential (paper) or qp")
+      ->check(CLI::IsMember({"sequential", "qp"}))
+      ->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  const contact::Method method = *contact::parse_method(method_name);
+  node::Node node(options);
+  contact::ContactOptimizer optimizer(method);
+  contact::ContactProblem problem;
+  contact::ContactSolution solution;
+
+  node::Mailbox<Incoming> inbox;
+  Incoming scratch;  // written on the listener thread only
+  std::uint64_t bad_cdr = 0;
+  const dds::TypeSupport& ts = dds::TopicTraits<msg::ContactProblem>::type_support();
+  dds::RawSubscriber problems(
+      node.participant(), dds::TopicTraits<msg::ContactProblem>::topic_name,
+      dds::TopicTraits<msg::ContactProblem>::type_name,
+      dds::TopicTraits<msg::ContactProblem>::default_qos(),
+      [&](const std::vector<std::uint8_t>& bytes, const dds::SampleMeta&) {
+        scratch.readable = ts.deserialize(bytes.data(), bytes.size(), &scratch.problem, scratch.why,
+                                          sizeof(scratch.why));
+        scratch.valid =
+            scratch.readable && ts.validate(&scratch.problem, scratch.why, sizeof(scratch.why));
+        if (!scratch.readable) ++bad_cdr;
+        inbox.put(scratch);
+      });
+  dds::Publisher<msg::ContactSolution> solutions(node.participant());
+
+  Incoming in;
+  msg::ContactSolution out;
+  std::uint64_t seen = 0;
+  while (node.running()) {
+    const std::int64_t next_diag = node.poll();
+    if (!inbox.wait(seen, next_diag) || !inbox.take(in, seen)) continue;
+    const std::int64_t t0 = node::now_ns();
+    if (!in.readable) {
+      node.error("unreadable contact problem (%s): not answered", in.why);
+      continue;
+    }
+    if (in.valid) {
+      contact_node::from_msg(in.problem, problem);
+      optimizer.solve(problem, solution);
+      if (solution.status == contact::ContactStatus::kInvalidInput ||
+          solution.status == contact::ContactStatus::kSolverFailure)
+        node.error("tick %llu: %s problem (%s)",
+                   static_cast<unsigned long long>(in.problem.header().tick()),
+                   contact::to_string(solution.status),
+                   contact::validate(problem) ? contact::validate(problem) : "numerical failure");
+    } else {
+      node.error("tick %llu: rejected contact problem: %s",
+                 static_cast<unsigned long long>(in.problem.header().tick()), in.why);
+      contact::set_safe_solution(contact::ContactStatus::kInvalidInput, solution);
+    }
+    const double solve_us = static_cast<double>(node::now_ns() - t0) * 1e-3;
+    contact_node::to_msg(solution, in.problem.header(), solve_us, method, out);
+    if (!reflect::validate(out)) {  // never send a non-finite answer
+      node.error("tick %llu: non-finite solution replaced by the safe answer",
+                 static_cast<unsigned long long>(in.problem.header().tick()));
+      contact::set_safe_solution(contact::ContactStatus::kSolverFailure, solution);
+      contact_node::to_msg(solution, in.problem.header(), solve_us, method, out);
+    }
+    node.publish(solutions, out);
+    node.tick_done(in.problem.header().tick(), node::now_ns() - t0);
+  }
+  char extra[128];
+  std::snprintf(extra, sizeof(extra), "{\"method\": \"%s\", \"unreadable_problems\": %llu}",
+                contact::to_string(method), static_cast<unsigned long long>(bad_cdr));
+  node.write_summary(extra);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "poise-contact: %s\n", e.what());
+    return 2;
+  }
+}

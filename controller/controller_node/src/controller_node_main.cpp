@@ -1,0 +1,166 @@
+// poise-controller: the momentum-based balance controller (controller/momentum) as a DDS node.
+//
+// ------------------------------------------------------------------------------------------------
+// Contract
+//   subscribes  poise/robot_description   RobotDescription  once at start (latched): joint order
+//               poise/state               State             1 kHz  reliable, keep-last 1
+//               poise/balance_reference   BalanceReference  on change (latched); default: stand
+//               poise/contact_solution    ContactSolution   one per problem, tick k
+//   publishes   poise/contact_problem     ContactProblem    one per state, tick k
+//               poise/joint_command       JointCommand      one per state, tick k
+//               poise/diagnostics         Diagnostics       ~10 Hz best-effort (compute time per
+//                                                           tick, contact deadline misses)
+//   one tick    state k -> phase A (eqs 10-11, supports, eq 36) -> contact problem k -> wait for
+//               contact solution k until --contact-deadline-us after the problem was sent ->
+//               phase B (eq 33, inverse dynamics, PD references), or the library's fallback on a
+//               miss (counted as a deadline miss) -> joint command k
+//   repeats     a state with the tick just handled is answered with the same command again
+// ------------------------------------------------------------------------------------------------
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+#include <exception>
+
+#include <poise/msg/contact_problem.h>
+#include <poise/msg/contact_solution.h>
+
+#include "poise/contact_node/contact_messages.hpp"
+#include "poise/controller/balance_controller.hpp"
+#include "poise/controller_node/controller_messages.hpp"
+#include "poise/model/robot_config.hpp"
+#include "poise/node/mailbox.hpp"
+#include "poise/node/node.hpp"
+#include "poise/node/robot_description.hpp"
+
+namespace {
+
+using namespace poise;
+
+int run(int argc, char** argv) {
+  node::NodeOptions options;
+  std::string config_path;
+  double deadline_us = 400.0;
+  int description_timeout_ms = 30000, contact_wait_ms = 10000;
+  CLI::App app{
+      "Balance controller node: state k in, contact problem k out, contact solution k "
+      "in, joint command k out."};
+  node::add_node_options(app, options, "controller");
+  app.add_option("--config", config_path, "controller YAML (default: the library's defaults)")
+      ->check(CLI::ExistingFile);
+  app.add_option("--contact-deadline-us", deadline_us,
+                 "wait this long for the contact solution of a tick, then use the fallback "
+                 "(400 us in real time; `poise run` uses 1 s in lockstep)")
+      ->capture_default_str();
+  app.add_option("--description-timeout-ms", description_timeout_ms,
+                 "how long to wait for the robot description at start")
+      ->capture_default_str();
+  app.add_option("--contact-wait-ms", contact_wait_ms,
+                 "how long to wait at start for the contact optimiser's endpoints")
+      ->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  node::Node node(options);
+  const model::RobotConfig robot = model::load_robot_config(options.robot);
+  const model::Model model = model::load_robot_model(robot);
+  const controller::ControllerConfig config = config_path.empty()
+                                                  ? controller::ControllerConfig{}
+                                                  : controller::load_controller_config(config_path);
+  controller::BalanceController ctrl(model, robot, config);
+  const msg::RobotDescription description =
+      node::wait_for_robot_description(node, std::chrono::milliseconds(description_timeout_ms));
+  const std::vector<int> model_to_wire =
+      node::model_to_wire_map(description.joint_names(), model.joint_names);
+
+  controller::RobotState state = ctrl.make_state();
+  controller::BalanceReference reference = ctrl.make_reference();
+  controller::JointCommand command = ctrl.make_command();
+  contact::ContactProblem problem;
+  contact::ContactSolution solution;
+
+  node::Mailbox<msg::State> state_box;
+  node::Mailbox<msg::ContactSolution> solution_box;
+  node::Mailbox<msg::BalanceReference> reference_box;
+  dds::Subscriber<msg::State> states(node.participant(), state_box.callback());
+  dds::Subscriber<msg::ContactSolution> solutions(node.participant(), solution_box.callback());
+  dds::Subscriber<msg::BalanceReference> references(node.participant(), reference_box.callback());
+  node.watch(states);
+  node.watch(solutions);
+  node.watch(references);
+  dds::Publisher<msg::ContactProblem> problems(node.participant());
+  dds::Publisher<msg::JointCommand> commands(node.participant());
+  if (!problems.wait_for_matches(1, std::chrono::milliseconds(contact_wait_ms)) ||
+      !solutions.wait_for_matches(1, std::chrono::milliseconds(contact_wait_ms)))
+    dds::log(dds::LogLevel::warn,
+             "no contact optimiser matched after %d ms: starting anyway "
+             "(fallback wrenches until one answers)",
+             contact_wait_ms);
+
+  msg::State in;
+  msg::BalanceReference ref_in;
+  msg::ContactProblem problem_out;
+  msg::ContactSolution solution_in;
+  msg::JointCommand out;
+  std::uint64_t state_seen = 0, solution_seen = 0, reference_seen = 0;
+  bool have_last = false;
+  std::uint64_t last_tick = 0;
+  const auto deadline_ns = static_cast<std::int64_t>(deadline_us * 1e3);
+  while (node.running()) {
+    const std::int64_t next_diag = node.poll();
+    if (!state_box.wait(state_seen, next_diag) || !state_box.take(in, state_seen)) continue;
+    const std::uint64_t k = in.header().tick();
+    if (have_last && k == last_tick) {  // repeated state: same answer
+      node.publish(commands, out);
+      continue;
+    }
+    const std::int64_t t0 = node::now_ns();
+    if (reference_box.take(ref_in, reference_seen) &&
+        !controller_node::from_msg(ref_in, model_to_wire, reference))
+      node.error("balance reference with joint_count %u (robot has %zu): joint targets ignored",
+                 ref_in.joint_count(), model_to_wire.size());
+    controller_node::from_msg(in, model_to_wire, state);
+    ctrl.prepare(state, reference, problem);
+    contact_node::to_msg(problem, problem_out);
+    problem_out.header(in.header());
+    const bool sent = node.publish(problems, problem_out);
+    const std::int64_t t_sent = node::now_ns();
+
+    bool answered = false;
+    while (sent && !answered && solution_box.wait(solution_seen, t_sent + deadline_ns))
+      answered = solution_box.take(solution_in, solution_seen) && solution_in.header().tick() == k;
+    const std::int64_t t_back = node::now_ns();
+    if (answered) {
+      contact_node::from_msg(solution_in, solution);
+      ctrl.finish(solution, command);
+    } else {
+      node.deadline_miss();
+      node.error("tick %llu: no contact solution within %.0f us: fallback wrenches",
+                 static_cast<unsigned long long>(k), deadline_us);
+      ctrl.finish_fallback(command);
+    }
+    controller_node::to_msg(command, in.header(), model_to_wire, out);
+    node.publish(commands, out);
+    have_last = true;
+    last_tick = k;
+    node.tick_done(k, (t_sent - t0) + (node::now_ns() - t_back));  // own compute, not the wait
+  }
+  const auto& d = ctrl.diagnostics();
+  char extra[256];
+  std::snprintf(extra, sizeof(extra),
+                "{\"late_solutions\": %llu, \"qp_failures\": %llu, \"controller_ticks\": %llu}",
+                static_cast<unsigned long long>(d.late_solutions),
+                static_cast<unsigned long long>(d.qp_failures),
+                static_cast<unsigned long long>(d.ticks));
+  node.write_summary(extra);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "poise-controller: %s\n", e.what());
+    return 2;
+  }
+}

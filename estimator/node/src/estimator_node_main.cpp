@@ -1,0 +1,128 @@
+// poise-estimator: the state estimator (contact-aided invariant EKF, estimator/core) as a DDS node.
+//
+// ------------------------------------------------------------------------------------------------
+// Contract
+//   subscribes  poise/robot_description  RobotDescription  once at start (latched): joint order
+//               poise/sensors            Sensors           1 kHz  reliable, keep-last 1
+//               poise/ground_truth       GroundTruth       only with --ground-truth-state (debug)
+//   publishes   poise/state              State             one per sensor sample, same tick k
+//                                                           reliable, keep-last 1
+//               poise/diagnostics        Diagnostics       ~10 Hz best-effort, keep-last 1
+//   repeats     a sensor sample with the tick just handled is answered with the same state again
+//               (the simulator repeats tick 0 until the loop is connected)
+//   bad input   rejected by the DDS layer (counted) or by the library (state held, status bit)
+//   debug       --ground-truth-state: base pose/twist, CoM and contacts copied from the
+//               simulator's ground truth of the same tick (STATE_GROUND_TRUTH set). Off by default.
+// ------------------------------------------------------------------------------------------------
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+#include <exception>
+
+#include "poise/estimator/estimator.hpp"
+#include "poise/estimator_node/estimator_messages.hpp"
+#include "poise/model/robot_config.hpp"
+#include "poise/node/mailbox.hpp"
+#include "poise/node/node.hpp"
+#include "poise/node/robot_description.hpp"
+
+namespace {
+
+using namespace poise;
+
+int run(int argc, char** argv) {
+  node::NodeOptions options;
+  bool ground_truth_state = false;
+  int description_timeout_ms = 30000;
+  int truth_timeout_ms = 200;
+  CLI::App app{"State estimator node: sensors k in, state k out."};
+  node::add_node_options(app, options, "estimator");
+  app.add_flag("--ground-truth-state", ground_truth_state,
+               "DEBUG: copy the simulator's ground truth into the state (sets STATE_GROUND_TRUTH)");
+  app.add_option("--description-timeout-ms", description_timeout_ms,
+                 "how long to wait for the robot description at start")
+      ->capture_default_str();
+  app.add_option("--truth-timeout-ms", truth_timeout_ms,
+                 "with --ground-truth-state: how long to wait for the ground truth of a tick")
+      ->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  node::Node node(options);
+  const model::RobotConfig robot = model::load_robot_config(options.robot);
+  const model::Model model = model::load_robot_model(robot);
+  const msg::RobotDescription description =
+      node::wait_for_robot_description(node, std::chrono::milliseconds(description_timeout_ms));
+  const std::vector<int> model_to_wire =
+      node::model_to_wire_map(description.joint_names(), model.joint_names);
+
+  estimator::Estimator estimator(model, robot);
+  estimator::SensorFrame frame = estimator.make_sensor_frame();
+  estimator::EstimatorState state = estimator.make_state();
+
+  node::Mailbox<msg::Sensors> sensor_box;
+  dds::Subscriber<msg::Sensors> sensors(node.participant(), sensor_box.callback());
+  node.watch(sensors);
+  node::Mailbox<msg::GroundTruth> truth_box;
+  std::unique_ptr<dds::Subscriber<msg::GroundTruth>> truths;
+  if (ground_truth_state) {
+    dds::log(dds::LogLevel::warn, "DEBUG --ground-truth-state: the state is the simulator's truth");
+    truths = std::make_unique<dds::Subscriber<msg::GroundTruth>>(node.participant(),
+                                                                 truth_box.callback());
+    node.watch(*truths);
+  }
+  dds::Publisher<msg::State> states(node.participant());
+
+  msg::Sensors in;
+  msg::GroundTruth truth;
+  msg::State out;
+  std::uint64_t seen = 0, truth_seen = 0;
+  bool have_last = false;
+  std::uint64_t last_tick = 0, library_rejected = 0;
+  while (node.running()) {
+    const std::int64_t next_diag = node.poll();
+    if (!sensor_box.wait(seen, next_diag) || !sensor_box.take(in, seen)) continue;
+    const std::uint64_t k = in.header().tick();
+    if (have_last && k == last_tick) {  // repeated sample: same answer
+      node.publish(states, out);
+      continue;
+    }
+    const std::int64_t t0 = node::now_ns();
+    estimator_node::from_msg(in, model_to_wire, frame);
+    estimator.update(frame, state);
+    estimator_node::to_msg(state, model_to_wire, out);
+    if (estimator.diagnostics().rejected_frames != library_rejected) {
+      library_rejected = estimator.diagnostics().rejected_frames;
+      node.error("tick %llu: sensor frame rejected: %s", static_cast<unsigned long long>(k),
+                 estimator.diagnostics().last_error);
+    }
+    if (ground_truth_state) {
+      const std::int64_t deadline = node::now_ns() + std::int64_t{truth_timeout_ms} * 1'000'000;
+      bool found = truth.header().tick() == k;
+      while (!found && truth_box.wait(truth_seen, deadline))
+        found = truth_box.take(truth, truth_seen) && truth.header().tick() == k;
+      if (found)
+        estimator_node::overwrite_with_ground_truth(truth, model.total_mass, out);
+      else
+        node.error("tick %llu: no ground truth of this tick: estimated state sent",
+                   static_cast<unsigned long long>(k));
+    }
+    node.publish(states, out);
+    have_last = true;
+    last_tick = k;
+    node.tick_done(k, node::now_ns() - t0);
+  }
+  node.write_summary(ground_truth_state ? R"({"state_source": "ground_truth"})"
+                                        : R"({"state_source": "estimator"})");
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "poise-estimator: %s\n", e.what());
+    return 2;
+  }
+}

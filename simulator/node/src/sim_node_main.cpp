@@ -1,0 +1,385 @@
+// poise-sim: the Bullet simulator (simulator/sim) as a DDS node: the robot side of the topics.
+//
+// ------------------------------------------------------------------------------------------------
+// Contract
+//   publishes   poise/robot_description  RobotDescription  once at start (reliable,
+//                                                          transient-local: late joiners get it)
+//               poise/sensors            Sensors           every tick k (reliable, keep-last 1)
+//               poise/ground_truth       GroundTruth       every tick k (reliable, keep-last 1)
+//               poise/diagnostics        Diagnostics       ~10 Hz best-effort (compute = step)
+//   subscribes  poise/joint_command      JointCommand      reliable, keep-last 1
+//               poise/disturbance        Disturbance       reliable, keep-last 16: pushes applied
+//                                                          live (start < 0: at once)
+//   --lockstep  (default) publish sensors k, wait for the command with header.tick == k (at most
+//               --command-timeout-ms; on a timeout: logged, counted, damping for that step), then
+//               step. Tick 0 is repeated every 100 ms until the loop answers (start-up).
+//   --realtime  1 kHz on the wall clock with the newest command; the watchdog switches to damping
+//               when no fresh command came for --watchdog-ms (default 5) and resumes when they
+//               come back (both transitions logged).
+//   start-up    --settle-ticks (10) steps with the joints held by PD before tick k0 is published:
+//               the frame right after construction has no contact forces yet, and the
+//               estimator would report "no contact" (flight) to the controller.
+//   measures    tick latency: sensors k published -> command k received (this process's clock);
+//               realtime factor; the scenario monitor's verdict. Printed at exit as one line
+//               "poise-sim result {json}" and written to --summary.
+// ------------------------------------------------------------------------------------------------
+#include <CLI/CLI.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <exception>
+
+#include "poise/node/mailbox.hpp"
+#include "poise/node/node.hpp"
+#include "poise/sim/scenario.hpp"
+#include "poise/sim/simulator.hpp"
+#include "poise/sim/watchdog.hpp"
+#include "poise/sim_node/sim_messages.hpp"
+
+namespace {
+
+using namespace poise;
+
+struct Settings {
+  std::string scenario;
+  bool realtime = false;
+  double duration = -1.0;
+  int command_timeout_ms = 2000;
+  int startup_timeout_ms = 30000;
+  int max_consecutive_timeouts = 3;
+  double watchdog_ms = 5.0;
+  bool progress = false;
+  int settle_ticks = 10;
+};
+
+/// Everything one run measures (the node's summary).
+struct Figures {
+  node::LatencyHistogram latency;
+  std::uint64_t ticks = 0, command_timeouts = 0, rejected_commands = 0, damping_ticks = 0;
+  std::uint64_t watchdog_stale_events = 0, overruns = 0, pushes = 0, total_other_contacts = 0;
+  double wall_s = 0.0;
+  bool aborted = false;
+};
+
+class SimNode {
+ public:
+  SimNode(node::Node& node, const Settings& settings)
+      : node_(node),
+        settings_(settings),
+        scenario_(sim::load_scenario(settings.scenario)),
+        sim_(scenario_.sim),
+        feet_(sim_node::foot_order(sim_)),
+        monitor_(scenario_, sim::platforms_of_feet(scenario_)),
+        slip_(sim_platforms()),
+        sensors_(sim_.make_sensor_frame()),
+        truth_(sim_.make_ground_truth()),
+        command_(sim_.make_command()),
+        damping_(sim_.make_command()),
+        commands_in_(node.participant(), command_box_.callback()),
+        disturbances_(node.participant()),
+        description_pub_(node.participant()),
+        sensors_pub_(node.participant()),
+        truth_pub_(node.participant()),
+        publish_ns_(1024, 0) {
+    node.watch(commands_in_);
+    node.watch(disturbances_);
+    sim::make_damping_command(sim_.damping_kd(), damping_);
+    command_ = damping_;
+    description_pub_.publish(sim_node::make_robot_description(scenario_, sim_, feet_));
+    sim_node::settle(sim_, settings_.settle_ticks, sensors_, truth_);
+    monitor_.update(truth_);
+    slip_.update(truth_);
+    dds::log(dds::LogLevel::info, "initial base height %.3f m, CoM (%.3f, %.3f, %.3f) m",
+             truth_.X_WB.translation().z(), truth_.com_W.x(), truth_.com_W.y(), truth_.com_W.z());
+  }
+
+  const sim::Scenario& scenario() const { return scenario_; }
+  double duration() const {
+    return settings_.duration > 0 ? settings_.duration : scenario_.duration;
+  }
+
+  /// Runs the scenario in the chosen mode. Returns false when aborted.
+  bool run() {
+    const auto steps = static_cast<std::int64_t>(std::llround(duration() / sim_.dt()));
+    dds::log(dds::LogLevel::info, "%s: %d joints, %.1f s, %s", scenario_.name.c_str(),
+             sim_.num_joints(), duration(), settings_.realtime ? "real time" : "lockstep");
+    sensors_pub_.wait_for_matches(1, std::chrono::milliseconds(settings_.startup_timeout_ms));
+    return settings_.realtime ? run_realtime(steps) : run_lockstep(steps);
+  }
+
+  /// One-line JSON of the run's figures and the monitor's verdict.
+  std::string result_json() const {
+    const sim::ScenarioMonitor::Result r = monitor_.result();
+    const double sim_s = static_cast<double>(figures_.ticks) * sim_.dt();
+    char buf[1400];
+    std::snprintf(
+        buf, sizeof(buf),
+        "{\"scenario\": \"%s\", \"mode\": \"%s\", \"completed\": %s, \"survived\": %s, "
+        "\"com_error_max_m\": %.6f, \"com_error_final_m\": %.6f, \"foot_slip_max_m\": %.6f, "
+        "\"non_foot_contacts\": %d, \"min_base_height_m\": %.4f, \"last_recovery_time_s\": %.4f, "
+        "\"tick_latency_us\": {\"p50\": %.1f, \"p99\": %.1f, \"max\": %.1f, \"mean\": %.1f, "
+        "\"count\": %zu}, \"command_timeouts\": %llu, \"rejected_commands\": %llu, "
+        "\"damping_ticks\": %llu, \"watchdog_stale_events\": %llu, \"overruns\": %llu, "
+        "\"pushes_received\": %llu, \"sim_time_s\": %.4f, \"wall_time_s\": %.4f, "
+        "\"realtime_factor\": %.4f}",
+        scenario_.name.c_str(), settings_.realtime ? "realtime" : "lockstep",
+        figures_.aborted ? "false" : "true", r.survived && !figures_.aborted ? "true" : "false",
+        r.com_error_max_m, r.com_error_final_m, r.foot_slip_max_m, r.non_foot_contacts,
+        std::isfinite(r.min_base_height_m) ? r.min_base_height_m : -1.0,
+        std::isfinite(r.last_recovery_time_s) ? r.last_recovery_time_s : -1.0,
+        figures_.latency.percentile(0.5), figures_.latency.percentile(0.99), figures_.latency.max(),
+        figures_.latency.mean(), figures_.latency.count(),
+        static_cast<unsigned long long>(figures_.command_timeouts),
+        static_cast<unsigned long long>(figures_.rejected_commands),
+        static_cast<unsigned long long>(figures_.damping_ticks),
+        static_cast<unsigned long long>(figures_.watchdog_stale_events),
+        static_cast<unsigned long long>(figures_.overruns),
+        static_cast<unsigned long long>(figures_.pushes), sim_s, figures_.wall_s,
+        figures_.wall_s > 0 ? sim_s / figures_.wall_s : 0.0);
+    return buf;
+  }
+
+ private:
+  std::vector<int> sim_platforms() const {
+    // platforms_of_feet() is indexed like the scenario's feet, which is the simulator's order.
+    return sim::platforms_of_feet(scenario_);
+  }
+
+  void publish_tick() noexcept {
+    sim_node::to_msg(sensors_, feet_, sensors_msg_);
+    node_.publish(sensors_pub_, sensors_msg_);
+    publish_ns_[static_cast<std::size_t>(sensors_.tick) % publish_ns_.size()] = node::now_ns();
+    sim_node::to_msg(truth_, feet_, slip_, figures_.total_other_contacts, truth_msg_);
+    node_.publish(truth_pub_, truth_msg_);
+  }
+
+  void step_and_observe(const sim::JointCommand& command) noexcept {
+    const std::int64_t t0 = node::now_ns();
+    if (sim_.step(command, sensors_, truth_) != sim::StepStatus::kOk) {
+      ++figures_.rejected_commands;
+      node_.error("tick %lld: command rejected by the simulator (size or non-finite): damped",
+                  static_cast<long long>(sensors_.tick));
+    }
+    node_.tick_done(static_cast<std::uint64_t>(sensors_.tick), node::now_ns() - t0);
+    if (truth_.num_non_foot_contacts > 0) ++figures_.total_other_contacts;
+    monitor_.update(truth_);
+    slip_.update(truth_);
+    ++figures_.ticks;
+    apply_disturbances();
+    if (settings_.progress && sensors_.tick % 1000 == 0) {
+      const auto r = monitor_.result();
+      std::printf(
+          "progress t=%.1f s com_error=%.4f m com_error_max=%.4f m base_z=%.3f m "
+          "latency_p50=%.0f us\n",
+          sensors_.time, r.com_error_final_m, r.com_error_max_m, truth_.X_WB.translation().z(),
+          figures_.latency.percentile(0.5));
+      std::fflush(stdout);
+    }
+  }
+
+  void apply_disturbances() noexcept {
+    while (disturbances_.take(disturbance_)) {
+      ++figures_.pushes;
+      if (!sim_node::from_msg(disturbance_, sim_.time(), push_) || !sim_.add_push(push_))
+        node_.error("disturbance %u refused (kind %d, link '%s')", disturbance_.id(),
+                    static_cast<int>(disturbance_.kind()), disturbance_.link().c_str());
+      else
+        dds::log(dds::LogLevel::info, "push %u: %.1f N on %s for %.3f s at t=%.3f s",
+                 disturbance_.id(), push_.force_W.norm(), push_.link.c_str(), push_.duration,
+                 push_.start);
+    }
+  }
+
+  /// Takes the newest command if it is new; converts it. Returns true for a new, valid command.
+  bool take_command(std::int64_t* arrival_ns) noexcept {
+    if (!command_box_.take(command_msg_, command_seen_, arrival_ns)) return false;
+    if (!sim_node::from_msg(command_msg_, command_)) {
+      ++figures_.rejected_commands;
+      node_.error("command of tick %llu has joint_count %u, the robot has %d joints: ignored",
+                  static_cast<unsigned long long>(command_msg_.header().tick()),
+                  command_msg_.joint_count(), sim_.num_joints());
+      return false;
+    }
+    return true;
+  }
+
+  bool run_lockstep(std::int64_t steps) {
+    int consecutive = 0;
+    std::int64_t wall0 = 0;
+    for (std::int64_t i = 0; i < steps && node_.running(); ++i) {
+      const auto k = static_cast<std::uint64_t>(sensors_.tick);
+      publish_tick();
+      const std::int64_t t_pub = node::now_ns();
+      const std::int64_t timeout_ns =
+          std::int64_t{i == 0 ? settings_.startup_timeout_ms : settings_.command_timeout_ms} *
+          1'000'000;
+      bool got = false;
+      std::int64_t arrival = 0;
+      std::int64_t next_repeat = t_pub + 100'000'000;
+      while (!got && node_.running()) {
+        const std::int64_t now = node::now_ns();
+        if (now >= t_pub + timeout_ns) break;
+        const std::int64_t until =
+            std::min({t_pub + timeout_ns, node_.poll(), i == 0 ? next_repeat : t_pub + timeout_ns});
+        if (command_box_.wait(command_seen_, until)) {
+          got = take_command(&arrival) && command_.tick == static_cast<std::int64_t>(k);
+        } else if (i == 0 && node::now_ns() >= next_repeat) {
+          publish_tick();  // start-up: the loop may not be connected yet
+          next_repeat += 100'000'000;
+        }
+      }
+      if (i == 0) wall0 = node::now_ns();
+      const sim::JointCommand* apply = &command_;
+      if (got) {
+        consecutive = 0;
+        figures_.latency.add(static_cast<double>(arrival - publish_ns_[k % publish_ns_.size()]) *
+                             1e-3);
+      } else {
+        if (!node_.running()) break;
+        ++figures_.command_timeouts;
+        ++figures_.damping_ticks;
+        node_.deadline_miss();
+        node_.error("tick %llu: no joint command within %d ms: damping",
+                    static_cast<unsigned long long>(k),
+                    i == 0 ? settings_.startup_timeout_ms : settings_.command_timeout_ms);
+        apply = &damping_;
+        if (++consecutive >= settings_.max_consecutive_timeouts) {
+          node_.error("%d ticks in a row without a command: giving up", consecutive);
+          figures_.aborted = true;
+          break;
+        }
+      }
+      step_and_observe(*apply);
+      node_.poll();
+    }
+    figures_.wall_s = static_cast<double>(node::now_ns() - wall0) * 1e-9;
+    if (!node_.running() && figures_.ticks < static_cast<std::uint64_t>(steps))
+      figures_.aborted = true;
+    return !figures_.aborted;
+  }
+
+  bool run_realtime(std::int64_t steps) {
+    sim::CommandWatchdog watchdog(static_cast<std::int64_t>(settings_.watchdog_ms * 1e6));
+    node::TickTimer timer(static_cast<std::int64_t>(sim_.dt() * 1e9));
+    timer.start();
+    const std::int64_t wall0 = node::now_ns();
+    auto last_state = watchdog.state();
+    for (std::int64_t i = 0; i < steps && node_.running(); ++i) {
+      std::int64_t arrival = 0;
+      while (take_command(&arrival)) {  // newest command, if one came
+        watchdog.on_command(arrival);
+        const auto kc = static_cast<std::uint64_t>(command_.tick);
+        if (kc <= static_cast<std::uint64_t>(sensors_.tick) &&
+            static_cast<std::uint64_t>(sensors_.tick) - kc < publish_ns_.size())
+          figures_.latency.add(static_cast<double>(arrival - publish_ns_[kc % publish_ns_.size()]) *
+                               1e-3);
+      }
+      const auto state = watchdog.update(node::now_ns());
+      if (state != last_state) {
+        if (state == sim::CommandWatchdog::State::kStale) {
+          ++figures_.watchdog_stale_events;
+          dds::log(dds::LogLevel::warn,
+                   "watchdog: no fresh joint command for %.1f ms at t=%.3f s: "
+                   "DAMPING mode",
+                   settings_.watchdog_ms, sensors_.time);
+        } else if (state == sim::CommandWatchdog::State::kActive) {
+          dds::log(dds::LogLevel::info,
+                   "watchdog: joint commands fresh again at t=%.3f s: "
+                   "control RESUMED",
+                   sensors_.time);
+        }
+        last_state = state;
+      }
+      if (watchdog.damping()) ++figures_.damping_ticks;
+      step_and_observe(sim::select_command(watchdog, command_, damping_));
+      publish_tick();
+      node_.poll();
+      timer.wait_next();
+    }
+    figures_.overruns = timer.overruns();
+    figures_.wall_s = static_cast<double>(node::now_ns() - wall0) * 1e-9;
+    figures_.aborted = figures_.ticks < static_cast<std::uint64_t>(steps);
+    return !figures_.aborted;
+  }
+
+  node::Node& node_;
+  Settings settings_;
+  sim::Scenario scenario_;
+  sim::Simulator sim_;
+  sim_node::FootOrder feet_;
+  sim::ScenarioMonitor monitor_;
+  sim_node::SlipTracker slip_;
+  sim::SensorFrame sensors_;
+  sim::GroundTruth truth_;
+  sim::JointCommand command_, damping_;
+  sim::Push push_;
+  node::Mailbox<msg::JointCommand> command_box_;
+  std::uint64_t command_seen_ = 0;
+  dds::Subscriber<msg::JointCommand> commands_in_;
+  dds::Subscriber<msg::Disturbance> disturbances_;
+  dds::Publisher<msg::RobotDescription> description_pub_;
+  dds::Publisher<msg::Sensors> sensors_pub_;
+  dds::Publisher<msg::GroundTruth> truth_pub_;
+  msg::Sensors sensors_msg_;
+  msg::GroundTruth truth_msg_;
+  msg::JointCommand command_msg_;
+  msg::Disturbance disturbance_;
+  std::vector<std::int64_t> publish_ns_;  ///< publication time of sensors k, ring by k
+  Figures figures_;
+};
+
+int run(int argc, char** argv) {
+  node::NodeOptions options;
+  Settings s;
+  CLI::App app{"Simulator node: runs a scenario and speaks the robot side of the Poise topics."};
+  node::add_node_options(app, options, "sim");
+  app.add_option("scenario", s.scenario, "scenario YAML file")
+      ->required()
+      ->check(CLI::ExistingFile);
+  bool lockstep_flag = false;
+  auto* lock =
+      app.add_flag("--lockstep", lockstep_flag, "step k+1 only after command k arrived (default)");
+  app.add_flag("--realtime", s.realtime, "1 kHz on the wall clock, newest command, watchdog")
+      ->excludes(lock);
+  app.add_option("--duration", s.duration, "override the scenario duration [s]");
+  app.add_option("--command-timeout-ms", s.command_timeout_ms,
+                 "lockstep: longest wait for the command of a tick")
+      ->capture_default_str();
+  app.add_option("--startup-timeout-ms", s.startup_timeout_ms,
+                 "longest wait for the first command (loop start-up)")
+      ->capture_default_str();
+  app.add_option("--max-consecutive-timeouts", s.max_consecutive_timeouts,
+                 "lockstep: give up after this many ticks in a row without a command")
+      ->capture_default_str();
+  app.add_option("--watchdog-ms", s.watchdog_ms,
+                 "real time: damping after this long without a fresh command")
+      ->capture_default_str();
+  app.add_flag("--progress", s.progress, "print a progress line every simulated second");
+  app.add_option("--settle-ticks", s.settle_ticks,
+                 "start-up: steps with the joints held by PD before the first sensor frame, so "
+                 "that it measures the feet loaded")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 10000));
+  CLI11_PARSE(app, argc, argv);
+  // The robot configuration comes from the scenario; --robot is ignored by this node.
+
+  node::Node node(options);
+  SimNode sim(node, s);
+  const bool ok = sim.run();
+  const std::string result = sim.result_json();
+  std::printf("poise-sim result %s\n", result.c_str());
+  std::fflush(stdout);
+  node.write_summary(result);
+  return ok ? 0 : 3;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "poise-sim: %s\n", e.what());
+    return 2;
+  }
+}

@@ -1,0 +1,350 @@
+// The DDS nodes as separate processes: --help, the contact node's round trip on both vendors
+// (valid, NaN and inconsistent problems), the estimator node's states, the lockstep closed loop
+// through `poise run`'s distributed launcher (Cyclone, mixed vendors, the paper's forward push)
+// and the real-time watchdog when the controller process dies and comes back.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <thread>
+
+#include <poise/msg/contact_problem.h>
+#include <poise/msg/contact_solution.h>
+#include <poise/msg/robot_description.h>
+#include <poise/msg/sensors.h>
+#include <poise/msg/state.h>
+
+#include "dds/dds_test_util.hpp"
+#include "poise/dds/dds.hpp"
+#include "poise/model/robot_config.hpp"
+#include "poise/reflect/validate.hpp"
+#include "support/child_process.hpp"
+
+namespace {
+
+using namespace std::chrono_literals;
+using poise::testing::bin;
+using poise::testing::ChildProcess;
+namespace fs = std::filesystem;
+namespace msg = poise::msg;
+namespace dds = poise::dds;
+
+const std::string kSource = POISE_SOURCE_DIR;
+
+std::vector<std::string> node_args(const std::string& exe, const std::string& vendor,
+                                   std::vector<std::string> extra = {}) {
+  std::vector<std::string> a{bin(exe), "--dds", vendor, "--domain",
+                             std::to_string(dds::test::claim_test_domain())};
+  a.insert(a.end(), extra.begin(), extra.end());
+  return a;
+}
+
+dds::DdsOptions options(const std::string& vendor) {
+  dds::DdsOptions o;
+  o.vendor = dds::parse_vendor(vendor);
+  o.domain_id = dds::test::claim_test_domain();
+  o.participant_name = "nodes_test";
+  return o;
+}
+
+// ---------------------------------------------------------------------------------------------
+TEST(Nodes, EveryNodeAnswersHelp) {
+  for (const std::string exe :
+       {"poise-sim", "poise-estimator", "poise-contact", "poise-controller", "poise-launch"}) {
+    ChildProcess p({bin(exe), "--help"}, {}, false, true);
+    const auto code = p.wait_for(20s);
+    ASSERT_TRUE(code.has_value()) << exe << " --help did not end";
+    EXPECT_EQ(*code, 0) << exe;
+    EXPECT_NE(p.output().find("--dds"), std::string::npos) << exe << ":\n" << p.output();
+  }
+  if (fs::exists(bin("poise"))) {
+    ChildProcess p({bin("poise"), "push", "--help"}, {}, false, true);
+    ASSERT_EQ(p.wait_for(20s).value_or(-1), 0);
+    EXPECT_NE(p.output().find("--force"), std::string::npos) << p.output();
+  }
+}
+
+TEST(Nodes, BadArgumentsAreRefusedWithAMessage) {
+  ChildProcess p({bin("poise-contact"), "--method", "simplex"}, {}, false, true);
+  const auto code = p.wait_for(20s);
+  ASSERT_TRUE(code.has_value());
+  EXPECT_NE(*code, 0);
+  EXPECT_NE(p.output().find("--method"), std::string::npos) << p.output();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Contact node: a double-support problem of a 50 kg robot standing still, random CoM offsets.
+
+msg::ContactProblem standing_problem(std::uint64_t tick, std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(-0.02, 0.02);
+  msg::ContactProblem p;
+  p.header().tick(tick);
+  p.header().stamp_ns(static_cast<long long>(tick) * 1'000'000);
+  p.mass(50.0);
+  p.gravity_W({0.0, 0.0, -9.81});
+  p.com_W({u(rng), u(rng), 0.8});
+  p.l_dot_desired_W({10 * u(rng), 10 * u(rng), 0.0});
+  for (int f = 0; f < 2; ++f) {
+    msg::ContactFoot& foot = p.feet()[f];
+    foot.in_contact(true);
+    foot.pose_W().position({0.0, f == 0 ? -0.1 : 0.1, 0.08});
+    foot.pose_W().orientation_wxyz({1.0, 0.0, 0.0, 0.0});
+    foot.x_min(-0.08);
+    foot.x_max(0.14);
+    foot.y_min(-0.055);
+    foot.y_max(0.055);
+    foot.safety_margin(0.01);
+    foot.ankle_height(0.08);
+    foot.mu(0.8);
+    foot.mu_torsion(0.02);
+  }
+  return p;
+}
+
+bool receive(dds::Subscriber<msg::ContactSolution>& sub, std::uint64_t tick,
+             msg::ContactSolution& out) {
+  return dds::test::eventually(
+      [&] {
+        while (sub.take(out))
+          if (out.header().tick() == tick) return true;
+        return false;
+      },
+      10000ms);
+}
+
+class ContactNode : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(ContactNode, RoundTripCopiesTheTickAndAnswersBadInputSafely) {
+  const std::string vendor = GetParam();
+  ChildProcess node(node_args("poise-contact", vendor), {}, false, true);
+  dds::Participant participant(options(vendor));
+  dds::Publisher<msg::ContactProblem> pub(participant);
+  dds::Subscriber<msg::ContactSolution> sub(participant);
+  ASSERT_TRUE(pub.wait_for_matches(1, 15s)) << node.output();
+  ASSERT_TRUE(sub.wait_for_matches(1, 15s)) << node.output();
+  std::this_thread::sleep_for(300ms);  // the node's side of the match
+
+  std::mt19937 rng(7);
+  for (std::uint64_t k = 100; k < 105; ++k) {
+    const msg::ContactProblem p = standing_problem(k, rng);
+    ASSERT_TRUE(pub.publish(p));
+    msg::ContactSolution s;
+    ASSERT_TRUE(receive(sub, k, s)) << "no solution of tick " << k << "\n" << node.output();
+    EXPECT_EQ(s.header().stamp_ns(), p.header().stamp_ns());
+    EXPECT_TRUE(s.status() == msg::CONTACT_OK || s.status() == msg::CONTACT_PROJECTED)
+        << s.status();
+    EXPECT_TRUE(poise::reflect::validate(s));
+    // Independent check, Newton: the admissible linear rate is m g + the sum of the foot forces.
+    for (int i = 0; i < 3; ++i) {
+      const double sum_f =
+          s.feet()[0].wrench_at_ankle_W().force()[i] + s.feet()[1].wrench_at_ankle_W().force()[i];
+      EXPECT_NEAR(s.l_dot_admissible_W()[i], p.mass() * p.gravity_W()[i] + sum_f, 1e-6);
+      // Standing still is admissible: the desired rate is reproduced.
+      EXPECT_NEAR(s.l_dot_admissible_W()[i], p.l_dot_desired_W()[i], 0.02 * p.mass() * 9.81);
+    }
+    EXPECT_GT(s.feet()[0].wrench_at_ankle_W().force()[2], 0.0);
+    EXPECT_GT(s.feet()[1].wrench_at_ankle_W().force()[2], 0.0);
+    EXPECT_GE(s.solve_time_us(), 0.0);
+    EXPECT_EQ(s.method(), 0u);
+  }
+
+  // A NaN in the problem: the DDS layer would drop it; the node answers with INVALID_INPUT and
+  // the safe (all zero, finite) answer, for the same tick.
+  msg::ContactProblem bad = standing_problem(200, rng);
+  bad.com_W()[1] = std::nan("");
+  ASSERT_TRUE(pub.publish(bad));
+  msg::ContactSolution s;
+  ASSERT_TRUE(receive(sub, 200, s)) << node.output();
+  EXPECT_EQ(s.status(), msg::CONTACT_INVALID_INPUT);
+  EXPECT_TRUE(poise::reflect::validate(s));
+  for (int f = 0; f < 2; ++f)
+    for (int i = 0; i < 3; ++i)
+      EXPECT_EQ(s.feet()[f].wrench_at_ankle_W().force()[i], 0.0);
+
+  // Finite but inconsistent: a zero quaternion is no rotation.
+  msg::ContactProblem zero_q = standing_problem(201, rng);
+  zero_q.feet()[1].pose_W().orientation_wxyz({0.0, 0.0, 0.0, 0.0});
+  ASSERT_TRUE(pub.publish(zero_q));
+  ASSERT_TRUE(receive(sub, 201, s)) << node.output();
+  EXPECT_EQ(s.status(), msg::CONTACT_INVALID_INPUT);
+  EXPECT_TRUE(poise::reflect::validate(s));
+
+  // Still answering after bad input.
+  ASSERT_TRUE(pub.publish(standing_problem(202, rng)));
+  ASSERT_TRUE(receive(sub, 202, s)) << node.output();
+  EXPECT_NE(s.status(), msg::CONTACT_INVALID_INPUT);
+
+  const auto code = node.interrupt(5000ms);
+  ASSERT_TRUE(code.has_value()) << "the node did not stop on SIGINT";
+  EXPECT_EQ(*code, 0) << node.output();
+  EXPECT_NE(node.output().find("rejected contact problem"), std::string::npos) << node.output();
+}
+
+INSTANTIATE_TEST_SUITE_P(Vendors, ContactNode, ::testing::Values("cyclone", "fastdds"));
+
+// ---------------------------------------------------------------------------------------------
+// Estimator node: a standing robot's sensor samples in, one state per sample out, joints mapped
+// through a permuted robot description.
+
+TEST(Nodes, EstimatorNodeAnswersEverySensorSampleWithItsState) {
+  const auto robot =
+      poise::model::load_robot_config(kSource + "/deploy/robots/poise_humanoid/robot.yaml");
+  const auto model = poise::model::load_robot_model(robot);
+  std::vector<std::string> wire(model.joint_names.rbegin(), model.joint_names.rend());  // permuted
+  const int n = static_cast<int>(wire.size());
+
+  dds::Participant participant(options("cyclone"));
+  dds::Publisher<msg::RobotDescription> description(participant);
+  msg::RobotDescription d;
+  d.robot_name("poise_humanoid");
+  d.joint_names(wire);
+  d.control_period_s(0.001);
+  ASSERT_TRUE(description.publish(d));
+  ChildProcess node(node_args("poise-estimator", "cyclone"), {}, false, true);
+  dds::Publisher<msg::Sensors> sensors(participant);
+  dds::Subscriber<msg::State> states(participant);
+  ASSERT_TRUE(sensors.wait_for_matches(1, 20s)) << node.output();
+  ASSERT_TRUE(states.wait_for_matches(1, 20s)) << node.output();
+  std::this_thread::sleep_for(300ms);
+
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-0.2, 0.2);
+  msg::Sensors s;
+  s.joint_count(static_cast<std::uint32_t>(n));
+  std::vector<double> q(n);
+  for (int i = 0; i < n; ++i)
+    q[i] = u(rng);
+  const double weight = model.total_mass * 9.81;
+  for (std::uint64_t k = 0; k < 50; ++k) {
+    s.header().tick(k);
+    s.header().stamp_ns(static_cast<long long>(k) * 1'000'000);
+    for (int i = 0; i < n; ++i)
+      s.q()[i] = q[i];
+    s.imu().orientation_wxyz({1.0, 0.0, 0.0, 0.0});
+    s.imu().specific_force_I({0.0, 0.0, 9.81});
+    for (int f = 0; f < 2; ++f)
+      s.foot_wrench_F()[f].force({0.0, 0.0, weight / 2});
+    ASSERT_TRUE(sensors.publish(s));
+    msg::State st;
+    const bool got = dds::test::eventually(
+        [&] {
+          while (states.take(st))
+            if (st.header().tick() == k) return true;
+          return false;
+        },
+        5000ms);
+    ASSERT_TRUE(got) << "no state of tick " << k << "\n" << node.output();
+    EXPECT_EQ(st.header().stamp_ns(), s.header().stamp_ns());
+    EXPECT_TRUE(poise::reflect::validate(st));
+    ASSERT_EQ(st.joint_count(), static_cast<std::uint32_t>(n));
+    for (int i = 0; i < n; ++i)
+      EXPECT_EQ(st.q()[i], q[i]) << wire[i];  // mapping round trip
+    EXPECT_EQ(st.status_flags() & msg::STATE_GROUND_TRUTH, 0u);
+    if (k == 49) {  // weight on both feet: both in contact
+      EXPECT_TRUE(st.feet()[0].in_contact());
+      EXPECT_TRUE(st.feet()[1].in_contact());
+      EXPECT_NEAR(st.feet()[0].normal_force(), weight / 2, 1e-6 * weight);
+    }
+  }
+  EXPECT_EQ(node.interrupt(5000ms).value_or(-1), 0) << node.output();
+}
+
+// ---------------------------------------------------------------------------------------------
+// The closed loop through the distributed launcher.
+
+nlohmann::json run_scenario(const std::string& scenario, std::vector<std::string> extra,
+                            std::string* output = nullptr, int expect_code = 0) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("poise-nodes-test-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const fs::path out = dir / "result.json";
+  std::vector<std::string> a{bin("poise-launch"), scenario,
+                             "--domain",          std::to_string(dds::test::claim_test_domain()),
+                             "--output",          out.string(),
+                             "--log-dir",         (dir / "logs").string()};
+  a.insert(a.end(), extra.begin(), extra.end());
+  ChildProcess p(a, {}, false, true);
+  const auto code = p.wait_for(150s);
+  if (output) *output = p.output();
+  EXPECT_TRUE(code.has_value()) << "poise run did not finish\n" << p.output();
+  EXPECT_EQ(code.value_or(-1), expect_code) << p.output();
+  std::ifstream in(out);
+  nlohmann::json j;
+  if (in) j = nlohmann::json::parse(in);
+  fs::remove_all(dir);
+  return j;
+}
+
+void expect_healthy_run(const nlohmann::json& r, const std::string& out) {
+  ASSERT_TRUE(r.is_object()) << out;
+  EXPECT_TRUE(r["survived"].get<bool>()) << r.dump(2);
+  EXPECT_TRUE(r["completed"].get<bool>()) << r.dump(2);
+  EXPECT_EQ(r["state_source"], "estimator");
+  EXPECT_EQ(r["mode"], "lockstep");
+  EXPECT_EQ(r["command_timeouts"].get<int>(), 0) << r.dump(2);
+  const auto& lat = r["tick_latency_us"];
+  EXPECT_GT(lat["count"].get<int>(), 1000);
+  EXPECT_GT(lat["p50"].get<double>(), 0.0);
+  EXPECT_LE(lat["p50"].get<double>(), lat["p99"].get<double>());
+  EXPECT_LE(lat["p99"].get<double>(), lat["max"].get<double>());
+  EXPECT_GT(r["realtime_factor"].get<double>(), 0.0);
+  EXPECT_EQ(r["rejected_samples"].get<int>(), 0) << r.dump(2);
+  EXPECT_NE(out.find("SURVIVED standing_short"), std::string::npos) << out;
+}
+
+TEST(ClosedLoop, LockstepStandingOnCyclone) {
+  std::string out;
+  const auto r =
+      run_scenario(kSource + "/tests/nodes/standing_short.yaml", {"--dds", "cyclone"}, &out);
+  expect_healthy_run(r, out);
+  EXPECT_EQ(r["dds"]["sim"], "cyclone");
+  EXPECT_EQ(r["dds"]["controller"], "cyclone");
+  EXPECT_EQ(r["deadline_misses"].get<int>(), 0) << r.dump(2);
+  EXPECT_NE(out.find("t=1.0 s"), std::string::npos) << "no progress line\n" << out;
+}
+
+TEST(ClosedLoop, LockstepStandingWithMixedVendors) {
+  std::string out;
+  const auto r = run_scenario(kSource + "/tests/nodes/standing_short.yaml",
+                              {"--dds-sim", "fastdds", "--dds-estimator", "fastdds",
+                               "--dds-contact", "cyclone", "--dds-controller", "cyclone"},
+                              &out);
+  expect_healthy_run(r, out);
+  EXPECT_EQ(r["dds"]["sim"], "fastdds");
+  EXPECT_EQ(r["dds"]["estimator"], "fastdds");
+  EXPECT_EQ(r["dds"]["contact"], "cyclone");
+  EXPECT_EQ(r["dds"]["controller"], "cyclone");
+}
+
+TEST(ClosedLoop, AFailingChildIsNamedWithItsLastStderrLines) {
+  // A controller that dies at start: the launcher must stop the others, name the controller,
+  // show its stderr and exit with 2 (not hang until its timeout).
+  const fs::path dir = fs::temp_directory_path() / ("poise-fake-bin-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  for (const std::string exe : {"poise-sim", "poise-estimator", "poise-contact"})
+    fs::create_symlink(bin(exe), dir / exe);
+  {
+    std::ofstream script(dir / "poise-controller");
+    script << "#!/bin/sh\necho 'controller boom: cannot start' >&2\nsleep 1\nexit 4\n";
+  }
+  fs::permissions(dir / "poise-controller", fs::perms::owner_all);
+  const fs::path logs = dir / "logs";
+  ChildProcess p({bin("poise-launch"), kSource + "/tests/nodes/standing_short.yaml", "--domain",
+                  std::to_string(dds::test::claim_test_domain()), "--output",
+                  (dir / "r.json").string(), "--log-dir", logs.string(), "--timeout", "60"},
+                 {"POISE_BIN_DIR=" + dir.string()}, false, true);
+  const auto code = p.wait_for(90s);
+  ASSERT_TRUE(code.has_value()) << p.output();
+  EXPECT_EQ(*code, 2) << p.output();
+  EXPECT_NE(p.output().find("controller exited early with code 4"), std::string::npos)
+      << p.output();
+  EXPECT_NE(p.output().find("controller boom: cannot start"), std::string::npos) << p.output();
+  EXPECT_FALSE(fs::exists(dir / "r.json"));
+  fs::remove_all(dir);
+}
+
+}  // namespace
