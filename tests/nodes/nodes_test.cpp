@@ -4,6 +4,7 @@
 // and the real-time watchdog when the controller process dies and comes back.
 #include <gtest/gtest.h>
 
+#include <signal.h>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -345,6 +346,55 @@ TEST(ClosedLoop, AFailingChildIsNamedWithItsLastStderrLines) {
   EXPECT_NE(p.output().find("controller boom: cannot start"), std::string::npos) << p.output();
   EXPECT_FALSE(fs::exists(dir / "r.json"));
   fs::remove_all(dir);
+}
+
+TEST(ClosedLoop, ForwardPushOfThePaperOverDds) {
+  // Paper Fig. 8 (120 N x 0.1 s on the pelvis, double support), all four processes on Cyclone.
+  std::string out;
+  const auto r = run_scenario(kSource + "/deploy/scenarios/forward_push_double_support.yaml",
+                              {"--dds", "cyclone"}, &out);
+  ASSERT_TRUE(r.is_object()) << out;
+  EXPECT_TRUE(r["survived"].get<bool>()) << r.dump(2);
+  EXPECT_EQ(r["non_foot_contacts"].get<int>(), 0);
+  // The push moved the CoM measurably (the run is not a standing run in disguise).
+  EXPECT_GT(r["com_error_max_m"].get<double>(), 0.005) << r.dump(2);
+  EXPECT_EQ(r["command_timeouts"].get<int>(), 0) << r.dump(2);
+}
+
+TEST(RealTime, WatchdogDampsWhenTheControllerDiesAndResumesWhenOneReturns) {
+  const std::string scenario = kSource + "/tests/nodes/standing_short.yaml";
+  ChildProcess sim(
+      node_args("poise-sim", "cyclone", {scenario, "--realtime", "--duration", "30", "--progress"}),
+      {}, false, true);
+  ChildProcess contact(node_args("poise-contact", "cyclone"), {}, false, true);
+  ChildProcess estimator(node_args("poise-estimator", "cyclone"), {}, false, true);
+  auto controller = std::make_unique<ChildProcess>(
+      node_args("poise-controller", "cyclone", {"--contact-deadline-us", "400"}),
+      std::vector<std::string>{}, false, true);
+  ASSERT_TRUE(sim.wait_for_output("control RESUMED", 30000ms))
+      << "the controller never took over\n"
+      << sim.output() << controller->output();
+  const std::size_t resumed_once = sim.output().find("control RESUMED");
+  std::this_thread::sleep_for(500ms);
+  ::kill(controller->pid(), SIGKILL);  // a crash, not a clean stop
+  controller->wait_for(5000ms);
+  ASSERT_TRUE(sim.wait_for_output("DAMPING mode", 5000ms)) << sim.output();
+  EXPECT_GT(sim.output().find("DAMPING mode", resumed_once), resumed_once);
+  controller = std::make_unique<ChildProcess>(
+      node_args("poise-controller", "cyclone", {"--contact-deadline-us", "400"}),
+      std::vector<std::string>{}, false, true);
+  const bool resumed_again = dds::test::eventually(
+      [&] {
+        const std::string& o = sim.output();
+        const std::size_t damping = o.find("DAMPING mode", resumed_once);
+        return damping != std::string::npos &&
+               o.find("control RESUMED", damping) != std::string::npos;
+      },
+      30000ms);
+  EXPECT_TRUE(resumed_again) << sim.output() << controller->output();
+  EXPECT_EQ(sim.interrupt(5000ms).value_or(-1), 3) << "an interrupted run reports exit code 3\n"
+                                                   << sim.output();
+  EXPECT_NE(sim.output().find("\"watchdog_stale_events\": "), std::string::npos) << sim.output();
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 #include "poise/contact_node/contact_messages.hpp"
 
 #include <Eigen/Geometry>
+#include <cmath>
 
 namespace poise::contact_node {
 namespace {
@@ -51,7 +52,8 @@ contact::ContactStatus from_msg(msg::ContactStatus s) noexcept {
   return contact::ContactStatus::kInvalidInput;
 }
 
-void from_msg(const msg::ContactProblem& in, contact::ContactProblem& out) noexcept {
+const char* from_msg(const msg::ContactProblem& in, contact::ContactProblem& out) noexcept {
+  const char* error = nullptr;
   out.mass = in.mass();
   out.gravity = vec3(in.gravity_W());
   out.com = vec3(in.com_W());
@@ -62,7 +64,11 @@ void from_msg(const msg::ContactProblem& in, contact::ContactProblem& out) noexc
     contact::FootContact& o = out.feet[i];
     o.in_contact = f.in_contact();
     const auto& q = f.pose_W().orientation_wxyz();
-    o.R_WF = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).toRotationMatrix();
+    const Eigen::Quaterniond quat(q[0], q[1], q[2], q[3]);
+    if (!(std::abs(quat.norm() - 1.0) <= 1e-6) && !error)
+      error = i == 0 ? "feet[0].pose_W.orientation_wxyz is not a unit quaternion"
+                     : "feet[1].pose_W.orientation_wxyz is not a unit quaternion";
+    o.R_WF = quat.toRotationMatrix();
     o.p_WF = vec3(f.pose_W().position());
     o.sole = {f.x_min(), f.x_max(), f.y_min(), f.y_max()};
     o.safety_margin = f.safety_margin();
@@ -77,6 +83,7 @@ void from_msg(const msg::ContactProblem& in, contact::ContactProblem& out) noexc
     out.weights.eps_f = w.eps_f();
     out.weights.eps_cop = w.eps_cop();
   }
+  return error;
 }
 
 void to_msg(const contact::ContactProblem& in, msg::ContactProblem& out) noexcept {

@@ -82,8 +82,12 @@ int run(int argc, char** argv) {
       node.error("unreadable contact problem (%s): not answered", in.why);
       continue;
     }
-    if (in.valid) {
-      contact_node::from_msg(in.problem, problem);
+    const char* bad_geometry = in.valid ? contact_node::from_msg(in.problem, problem) : nullptr;
+    if (bad_geometry) {
+      node.error("tick %llu: invalid contact problem: %s",
+                 static_cast<unsigned long long>(in.problem.header().tick()), bad_geometry);
+      contact::set_safe_solution(contact::ContactStatus::kInvalidInput, solution);
+    } else if (in.valid) {
       optimizer.solve(problem, solution);
       if (solution.status == contact::ContactStatus::kInvalidInput ||
           solution.status == contact::ContactStatus::kSolverFailure)

@@ -1,8 +1,7 @@
 #pragma once
 // IDL (poise::msg, idl/contact_problem.idl, idl/contact_solution.idl) <-> contact library
 // (poise::contact) conversions. Allocation-free, noexcept. Feet: index 0 = right, 1 = left in
-// both. Quaternions: w, x, y, z in the IDL; the conversion does not normalise, so a bad
-// orientation reaches contact::validate() and is reported as invalid input.
+// both. Quaternions: w, x, y, z in the IDL, unit norm.
 
 #include <poise/msg/contact_problem.h>
 #include <poise/msg/contact_solution.h>
@@ -12,7 +11,9 @@
 namespace poise::contact_node {
 
 /// msg -> library. IDL weights all 0 mean the paper's values (contact::ContactWeights{}).
-void from_msg(const msg::ContactProblem& in, contact::ContactProblem& out) noexcept;
+/// Returns nullptr, or a static message naming a foot orientation that is not a unit quaternion
+/// (|q| off 1 by more than 1e-6; such a problem must be answered as invalid input).
+const char* from_msg(const msg::ContactProblem& in, contact::ContactProblem& out) noexcept;
 /// library -> msg (header left untouched).
 void to_msg(const contact::ContactProblem& in, msg::ContactProblem& out) noexcept;
 
