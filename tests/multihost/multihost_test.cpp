@@ -44,6 +44,9 @@ namespace fs = std::filesystem;
 constexpr const char* kAddressA = "10.77.0.1";
 constexpr const char* kAddressB = "10.77.0.2";
 constexpr const char* kPrefix = "10.77.0.";  // the test's private /24, inside its namespaces only
+// Publishers run at 20 Hz "until stopped" (the test interrupts them once the echo is done); the
+// count only bounds them to 60 s should everything else fail.
+constexpr const char* kPubCount = "1200";
 
 /// iproute2's `ip`, wherever this distribution puts it; empty if absent.
 std::string ip_binary() {
@@ -210,9 +213,13 @@ class TwoHosts {
     return j[0]["stats64"]["rx"]["bytes"].get<std::uint64_t>();
   }
 
-  /// `ip netns exec NS argv...`, as one process (ip execs argv in place: same pid).
+  /// `setpriv --pdeathsig KILL ip netns exec NS argv...`: one process (setpriv and ip exec in
+  /// place, the pid stays), killed by the kernel if this test process dies without cleaning up
+  /// (e.g. killed at ctest's timeout), so no DDS process outlives the test.
   std::vector<std::string> exec_in(const std::string& ns, std::vector<std::string> argv) const {
-    std::vector<std::string> full{ip_, "netns", "exec", ns};
+    std::vector<std::string> full;
+    if (::access("/usr/bin/setpriv", X_OK) == 0) full = {"/usr/bin/setpriv", "--pdeathsig", "KILL"};
+    full.insert(full.end(), {ip_, "netns", "exec", ns});
     full.insert(full.end(), argv.begin(), argv.end());
     return full;
   }
@@ -223,16 +230,27 @@ class TwoHosts {
   const std::string& bridge() const { return br_; }
 
  private:
-  /// Namespaces left by an earlier run of this test that was killed (e.g. by ctest's timeout)
-  /// before its destructors ran: their pid is gone.
+  /// Namespaces and temp dirs left by an earlier run of this test that was killed (e.g. at
+  /// ctest's timeout) before its destructors ran: the pid in their name is gone.
   void remove_stale_namespaces() const {
     std::error_code ec;
-    for (const auto& entry : fs::directory_iterator("/run/netns", ec)) {
-      const std::string name = entry.path().filename();
-      if (name.rfind("poise_mh_", 0) != 0) continue;
-      const long pid = std::strtol(name.c_str() + 9, nullptr, 10);
-      if (pid > 0 && pid != ::getpid() && ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH)
-        run({ip_, "netns", "delete", name});
+    for (const fs::path& dir : {fs::path("/run/netns"), fs::temp_directory_path(ec)}) {
+      std::vector<fs::path> stale;
+      for (const auto& entry : fs::directory_iterator(dir, ec)) {
+        const std::string name = entry.path().filename();
+        if (name.rfind("poise_mh_", 0) != 0) continue;
+        const long pid = std::strtol(name.c_str() + 9, nullptr, 10);
+        if (pid > 0 && pid != ::getpid() && ::kill(static_cast<pid_t>(pid), 0) != 0 &&
+            errno == ESRCH)
+          stale.push_back(entry.path());
+      }
+      for (const auto& path : stale) {
+        if (dir == "/run/netns") {
+          run({ip_, "netns", "delete", path.filename()});
+        } else {
+          fs::remove_all(path, ec);
+        }
+      }
     }
   }
 
@@ -246,7 +264,9 @@ class TwoHosts {
 class TempDir {
  public:
   TempDir() {
-    std::string pattern = (fs::temp_directory_path() / "poise_mh_XXXXXX").string();
+    std::string pattern =
+        (fs::temp_directory_path() / ("poise_mh_" + std::to_string(::getpid()) + "_XXXXXX"))
+            .string();
     if (::mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp failed");
     path_ = pattern;
   }
@@ -338,6 +358,9 @@ struct Pairing {
   const char* writer;  ///< vendor of `poise topic pub` on host A
   const char* reader;  ///< vendor of `poise topic echo` on host B
 };
+void PrintTo(const Pairing& p, std::ostream* os) {
+  *os << p.writer << " -> " << p.reader;
+}
 
 /// Two hosts, built before each test and deleted after it; skips without the privilege.
 class MultiHostFixture : public ::testing::Test {
@@ -416,7 +439,7 @@ TEST_P(MultiHost, EchoOnHostBShowsWhatHostAPublished) {
   expect_in_namespace(echo.pid(), hosts_->b(), kAddressB);
   ChildProcess pub(hosts_->exec_in(hosts_->a(), topic_cmd(writer, config_a,
                                                           {"pub", "poise/contact_problem", json,
-                                                           "--rate", "20", "--count", "0"})),
+                                                           "--rate", "20", "--count", kPubCount})),
                    config_a.env, false, /*merge_stderr=*/true);
   expect_in_namespace(pub.pid(), hosts_->a(), kAddressA);
   // Nothing of the test is visible in the root namespace while the DDS processes run.
@@ -469,7 +492,7 @@ TEST_F(MultiHostControl, NothingArrivesWhileTheBridgeIsDown) {
   ChildProcess pub(
       hosts_->exec_in(hosts_->a(), topic_cmd("cyclone", config_a,
                                              {"pub", "poise/diagnostics", json, "--rate", "20",
-                                              "--count", "0", "--wait-readers", "0"})),
+                                              "--count", kPubCount, "--wait-readers", "0"})),
       config_a.env, false, true);
   {
     ChildProcess echo(hosts_->exec_in(hosts_->b(), topic_cmd("fastdds", config_b,
@@ -509,10 +532,11 @@ TEST_F(MultiHostControl, BothVendorsOnOneHost) {
                                                              {"echo", "poise/diagnostics", "--json",
                                                               "--once", "--timeout", "20"})),
                       r.env);
-    ChildProcess pub(hosts_->exec_in(hosts_->a(), topic_cmd(writer, w,
-                                                            {"pub", "poise/diagnostics", json,
-                                                             "--rate", "20", "--count", "0"})),
-                     w.env, false, true);
+    ChildProcess pub(
+        hosts_->exec_in(hosts_->a(), topic_cmd(writer, w,
+                                               {"pub", "poise/diagnostics", json, "--rate", "20",
+                                                "--count", kPubCount})),
+        w.env, false, true);
     const auto rc = echo.wait_for(30s);
     pub.interrupt();
     ASSERT_TRUE(rc.has_value()) << writer << " -> " << reader;
