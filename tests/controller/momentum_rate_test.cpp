@@ -39,8 +39,9 @@ TEST(MomentumRate, PaperDefaultsMappedToZUp) {
   EXPECT_EQ(c.momentum.gamma21, Eigen::Vector3d(40, 40, 20));
   EXPECT_EQ(c.momentum.gamma22, Eigen::Vector3d(8, 8, 3));
   EXPECT_EQ(c.contact.w_k, 0.1);
-  EXPECT_EQ(c.contact.eps_f, 0.01);
-  EXPECT_EQ(c.contact.eps_cop, 0.01);
+  // Paper 0.01 as a row scale of eqs (24), (29): weight 1e-4 (see controller_config.hpp).
+  EXPECT_EQ(c.contact.eps_f, 1e-4);
+  EXPECT_EQ(c.contact.eps_cop, 1e-4);
 }
 
 TEST(ControllerConfig, ShippedFileLoadsWithTheDefaults) {

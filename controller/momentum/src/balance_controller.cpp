@@ -274,11 +274,18 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
   if (reference.has_com_target) {
     diag_.com_target_W = reference.com_W;
     diag_.com_velocity_target_W = reference.com_velocity_W;
-  } else if (num_support > 0) {
-    sole_mean /= num_support;
-    diag_.com_target_W = sole_mean + Eigen::Vector3d(0.0, 0.0, com_height_);
-    diag_.com_velocity_target_W = foot_vel_mean / num_support;
-  }  // no support and no target: keep the last target
+  } else {
+    if (num_support == 0) {
+      // No support (flight, or contact not detected yet): the rule over both feet.
+      for (int i = 0; i < kFeet; ++i) {
+        sole_mean += sole_center_W(X_WF_[i], robot_.feet[i].sole);
+        foot_vel_mean += V_WF_[i].head<3>();
+      }
+    }
+    const double count = num_support > 0 ? num_support : kFeet;
+    diag_.com_target_W = sole_mean / count + Eigen::Vector3d(0.0, 0.0, com_height_);
+    diag_.com_velocity_target_W = foot_vel_mean / count;
+  }
 
   // ---- eqs (10)-(11)
   // ------------------------------------------------------------------------------
