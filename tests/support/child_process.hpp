@@ -1,10 +1,12 @@
 #pragma once
 // Test support: start a real process, talk to it through pipes, and make sure it ends.
 // Every child is bounded in time: wait_for() kills it (SIGTERM, then SIGKILL) by its pid when the
-// deadline passes, and the destructor does the same for a child still running.
+// deadline passes, the destructor does the same for a child still running, and a child is killed
+// by the kernel if the test process itself dies (PR_SET_PDEATHSIG).
 
 #include <fcntl.h>
 #include <poll.h>
+#include <sys/prctl.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -44,6 +46,9 @@ class ChildProcess {
     if (pid_ < 0) throw std::runtime_error("fork failed");
     if (pid_ == 0) {
       ::setpgid(0, 0);
+      // If the test process dies (ctest timeout, crash), the kernel kills the child too.
+      ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+      if (::getppid() == 1) ::_exit(127);  // the parent died before prctl took effect
       ::dup2(out_pipe[1], STDOUT_FILENO);
       if (merge_stderr) ::dup2(out_pipe[1], STDERR_FILENO);
       if (pipe_stdin) {
