@@ -123,13 +123,18 @@ TEST(ClosedLoop, StandsTenSeconds) {
   EXPECT_EQ(r.qp_failures, 0u);
 }
 
-TEST(ClosedLoop, SurvivesForwardPushInDoubleSupport) {
+class ClosedLoopPush : public ::testing::TestWithParam<StateSource> {};
+
+TEST_P(ClosedLoopPush, SurvivesForwardPushInDoubleSupport) {
   // Paper Fig. 8: 120 N for 0.1 s at the CoM, forward. Back within 1 cm within 3 s of the push.
   sim::Scenario s = scenario("forward_push_double_support");
   ASSERT_EQ(s.sim.pushes.size(), 1u);
   const double push_end = s.sim.pushes[0].start + s.sim.pushes[0].duration;
   s.duration = push_end + 3.2;
-  InProcessLoop loop(s, ground_truth());
+  LoopOptions opt;
+  opt.state_source = GetParam();
+  InProcessLoop loop(s, opt);
+  ASSERT_EQ(loop.result().state_source, GetParam());
   const Watch w = run_and_watch(loop, 0.5, {true, true});
   const RunResult r = loop.result();
   print("forward push", w, r);
@@ -140,13 +145,16 @@ TEST(ClosedLoop, SurvivesForwardPushInDoubleSupport) {
   EXPECT_LT(w.last_time_com_err_above_1cm, push_end + 3.0);
 }
 
-TEST(ClosedLoop, SurvivesLateralPushInSingleSupport) {
+TEST_P(ClosedLoopPush, SurvivesLateralPushInSingleSupport) {
   // Paper Fig. 9: 100 N for 0.1 s, leftward, standing on the left foot.
   sim::Scenario s = scenario("lateral_push_single_support");
   ASSERT_EQ(s.sim.pushes.size(), 1u);
   const double push_end = s.sim.pushes[0].start + s.sim.pushes[0].duration;
   s.duration = push_end + 3.2;
-  InProcessLoop loop(s, ground_truth());
+  LoopOptions opt;
+  opt.state_source = GetParam();
+  InProcessLoop loop(s, opt);
+  ASSERT_EQ(loop.result().state_source, GetParam());
   const Watch w = run_and_watch(loop, 0.5, {false, true});
   const RunResult r = loop.result();
   print("lateral push", w, r);
@@ -156,6 +164,10 @@ TEST(ClosedLoop, SurvivesLateralPushInSingleSupport) {
   EXPECT_LT(w.max_foot_tilt, 0.035) << "the support foot tipped (> 2 deg)";
   EXPECT_LT(w.last_time_com_err_above_1cm, push_end + 3.0);
 }
+
+INSTANTIATE_TEST_SUITE_P(StateSources, ClosedLoopPush,
+                         ::testing::Values(StateSource::kGroundTruth, StateSource::kEstimator),
+                         [](const auto& info) { return std::string(to_string(info.param)); });
 
 }  // namespace
 }  // namespace poise::inprocess

@@ -99,6 +99,15 @@ InProcessLoop::InProcessLoop(const sim::Scenario& scenario, const LoopOptions& o
   state_ = controller_->make_state();
   reference_ = controller_->make_reference();
   command_ = controller_->make_command();
+  // The scenario's planned support (the balance reference's foot modes, paper Fig. 6 inputs):
+  // the controller loads those feet from the first tick instead of waiting for a contact
+  // detector that only sees contact once the feet are loaded.
+  for (int side = 0; side < 2; ++side) {
+    const std::string& name = sim_feet[sim_foot_of_side_[side]].name;
+    const bool support = scenario_.support == "double" || scenario_.support == name;
+    reference_.feet[side].mode =
+        support ? controller::FootMode::kSupport : controller::FootMode::kSwing;
+  }
   sim_->read(sensors_, truth_);
   latency_us_.reserve(static_cast<std::size_t>(std::ceil(duration_ / sim_->dt())) + 16);
 }

@@ -207,6 +207,7 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
   diag_.h_W = data_.hg;
 
   // ---- feet: kinematics, supports, Sec. 4.2 resting rule, eq (36) -------------------------------
+  const double weight = mass * model_.gravity.norm();
   int num_support = 0;
   Eigen::Vector3d sole_mean = Eigen::Vector3d::Zero();
   Eigen::Vector3d foot_vel_mean = Eigen::Vector3d::Zero();
@@ -227,7 +228,8 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
     bool support = false;
     switch (ref.mode) {
       case FootMode::kAuto:
-        support = meas.in_contact;
+        support = meas.in_contact || (config_.support_force_fraction > 0.0 &&
+                                      meas.normal_force > config_.support_force_fraction * weight);
         break;
       case FootMode::kSupport:
         support = true;
@@ -236,9 +238,9 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
         support = false;
         break;
     }
-    const bool resting = support && meas.in_contact &&
-                         cop_in_safe_region(X_WF_[i], meas.cop_W, foot.sole,
-                                            robot_.safety_margin + config_.resting_extra_margin);
+    const bool resting =
+        support && cop_in_safe_region(X_WF_[i], meas.cop_W, foot.sole,
+                                      robot_.safety_margin + config_.resting_extra_margin);
     diag_.support[i] = support;
     diag_.resting[i] = resting;
 

@@ -93,6 +93,11 @@ struct ControllerConfig {
   /// Measured CoP inside the safe region shrunk by this extra margin => the foot is resting
   /// (Sec. 4.2 moving-support rule) [m]. 0: the safe region itself.
   double resting_extra_margin = 0.0;
+  /// FootMode::kAuto: a foot is a support when the state says in_contact, or when its measured
+  /// normal force exceeds this fraction of the robot's weight (guards against a contact detector
+  /// that is late, e.g. while the estimator initialises; a support wrongly dropped makes the
+  /// controller plan a fall). <= 0: the contact flag only.
+  double support_force_fraction = 0.1;
   /// Desired CoM height above the mean sole height of the support feet when the reference gives
   /// no CoM target [m]; <= 0: the nominal posture's CoM height.
   double com_height = 0.0;
