@@ -171,6 +171,7 @@ int main(int argc, char** argv) {
                             " --quiet --dds cyclone --duration " + std::to_string(duration) +
                             " --output " + (dir / "r.json").string() + " --log-dir " +
                             (dir / "logs").string();
+    std::fflush(stdout);
     const int code = std::system(cmd.c_str());
     std::ifstream f(dir / "r.json");
     if (!f) {
@@ -189,6 +190,12 @@ int main(int argc, char** argv) {
         "us, max %.0f us, mean %.0f us over %d ticks\n",
         lat.value("p50", 0.0), lat.value("p99", 0.0), lat.value("max", 0.0), lat.value("mean", 0.0),
         lat.value("count", 0));
+    for (const char* n : {"sim", "estimator", "controller", "contact"}) {
+      const auto& c = r["compute_us"][n];
+      if (c.is_object())
+        std::printf("  %-10s compute per tick: p50 %.0f us, p99 %.0f us, max %.0f us\n", n,
+                    c.value("p50", 0.0), c.value("p99", 0.0), c.value("max", 0.0));
+    }
     std::printf("DDS + process overhead: %.1f us per tick; distributed / in-process speed: %.2f\n",
                 (rtf > 0 ? 1e3 / rtf : 0.0) - in.us_per_tick,
                 in.realtime_factor > 0 ? rtf / in.realtime_factor : 0.0);

@@ -307,10 +307,12 @@ int run_distributed(int argc, char** argv) {
                    {"estimator", diag(est_r, "errors")},
                    {"contact", diag(con_r, "errors")},
                    {"controller", diag(ctrl_r, "errors")}};
-    r["compute_us_max"] = {{"sim", sim_r.value("compute_us_max_all", 0.0)},
-                           {"estimator", est_r.value("compute_us_max_all", 0.0)},
-                           {"contact", con_r.value("compute_us_max_all", 0.0)},
-                           {"controller", ctrl_r.value("compute_us_max_all", 0.0)}};
+    r["compute_us"] = Json::object();  // per node, whole run: sim = step, controller = own
+    for (const auto& [name, j] : {std::pair<std::string, const Json*>{"sim", &sim_r},
+                                  {"estimator", &est_r},
+                                  {"contact", &con_r},
+                                  {"controller", &ctrl_r}})
+      r["compute_us"][name] = j->is_object() ? j->value("compute_us_run", Json()) : Json();
     r["state_source"] = s.ground_truth_state ? "ground_truth" : "estimator";
     r["dds"] = vendor;
     r["domain"] = domain;

@@ -64,6 +64,7 @@ void Node::tick_done(std::uint64_t tick, std::int64_t compute_ns) noexcept {
   last_tick_ = tick;
   ++ticks_;
   compute_.add(static_cast<double>(compute_ns) * 1e-3);
+  compute_run_.add(static_cast<double>(compute_ns) * 1e-3);
 }
 
 void Node::error(const char* format, ...) noexcept {
@@ -127,6 +128,11 @@ void Node::write_summary(const std::string& extra_json) {
     j["node"] = options_.name;
     j["diagnostics"] = reflect::to_json(diag_);
     j["compute_us_max_all"] = compute_.max_all();
+    j["compute_us_run"] = {{"p50", compute_run_.percentile(0.5)},
+                           {"p99", compute_run_.percentile(0.99)},
+                           {"max", compute_run_.max()},
+                           {"mean", compute_run_.mean()},
+                           {"count", compute_run_.count()}};
     j["non_finite_refused"] = non_finite_;
     if (!extra_json.empty()) {
       const auto extra = nlohmann::json::parse(extra_json);

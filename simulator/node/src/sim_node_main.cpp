@@ -28,6 +28,7 @@
 #include <cmath>
 #include <cstdio>
 #include <exception>
+#include <nlohmann/json.hpp>
 
 #include "poise/node/mailbox.hpp"
 #include "poise/node/node.hpp"
@@ -55,6 +56,9 @@ struct Settings {
 /// Everything one run measures (the node's summary).
 struct Figures {
   node::LatencyHistogram latency;
+  node::LatencyHistogram loop_wait;
+  node::LatencyHistogram publish;  ///< publishing sensors + ground truth of one tick  ///< sensors
+                                   ///< k published -> the loop holds command k
   std::uint64_t ticks = 0, command_timeouts = 0, rejected_commands = 0, damping_ticks = 0;
   std::uint64_t watchdog_stale_events = 0, overruns = 0, pushes = 0, total_other_contacts = 0;
   double wall_s = 0.0;
@@ -111,32 +115,38 @@ class SimNode {
   std::string result_json() const {
     const sim::ScenarioMonitor::Result r = monitor_.result();
     const double sim_s = static_cast<double>(figures_.ticks) * sim_.dt();
-    char buf[1400];
-    std::snprintf(
-        buf, sizeof(buf),
-        "{\"scenario\": \"%s\", \"mode\": \"%s\", \"completed\": %s, \"survived\": %s, "
-        "\"com_error_max_m\": %.6f, \"com_error_final_m\": %.6f, \"foot_slip_max_m\": %.6f, "
-        "\"non_foot_contacts\": %d, \"min_base_height_m\": %.4f, \"last_recovery_time_s\": %.4f, "
-        "\"tick_latency_us\": {\"p50\": %.1f, \"p99\": %.1f, \"max\": %.1f, \"mean\": %.1f, "
-        "\"count\": %zu}, \"command_timeouts\": %llu, \"rejected_commands\": %llu, "
-        "\"damping_ticks\": %llu, \"watchdog_stale_events\": %llu, \"overruns\": %llu, "
-        "\"pushes_received\": %llu, \"sim_time_s\": %.4f, \"wall_time_s\": %.4f, "
-        "\"realtime_factor\": %.4f}",
-        scenario_.name.c_str(), settings_.realtime ? "realtime" : "lockstep",
-        figures_.aborted ? "false" : "true", r.survived && !figures_.aborted ? "true" : "false",
-        r.com_error_max_m, r.com_error_final_m, r.foot_slip_max_m, r.non_foot_contacts,
-        std::isfinite(r.min_base_height_m) ? r.min_base_height_m : -1.0,
-        std::isfinite(r.last_recovery_time_s) ? r.last_recovery_time_s : -1.0,
-        figures_.latency.percentile(0.5), figures_.latency.percentile(0.99), figures_.latency.max(),
-        figures_.latency.mean(), figures_.latency.count(),
-        static_cast<unsigned long long>(figures_.command_timeouts),
-        static_cast<unsigned long long>(figures_.rejected_commands),
-        static_cast<unsigned long long>(figures_.damping_ticks),
-        static_cast<unsigned long long>(figures_.watchdog_stale_events),
-        static_cast<unsigned long long>(figures_.overruns),
-        static_cast<unsigned long long>(figures_.pushes), sim_s, figures_.wall_s,
-        figures_.wall_s > 0 ? sim_s / figures_.wall_s : 0.0);
-    return buf;
+    auto hist = [](const node::LatencyHistogram& h) {
+      return nlohmann::json{{"p50", h.percentile(0.5)},
+                            {"p99", h.percentile(0.99)},
+                            {"max", h.max()},
+                            {"mean", h.mean()},
+                            {"count", h.count()}};
+    };
+    nlohmann::json j;
+    j["scenario"] = scenario_.name;
+    j["mode"] = settings_.realtime ? "realtime" : "lockstep";
+    j["completed"] = !figures_.aborted;
+    j["survived"] = r.survived && !figures_.aborted;
+    j["com_error_max_m"] = r.com_error_max_m;
+    j["com_error_final_m"] = r.com_error_final_m;
+    j["foot_slip_max_m"] = r.foot_slip_max_m;
+    j["non_foot_contacts"] = r.non_foot_contacts;
+    j["min_base_height_m"] = std::isfinite(r.min_base_height_m) ? r.min_base_height_m : -1.0;
+    j["last_recovery_time_s"] =
+        std::isfinite(r.last_recovery_time_s) ? r.last_recovery_time_s : -1.0;
+    j["tick_latency_us"] = hist(figures_.latency);
+    j["loop_wait_us"] = hist(figures_.loop_wait);
+    j["publish_us"] = hist(figures_.publish);
+    j["command_timeouts"] = figures_.command_timeouts;
+    j["rejected_commands"] = figures_.rejected_commands;
+    j["damping_ticks"] = figures_.damping_ticks;
+    j["watchdog_stale_events"] = figures_.watchdog_stale_events;
+    j["overruns"] = figures_.overruns;
+    j["pushes_received"] = figures_.pushes;
+    j["sim_time_s"] = sim_s;
+    j["wall_time_s"] = figures_.wall_s;
+    j["realtime_factor"] = figures_.wall_s > 0 ? sim_s / figures_.wall_s : 0.0;
+    return j.dump();
   }
 
  private:
@@ -145,12 +155,15 @@ class SimNode {
     return sim::platforms_of_feet(scenario_);
   }
 
+  /// Sensors first (they start the loop), then the ground truth, while the others compute.
   void publish_tick() noexcept {
+    const std::int64_t t0 = node::now_ns();
     sim_node::to_msg(sensors_, feet_, sensors_msg_);
     node_.publish(sensors_pub_, sensors_msg_);
     publish_ns_[static_cast<std::size_t>(sensors_.tick) % publish_ns_.size()] = node::now_ns();
     sim_node::to_msg(truth_, feet_, slip_, figures_.total_other_contacts, truth_msg_);
     node_.publish(truth_pub_, truth_msg_);
+    figures_.publish.add(static_cast<double>(node::now_ns() - t0) * 1e-3);
   }
 
   void step_and_observe(const sim::JointCommand& command) noexcept {
@@ -232,8 +245,9 @@ class SimNode {
       const sim::JointCommand* apply = &command_;
       if (got) {
         consecutive = 0;
-        figures_.latency.add(static_cast<double>(arrival - publish_ns_[k % publish_ns_.size()]) *
-                             1e-3);
+        const std::int64_t published = publish_ns_[k % publish_ns_.size()];
+        figures_.latency.add(static_cast<double>(arrival - published) * 1e-3);
+        figures_.loop_wait.add(static_cast<double>(node::now_ns() - published) * 1e-3);
       } else {
         if (!node_.running()) break;
         ++figures_.command_timeouts;
@@ -264,6 +278,9 @@ class SimNode {
     timer.start();
     const std::int64_t wall0 = node::now_ns();
     auto last_state = watchdog.state();
+    auto logged_state = last_state;
+    std::int64_t last_log_ns = 0;
+    std::uint64_t transitions = 0;
     for (std::int64_t i = 0; i < steps && node_.running(); ++i) {
       std::int64_t arrival = 0;
       while (take_command(&arrival)) {  // newest command, if one came
@@ -274,21 +291,30 @@ class SimNode {
           figures_.latency.add(static_cast<double>(arrival - publish_ns_[kc % publish_ns_.size()]) *
                                1e-3);
       }
-      const auto state = watchdog.update(node::now_ns());
+      const std::int64_t now = node::now_ns();
+      const auto state = watchdog.update(now);
       if (state != last_state) {
-        if (state == sim::CommandWatchdog::State::kStale) {
-          ++figures_.watchdog_stale_events;
-          dds::log(dds::LogLevel::warn,
-                   "watchdog: no fresh joint command for %.1f ms at t=%.3f s: "
-                   "DAMPING mode",
-                   settings_.watchdog_ms, sensors_.time);
-        } else if (state == sim::CommandWatchdog::State::kActive) {
-          dds::log(dds::LogLevel::info,
-                   "watchdog: joint commands fresh again at t=%.3f s: "
-                   "control RESUMED",
-                   sensors_.time);
-        }
+        if (state == sim::CommandWatchdog::State::kStale) ++figures_.watchdog_stale_events;
+        ++transitions;
         last_state = state;
+      }
+      // Transitions are logged at most every 100 ms (the newest state, with the count of the
+      // transitions in between), so that flapping cannot flood the log.
+      if (state != logged_state && now - last_log_ns >= 100'000'000) {
+        if (state == sim::CommandWatchdog::State::kActive)
+          dds::log(dds::LogLevel::info,
+                   "watchdog: joint commands fresh again at t=%.3f s: control RESUMED "
+                   "(%llu transitions since the last line)",
+                   sensors_.time, static_cast<unsigned long long>(transitions));
+        else
+          dds::log(dds::LogLevel::warn,
+                   "watchdog: no fresh joint command for %.1f ms at t=%.3f s: DAMPING mode "
+                   "(%llu transitions since the last line)",
+                   settings_.watchdog_ms, sensors_.time,
+                   static_cast<unsigned long long>(transitions));
+        logged_state = state;
+        last_log_ns = now;
+        transitions = 0;
       }
       if (watchdog.damping()) ++figures_.damping_ticks;
       step_and_observe(sim::select_command(watchdog, command_, damping_));

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 namespace poise::node {
@@ -96,7 +97,7 @@ class LatencyHistogram {
   }
 
  private:
-  std::vector<std::size_t> bins_;
+  std::vector<std::uint32_t> bins_;
   std::size_t count_ = 0;
   double max_ = 0.0;
   double sum_ = 0.0;

@@ -120,9 +120,10 @@ class Node {
   /// The last published diagnostics sample.
   const msg::Diagnostics& diagnostics() const noexcept { return diag_; }
 
-  /// Writes the summary file (--summary) if one was asked for: {"node", "diagnostics" (the last
-  /// sample, JSON form), "compute_us_max_all", plus the members of `extra_json` (a JSON object
-  /// text, may be empty)}. Configuration time (allocates); never throws (logs on failure).
+  /// Writes the summary file (--summary) if one was asked for: {"node", "diagnostics" (a final
+  /// sample, JSON form), "compute_us_run" {p50, p99, max, mean} over the whole run,
+  /// "compute_us_max_all", plus the members of `extra_json` (a JSON object text, may be empty)}.
+  /// Configuration time (allocates); never throws (logs on failure).
   void write_summary(const std::string& extra_json = "");
 
  private:
@@ -132,6 +133,7 @@ class Node {
   std::vector<const dds::SubscriberCounters*> watched_;
   msg::Diagnostics diag_;
   ComputeStats compute_;
+  LatencyHistogram compute_run_{20000};  ///< whole run, 1 us bins up to 20 ms
   msg::NodeHealth health_ = msg::HEALTH_OK;
   std::uint64_t last_tick_ = 0;
   std::uint64_t ticks_ = 0;
