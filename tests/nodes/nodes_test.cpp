@@ -394,7 +394,7 @@ TEST(RealTime, WatchdogDampsWhenTheControllerDiesAndResumesWhenOneReturns) {
   EXPECT_TRUE(resumed_again) << sim.output() << controller->output();
   EXPECT_EQ(sim.interrupt(5000ms).value_or(-1), 3) << "an interrupted run reports exit code 3\n"
                                                    << sim.output();
-  EXPECT_NE(sim.output().find("\"watchdog_stale_events\": "), std::string::npos) << sim.output();
+  EXPECT_NE(sim.output().find("\"watchdog_stale_events\":"), std::string::npos) << sim.output();
 }
 
 }  // namespace

@@ -92,11 +92,11 @@ int run_distributed(int argc, char** argv) {
   Settings s;
   CLI::App app{
       "Run a scenario with every component in its own process over DDS (loopback): "
-      "poise-sim, poise-estimator, poise-contact, poise-controller."};
+      "poise-sim, poise-estimator, poise-contact, poise-controller. `poise run --in-process` "
+      "composes them in one process instead (no DDS)."};
   app.name(argc > 0 ? argv[0] : "poise run");
-  app.add_option("scenario", s.scenario, "scenario YAML file")
-      ->required()
-      ->check(CLI::ExistingFile);
+  app.add_option("scenario", s.scenario, "scenario YAML file, or a name in deploy/scenarios/")
+      ->required();
   bool lockstep_flag = false;
   auto* lock = app.add_flag("--lockstep", lockstep_flag,
                             "simulator steps k+1 only after command k (default)");
@@ -113,14 +113,15 @@ int run_distributed(int argc, char** argv) {
   app.add_option("--dds-controller", s.dds_controller, "vendor of the controller")->check(vendors);
   app.add_option("--domain", s.domain, "DDS domain id (default: a free one in 100..231)")
       ->check(CLI::Range(0, 232));
-  app.add_option("--output", s.output, "JSON result file (default: results/<scenario>.json)");
+  app.add_option("--output,-o", s.output, "JSON result file (default: results/<scenario>.json)");
   app.add_option("--log-dir", s.log_dir,
                  "children's stdout/stderr and summaries "
                  "(default: results/<scenario>.logs)");
   app.add_option("--duration", s.duration, "override the scenario duration [s]");
   app.add_flag("--ground-truth-state", s.ground_truth_state,
                "DEBUG: the estimator sends the simulator's ground truth as the state");
-  app.add_option("--method", s.method, "contact optimiser: sequential (paper) or qp")
+  app.add_option("--method,--contact-method", s.method,
+                 "contact optimiser: sequential (paper) or qp")
       ->check(CLI::IsMember({"sequential", "qp"}))
       ->capture_default_str();
   app.add_option("--contact-deadline-us", s.contact_deadline_us,
@@ -135,6 +136,13 @@ int run_distributed(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   try {
+    if (!fs::exists(s.scenario)) {  // a name: deploy/scenarios/<name>.yaml of this tree
+      for (fs::path d = bin_dir(); !d.empty() && d != d.root_path(); d = d.parent_path())
+        if (fs::exists(d / "deploy/scenarios" / (s.scenario + ".yaml"))) {
+          s.scenario = (d / "deploy/scenarios" / (s.scenario + ".yaml")).string();
+          break;
+        }
+    }
     const sim::Scenario scenario = sim::load_scenario(s.scenario);
     const double duration = s.duration > 0 ? s.duration : scenario.duration;
     // Vendors: scenario hints, then --dds, then per component.
