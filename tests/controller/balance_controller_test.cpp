@@ -95,6 +95,10 @@ TEST(BalanceController, SupportsFollowModesAndMeasuredContacts) {
   BalanceReference ref = c.make_reference();
   contact::ContactProblem p;
   s.feet[0].in_contact = false;
+  // Not flagged but loaded (> 10 % of the weight): still a support (a late contact detector).
+  c.prepare(s, ref, p);
+  EXPECT_TRUE(p.feet[0].in_contact);
+  s.feet[0].normal_force = 0.05 * p.mass * 9.81;
   c.prepare(s, ref, p);
   EXPECT_FALSE(p.feet[0].in_contact);
   EXPECT_TRUE(p.feet[1].in_contact);

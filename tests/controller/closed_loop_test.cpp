@@ -123,6 +123,131 @@ TEST(ClosedLoop, StandsTenSeconds) {
   EXPECT_EQ(r.qp_failures, 0u);
 }
 
+// Smooth (minimum-jerk) CoM trajectory from the balance reference: 3 cm towards the left foot and
+// 2 cm down in 1 s, with its velocity; the CoM follows it and settles on the new target.
+TEST(ClosedLoop, TracksCommandedComShift) {
+  InProcessLoop loop(standing(5.0), ground_truth());
+  double err_max = 0.0, err_final = 0.0;
+  Eigen::Vector3d c0 = Eigen::Vector3d::Zero();
+  const Eigen::Vector3d delta(0.0, 0.03, -0.02);
+  const double t0 = 2.0, T = 1.0;
+  const Watch w = run_and_watch(loop, 0.0, {true, true}, [&](InProcessLoop& l) {
+    const double t = l.time();
+    if (t < t0) return;
+    auto& ref = l.reference();
+    if (!ref.has_com_target) c0 = l.controller().diagnostics().com_target_W;
+    const double s = std::clamp((t - t0) / T, 0.0, 1.0);
+    const double pos = s * s * s * (10 - 15 * s + 6 * s * s);
+    const double vel = (t - t0 < T) ? 30 * s * s * (1 - s) * (1 - s) / T : 0.0;
+    ref.has_com_target = true;
+    ref.com_W = c0 + pos * delta;
+    ref.com_velocity_W = vel * delta;
+    const double e = (l.truth().com_W - ref.com_W).norm();
+    if (t > t0) err_max = std::max(err_max, e);
+    err_final = e;
+  });
+  std::printf("[com shift] tracking error max %.4f m, final %.4f m\n", err_max, err_final);
+  EXPECT_LT(err_max, 0.01);
+  EXPECT_LT(err_final, 0.005);
+  EXPECT_EQ(w.non_foot_ticks, 0);
+  EXPECT_FALSE(w.support_lost);
+  EXPECT_LT(w.max_foot_slip, 0.002);
+}
+
+// Upper-body motion from the balance reference (paper Sec. 3.5 theta_dd^u_d): both shoulders swing
+// 0.4 rad at 1 Hz (posture target plus its acceleration). The arms follow; the balance task keeps
+// the CoM where it was.
+TEST(ClosedLoop, TracksUpperBodyMotionWhileBalancing) {
+  InProcessLoop loop(standing(5.0), ground_truth());
+  const auto& model = loop.controller().model();
+  const int ls = model.joint_index("l_shoulder_pitch");
+  const int rs = model.joint_index("r_shoulder_pitch");
+  const Eigen::VectorXd q_nom = loop.controller().robot().q_nominal.tail(model.njoints);
+  double arm_err_max = 0.0, com_err_max = 0.0, arm_amp = 0.0;
+  Eigen::Vector3d com_start = Eigen::Vector3d::Zero();
+  const double t0 = 2.0, A = 0.4, w0 = 2 * M_PI;
+  run_and_watch(loop, 0.0, {true, true}, [&](InProcessLoop& l) {
+    const double t = l.time();
+    auto& ref = l.reference();
+    if (t < t0) {
+      com_start = l.truth().com_W;
+      return;
+    }
+    const double ramp = std::min(1.0, (t - t0) / 0.5);  // fade in over 0.5 s
+    ref.has_upper_body_q = true;
+    ref.upper_body_q = q_nom;
+    ref.upper_body_qdd.setZero();
+    ref.upper_body_qd.setZero();
+    for (int j : {ls, rs}) {
+      ref.upper_body_q[j] = q_nom[j] + ramp * A * std::sin(w0 * (t - t0));
+      ref.upper_body_qd[j] = ramp * A * w0 * std::cos(w0 * (t - t0));
+      ref.upper_body_qdd[j] = -ramp * A * w0 * w0 * std::sin(w0 * (t - t0));
+    }
+    if (t > t0 + 1.0) {
+      const auto& q = l.state().q;
+      arm_err_max = std::max(arm_err_max, std::abs(q[ls] - ref.upper_body_q[ls]));
+      arm_amp = std::max(arm_amp, std::abs(q[ls] - q_nom[ls]));
+      com_err_max = std::max(com_err_max, (l.truth().com_W - com_start).head<2>().norm());
+    }
+  });
+  std::printf(
+      "[upper body] arm error max %.3f rad (amplitude %.3f), CoM horizontal change max %.4f m\n",
+      arm_err_max, arm_amp, com_err_max);
+  EXPECT_GT(arm_amp, 0.3);        // the arms really moved
+  EXPECT_LT(arm_err_max, 0.08);   // and followed the reference
+  EXPECT_LT(com_err_max, 0.005);  // while the CoM stayed put
+}
+
+// Paper Fig. 8: for a small push the admissible momentum rate equals the desired one; for the
+// paper's push (120 N, 0.1 s) the CoP reaches the edge of the safe region, the admissible LINEAR
+// rate still equals the desired one while the ANGULAR rate gives way, and the trunk rotates.
+struct RateGap {
+  double k_gap_max = 0.0;  ///< max |k_dot_d - k_dot_a| [N m]
+  double l_gap_max = 0.0;  ///< max |l_dot_d - l_dot_a| [N]
+  double l_max = 0.0;      ///< max |l_dot_d| [N] during the push response
+  double trunk_pitch = 0.0;
+};
+
+RateGap push_rates(double force) {
+  sim::Scenario s = scenario("forward_push_double_support");
+  s.sim.pushes[0].force_W = Eigen::Vector3d(force, 0, 0);
+  const double start = s.sim.pushes[0].start;
+  s.duration = start + 1.5;
+  InProcessLoop loop(s, ground_truth());
+  RateGap g;
+  const Watch w = run_and_watch(loop, 0.0, {true, true}, [&](InProcessLoop& l) {
+    if (l.time() < start) return;
+    const auto& d = l.controller().diagnostics();
+    g.k_gap_max =
+        std::max(g.k_gap_max, (d.hdot_desired.head<3>() - d.hdot_admissible.head<3>()).norm());
+    g.l_gap_max =
+        std::max(g.l_gap_max, (d.hdot_desired.tail<3>() - d.hdot_admissible.tail<3>()).norm());
+    g.l_max = std::max(g.l_max, (d.hdot_desired.tail<3>() -
+                                 l.controller().problem().mass * l.controller().problem().gravity)
+                                    .head<2>()
+                                    .norm());
+  });
+  g.trunk_pitch = w.max_trunk_pitch_change;
+  std::printf(
+      "[fig8 %.0f N] |k_d - k_a| max %.2f N m, |l_d - l_a| max %.2f N, |l_d,xy| max %.1f N, "
+      "trunk pitch %.3f rad\n",
+      force, g.k_gap_max, g.l_gap_max, g.l_max, g.trunk_pitch);
+  return g;
+}
+
+TEST(ClosedLoop, Fig8DesiredAndAdmissibleMomentumRates) {
+  const RateGap small = push_rates(20.0);
+  const RateGap large = push_rates(120.0);
+  // Small push: admissible == desired (to the optimiser's regularisation).
+  EXPECT_LT(small.k_gap_max, 0.5);
+  EXPECT_LT(small.l_gap_max, 2.0);
+  // Large push: angular momentum gives way, linear momentum is kept.
+  EXPECT_GT(large.k_gap_max, 10.0);  // N m
+  // Linear: within 10 % (eq. (21) trades a little linear momentum for ankle torque, w_k = 0.1).
+  EXPECT_LT(large.l_gap_max, 0.1 * large.l_max);
+  EXPECT_GT(large.trunk_pitch, small.trunk_pitch + 0.1);  // the trunk rotates
+}
+
 class ClosedLoopPush : public ::testing::TestWithParam<StateSource> {};
 
 TEST_P(ClosedLoopPush, SurvivesForwardPushInDoubleSupport) {

@@ -119,6 +119,7 @@ BalanceController::BalanceController(const model::Model& model, const model::Rob
   hi_.setZero(n);
   qdd_u_ref_.setZero(n);
   q_u_target_.setZero(n);
+  qd_u_target_.setZero(n);
   J_foot_.setZero(6, nv);
   q_ref_.setZero(n);
   qd_ref_.setZero(n);
@@ -178,6 +179,7 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
               state.qd.allFinite() && state.X_WB.R.allFinite() && state.X_WB.p.allFinite() &&
               finite3(state.v_WB) && finite3(state.omega_WB) &&
               reference.upper_body_qdd.size() == n && reference.upper_body_q.size() == n &&
+              reference.upper_body_qd.size() == n && reference.upper_body_qd.allFinite() &&
               reference.upper_body_qdd.allFinite() && reference.upper_body_q.allFinite() &&
               reference.com_W.allFinite() && reference.com_velocity_W.allFinite() &&
               reference.k_W.allFinite();
@@ -297,10 +299,13 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
 
   // Upper-body objective of this tick.
   qdd_u_ref_ = reference.upper_body_qdd;
-  if (reference.has_upper_body_q)
+  if (reference.has_upper_body_q) {
     q_u_target_ = reference.upper_body_q;
-  else
+    qd_u_target_ = reference.upper_body_qd;
+  } else {
     q_u_target_ = q_nominal_;
+    qd_u_target_.setZero();
+  }
 
   problem_.mass = mass;
   problem_.gravity = model_.gravity;
@@ -395,8 +400,8 @@ void BalanceController::finish_with(const contact::ContactSolution& solution, Co
     const double qd = v_[6 + j];
     const double t_post = acfg.posture_kp * (q_nominal_[j] - q) - acfg.posture_kd * qd;
     if (is_upper_[j] > 0.0) {
-      const double t_u =
-          qdd_u_ref_[j] + acfg.upper_body_kp * (q_u_target_[j] - q) - acfg.upper_body_kd * qd;
+      const double t_u = qdd_u_ref_[j] + acfg.upper_body_kp * (q_u_target_[j] - q) +
+                         acfg.upper_body_kd * (qd_u_target_[j] - qd);
       w_[6 + j] = w_u + w_p;
       t_[6 + j] = (w_u * t_u + w_p * t_post) / (w_u + w_p);
     } else {

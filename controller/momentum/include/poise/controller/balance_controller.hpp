@@ -127,18 +127,19 @@ class BalanceController {
   // ---- per tick
   // ----------------------------------------------------------------------------------
   bool state_ok_ = false;
-  Eigen::VectorXd q_, v_;       // nq, nv
-  Eigen::VectorXd qd_joint_;    // n (measured)
-  Eigen::VectorXd qdd_;         // nv
-  Eigen::VectorXd tau_;         // nv
-  Eigen::MatrixXd C_;           // 12 x nv stacked foot Jacobians [right; left]
-  Eigen::VectorXd jdot_v_;      // 12
-  Eigen::VectorXd d_;           // 12: a_d - J_dot qd
-  Eigen::VectorXd w_, t_;       // nv
-  Eigen::VectorXd lo_, hi_;     // n
-  Eigen::VectorXd qdd_u_ref_;   // n: reference upper-body accelerations of this tick
-  Eigen::VectorXd q_u_target_;  // n: upper-body posture target of this tick
-  model::Matrix6X J_foot_;      // 6 x nv scratch
+  Eigen::VectorXd q_, v_;        // nq, nv
+  Eigen::VectorXd qd_joint_;     // n (measured)
+  Eigen::VectorXd qdd_;          // nv
+  Eigen::VectorXd tau_;          // nv
+  Eigen::MatrixXd C_;            // 12 x nv stacked foot Jacobians [right; left]
+  Eigen::VectorXd jdot_v_;       // 12
+  Eigen::VectorXd d_;            // 12: a_d - J_dot qd
+  Eigen::VectorXd w_, t_;        // nv
+  Eigen::VectorXd lo_, hi_;      // n
+  Eigen::VectorXd qdd_u_ref_;    // n: reference upper-body accelerations of this tick
+  Eigen::VectorXd q_u_target_;   // n: upper-body posture target of this tick
+  Eigen::VectorXd qd_u_target_;  // n: its velocity
+  model::Matrix6X J_foot_;       // 6 x nv scratch
   std::array<model::SE3, 2> X_WF_;
   std::array<model::Motion, 2> V_WF_;
 

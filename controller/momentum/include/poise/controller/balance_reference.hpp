@@ -31,12 +31,17 @@ struct BalanceReference {
   Eigen::VectorXd upper_body_qdd;  ///< theta_dd^u_d feed-forward (dim n; leg entries ignored)
   bool has_upper_body_q = false;
   Eigen::VectorXd upper_body_q;  ///< upper-body posture target (dim n; leg entries ignored)
+  /// Velocity of the posture target (dim n; leg entries ignored; zero for a fixed posture).
+  /// Not in idl/balance_reference.idl yet: the node leaves it zero (a moving posture target then
+  /// lags, the PD damping it towards zero velocity).
+  Eigen::VectorXd upper_body_qd;
   std::array<FootReference, 2> feet;
 
   /// Sizes the joint vectors (zeros). Allocates: configuration time only.
   void resize(int n) {
     upper_body_qdd.setZero(n);
     upper_body_q.setZero(n);
+    upper_body_qd.setZero(n);
   }
 };
 
