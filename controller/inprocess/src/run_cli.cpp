@@ -1,15 +1,18 @@
 // `poise run`: run a scenario. `--in-process` composes the libraries in this process (no DDS);
-// the DDS-distributed mode (the default) is added to this same verb by the launcher.
+// the DDS-distributed mode (the default) is poise::launch::run_distributed (components/launch).
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cstdio>
+#include <string_view>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <string>
 
 #include "poise/inprocess/in_process_loop.hpp"
+#include "poise/launch/launch.hpp"
 
 namespace poise::inprocess {
 
@@ -56,6 +59,18 @@ std::filesystem::path resolve_scenario(const std::string& arg) {
 }  // namespace
 
 int cli_main(int argc, char** argv) {
+  // Default mode: every component in its own process over DDS (components/launch).
+  const auto has = [&](std::string_view flag) {
+    return std::any_of(argv + 1, argv + argc, [&](const char* a) { return flag == a; });
+  };
+  if (!has("--in-process")) {
+    const int rc = launch::run_distributed(argc, argv);
+    if (has("--help") || has("-h")) {
+      std::cout << "\nWith --in-process, all components run in this process without DDS "
+                   "(the baseline for the DDS overhead): see `poise run --in-process --help`.\n";
+    }
+    return rc;
+  }
   CLI::App app{"Run a scenario (paper Sec. 4 experiments in deploy/scenarios/)", "poise run"};
   std::string scenario_arg, output, method = "sequential", controller_config;
   bool in_process = false, ground_truth = false, quiet = false;
@@ -79,10 +94,6 @@ int cli_main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
-  }
-  if (!in_process) {
-    std::cerr << "poise run: distributed mode not built yet; use --in-process\n";
-    return 2;
   }
   try {
     const sim::Scenario scenario = sim::load_scenario(resolve_scenario(scenario_arg));
