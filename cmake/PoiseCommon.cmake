@@ -31,3 +31,18 @@ function(poise_register_cli_command verb summary function library)
   set_property(GLOBAL PROPERTY POISE_CLI_${verb}_FUNCTION "${function}")
   set_property(GLOBAL PROPERTY POISE_CLI_${verb}_LIBRARY "${library}")
 endfunction()
+
+# poise_add_area_modules()
+# Adds every sub-folder of the current area folder that has a CMakeLists.txt, alphabetically, so
+# that a new module never needs a shared file edited. components/cli is added by the top level,
+# after every area (it links them all).
+function(poise_add_area_modules)
+  file(GLOB children RELATIVE ${CMAKE_CURRENT_SOURCE_DIR} ${CMAKE_CURRENT_SOURCE_DIR}/*)
+  list(SORT children)
+  foreach(child ${children})
+    if(EXISTS ${CMAKE_CURRENT_SOURCE_DIR}/${child}/CMakeLists.txt
+       AND NOT (child STREQUAL "cli" AND CMAKE_CURRENT_SOURCE_DIR STREQUAL "${PROJECT_SOURCE_DIR}/components"))
+      add_subdirectory(${child})
+    endif()
+  endforeach()
+endfunction()
