@@ -31,6 +31,11 @@ struct VendorPair {
   const char* reader;
 };
 
+// Readable parameters in test listings and ctest names.
+void PrintTo(const VendorPair& p, std::ostream* os) {
+  *os << p.writer << "->" << p.reader;
+}
+
 class TopicTools : public ::testing::TestWithParam<VendorPair> {};
 
 // pub on one vendor, echo --json --once on the other: the sample arrives unchanged.

@@ -5,11 +5,11 @@
 
 #include <algorithm>
 #include <cstdio>
-#include <string_view>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <string>
+#include <string_view>
 
 #include "poise/inprocess/in_process_loop.hpp"
 #include "poise/launch/launch.hpp"
