@@ -76,7 +76,8 @@ struct Validator {
     } else if constexpr (is_float_array_v<T> && !kTrackPath) {
       // Fast path: NaN and +-inf survive x * 0, finite values give 0; this loop vectorises.
       typename T::value_type sum = 0;
-      for (const auto& e : v) sum += e * 0;
+      for (const auto& e : v)
+        sum += e * 0;
       if (sum != 0) fail("non-finite");
     } else if constexpr (is_array_v<T>) {
       for (std::size_t i = 0; i < v.size() && !failed; ++i) {
