@@ -2,20 +2,13 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include "poise/node/convert.hpp"
 
 namespace poise::contact_node {
 namespace {
 
-template <class A>
-Eigen::Vector3d vec3(const A& a) {
-  return Eigen::Vector3d(a[0], a[1], a[2]);
-}
-template <class A>
-void put3(const Eigen::Vector3d& v, A& a) {
-  a[0] = v.x();
-  a[1] = v.y();
-  a[2] = v.z();
-}
+using node::put3;
+using node::vec3;
 
 }  // namespace
 

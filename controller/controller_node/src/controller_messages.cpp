@@ -1,20 +1,15 @@
+
 #include "poise/controller_node/controller_messages.hpp"
+#include "poise/node/convert.hpp"
 
 #include <Eigen/Geometry>
 
 namespace poise::controller_node {
 namespace {
 
-template <class A>
-Eigen::Vector3d vec3(const A& a) {
-  return Eigen::Vector3d(a[0], a[1], a[2]);
-}
+using node::vec3;
 model::SE3 pose(const msg::Pose& p) {
-  const auto& q = p.orientation_wxyz();
-  Eigen::Quaterniond quat(q[0], q[1], q[2], q[3]);
-  const double n = quat.norm();
-  if (n > 1e-9) quat.coeffs() /= n;
-  return model::SE3(quat.toRotationMatrix(), vec3(p.position()));
+  return model::SE3(node::rotation(p), vec3(p.position()));
 }
 model::Motion twist(const msg::Twist& t) {
   model::Motion m;

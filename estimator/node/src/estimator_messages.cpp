@@ -1,24 +1,15 @@
 #include "poise/estimator_node/estimator_messages.hpp"
 
 #include <Eigen/Geometry>
+#include "poise/node/convert.hpp"
 
 namespace poise::estimator_node {
 namespace {
 
-template <class A>
-Eigen::Vector3d vec3(const A& a) {
-  return Eigen::Vector3d(a[0], a[1], a[2]);
-}
-template <class A>
-void put3(const Eigen::Vector3d& v, A& a) {
-  a[0] = v.x();
-  a[1] = v.y();
-  a[2] = v.z();
-}
+using node::put3;
+using node::vec3;
 void put_pose(const model::SE3& X, msg::Pose& out) {
-  put3(X.p, out.position());
-  const Eigen::Quaterniond q(X.R);
-  out.orientation_wxyz() = {q.w(), q.x(), q.y(), q.z()};
+  node::put_pose(X.R, X.p, out);
 }
 
 }  // namespace

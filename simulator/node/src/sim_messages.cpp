@@ -1,4 +1,6 @@
+
 #include "poise/sim_node/sim_messages.hpp"
+#include "poise/node/convert.hpp"
 
 #include <cmath>
 #include <fstream>
@@ -10,16 +12,9 @@
 namespace poise::sim_node {
 namespace {
 
-template <class A>
-void put3(const Eigen::Vector3d& v, A& a) {
-  a[0] = v.x();
-  a[1] = v.y();
-  a[2] = v.z();
-}
+using node::put3;
 void put_pose(const Eigen::Isometry3d& X, msg::Pose& out) {
-  put3(X.translation(), out.position());
-  const Eigen::Quaterniond q(X.linear());
-  out.orientation_wxyz() = {q.w(), q.x(), q.y(), q.z()};
+  node::put_pose(X.linear(), X.translation(), out);
 }
 bool is_side(const std::string& name, char side) {
   const std::string full = side == 'r' ? "right" : "left";
