@@ -84,6 +84,10 @@ const char* to_string(Kind k) {
       return "arbitrary_double";
     case Kind::kArbitrarySingle:
       return "arbitrary_single";
+    case Kind::kRecordedDouble:
+      return "recorded_double";
+    case Kind::kRecordedSingle:
+      return "recorded_single";
   }
   return "unknown";
 }
@@ -111,11 +115,14 @@ std::vector<CorpusEntry> generate_corpus(int count, std::uint32_t seed) {
   return corpus;
 }
 
-void write_corpus(const std::string& path, const std::vector<CorpusEntry>& corpus) {
+void write_corpus(const std::string& path, const std::vector<CorpusEntry>& corpus,
+                  const std::vector<std::string>& comments) {
   std::ofstream out(path);
   if (!out) throw std::runtime_error("cannot write corpus file '" + path + "'");
   out.precision(17);
   out << kHeader << "\n";
+  for (const std::string& c : comments)
+    out << "# " << c << "\n";
   for (const CorpusEntry& e : corpus) {
     const ContactProblem& p = e.problem;
     out << static_cast<int>(e.kind) << ' ' << p.mass;
@@ -151,7 +158,7 @@ std::vector<CorpusEntry> read_corpus(const std::string& path) {
   int line_no = 1;
   while (std::getline(in, line)) {
     ++line_no;
-    if (line.empty()) continue;
+    if (line.empty() || line[0] == '#') continue;
     std::istringstream s(line);
     CorpusEntry e{};
     ContactProblem& p = e.problem;
@@ -173,7 +180,7 @@ std::vector<CorpusEntry> read_corpus(const std::string& path) {
       s >> f.sole.x_min >> f.sole.x_max >> f.sole.y_min >> f.sole.y_max >> f.safety_margin >>
           f.ankle_height >> f.mu >> f.mu_torsion;
     }
-    if (!s || kind < 0 || kind > 3) {
+    if (!s || kind < 0 || kind > 5) {
       throw std::runtime_error(path + ":" + std::to_string(line_no) + ": malformed problem line");
     }
     e.kind = static_cast<Kind>(kind);

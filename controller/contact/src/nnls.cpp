@@ -1,135 +1,101 @@
 #include "poise/contact/nnls.hpp"
 
-#include <cmath>
-#include <stdexcept>
-
-#include "subset_least_squares.hpp"
+#include "active_set_common.hpp"
 
 namespace poise::contact {
 
-namespace {
-
-bool all_finite(const Eigen::Ref<const Eigen::MatrixXd>& M) {
-  for (Eigen::Index j = 0; j < M.cols(); ++j)
-    for (Eigen::Index i = 0; i < M.rows(); ++i)
-      if (!std::isfinite(M(i, j))) return false;
-  return true;
-}
-
-}  // namespace
-
 void Nnls::resize(int max_rows, int max_cols) {
-  if (max_rows <= 0 || max_cols <= 0) {
-    throw std::invalid_argument("Nnls::resize: sizes must be positive, got " +
-                                std::to_string(max_rows) + " x " + std::to_string(max_cols));
-  }
-  max_rows_ = max_rows;
-  max_cols_ = max_cols;
+  ws_.resize("Nnls", max_rows, max_cols);
   if (max_iterations_ == 0) max_iterations_ = 3 * max_cols + 10;
-  W_.setZero(max_rows, max_cols);
-  r_.setZero(max_rows);
-  qr_rhs_.setZero(max_rows);
-  diag_.setZero(max_cols);
-  w_.setZero(max_cols);
-  z_.setZero(max_cols);
-  cols_.setZero(max_cols);
-  passive_.setZero(max_cols);
-  rejected_.setZero(max_cols);
-  AtA_.setZero(max_cols, max_cols);
-  Atb_.setZero(max_cols);
-  L_.setZero(max_cols, max_cols);
-  rhs_.setZero(max_cols);
 }
 
 SolverStatus Nnls::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
                          const Eigen::Ref<const Eigen::VectorXd>& b,
                          Eigen::Ref<Eigen::VectorXd> x) {
   iterations_ = 0;
-  const int m = static_cast<int>(A.rows());
-  const int n = static_cast<int>(A.cols());
   if (x.size() > 0) x.setZero();
-  if (m <= 0 || n <= 0 || m > max_rows_ || n > max_cols_ || b.size() != m || x.size() != n ||
-      !all_finite(A) || !all_finite(b)) {
+  double norm_a = 0.0, norm_b = 0.0;
+  if (x.size() != A.cols() || !detail::load_dense(A, b, ws_, norm_a, norm_b)) {
     return SolverStatus::kInvalidInput;
   }
+  const SolverStatus status =
+      run(&A, b.data(), static_cast<int>(A.cols()), tolerance_ * norm_a * norm_b + 1e-300, x);
+  // Dual of the returned point from the residual (more accurate than the Gram form).
+  detail::dual_from_residual(A, b.data(), x.data(), ws_);
+  return status;
+}
 
+SolverStatus Nnls::solve_normal(const Eigen::Ref<const Eigen::MatrixXd>& H,
+                                const Eigen::Ref<const Eigen::VectorXd>& c, double b_norm,
+                                Eigen::Ref<Eigen::VectorXd> x) {
+  iterations_ = 0;
+  if (x.size() > 0) x.setZero();
   double norm_a = 0.0;
-  for (int j = 0; j < n; ++j)
-    for (int i = 0; i < m; ++i)
-      norm_a += A(i, j) * A(i, j);
-  norm_a = std::sqrt(norm_a);
-  const double tol = tolerance_ * norm_a * b.norm() + 1e-300;
+  if (x.size() != H.cols() || !std::isfinite(b_norm) || !detail::load_normal(H, c, ws_, norm_a)) {
+    return SolverStatus::kInvalidInput;
+  }
+  const int n = static_cast<int>(H.cols());
+  const SolverStatus status =
+      run(nullptr, nullptr, n, tolerance_ * norm_a * std::abs(b_norm) + 1e-300, x);
+  detail::dual_from_normal(n, x.data(), ws_);
+  return status;
+}
 
+SolverStatus Nnls::run(const Eigen::Ref<const Eigen::MatrixXd>* A, const double* b, int n,
+                       double tol, Eigen::Ref<Eigen::VectorXd> x) {
+  int* cols = ws_.cols.data();  // the passive set, in the order its variables entered
+  int* passive = ws_.state.data();
+  int* rejected = ws_.rejected.data();
+  const double* z = ws_.z.data();
   for (int j = 0; j < n; ++j) {
-    passive_[j] = 0;
-    rejected_[j] = 0;
+    passive[j] = 0;
+    rejected[j] = 0;
   }
-  // Gram matrix and A^T b: the dual is w = A^T b - A^T A x and the passive-set sub-problems are
-  // solved by Cholesky of A^T A restricted to the set (QR of the columns when ill-conditioned).
-  for (int j = 0; j < n; ++j) {
-    for (int l = 0; l <= j; ++l) {
-      double s = 0.0;
-      for (int i = 0; i < m; ++i)
-        s += A(i, j) * A(i, l);
-      AtA_(j, l) = s;
-      AtA_(l, j) = s;
-    }
-    double s = 0.0;
-    for (int i = 0; i < m; ++i)
-      s += A(i, j) * b[i];
-    Atb_[j] = s;
-  }
+  int k = 0;         // size of the passive set
+  int factored = 0;  // leading columns whose Cholesky rows are valid
 
   // Warm start: the unconstrained least-squares solution, pruned repeatedly to its positive
   // entries, gives a feasible point (x_P > 0, x_Z = 0) from which Lawson-Hanson continues; when the
   // unconstrained solution is already non-negative this is the answer. If a sub-problem is
   // ill-conditioned the solver starts cold from x = 0.
   {
-    int k = n;
+    int m = n;
     for (int j = 0; j < n; ++j)
-      cols_[j] = j;
-    while (k > 0 && iterations_ < max_iterations_) {
+      cols[j] = j;
+    while (m > 0 && iterations_ < max_iterations_) {
       ++iterations_;
-      for (int c = 0; c < k; ++c)
-        rhs_[c] = Atb_[cols_[c]];
-      if (!detail::subset_normal_equations(AtA_, cols_.data(), k, rhs_.data(), L_, z_.data())) {
-        break;
-      }
-      int kept = 0;
-      for (int c = 0; c < k; ++c) {
-        if (z_[c] > 0.0) cols_[kept++] = cols_[c];
-      }
-      if (kept == k) {
-        for (int c = 0; c < k; ++c) {
-          x[cols_[c]] = z_[c];
-          passive_[cols_[c]] = 1;
+      for (int c = 0; c < m; ++c)
+        ws_.rhs[c] = ws_.Atb[cols[c]];
+      if (!detail::subset_normal_equations(m, factored, ws_)) break;
+      const int kept = detail::compact_columns(m, factored, ws_, [&](int c) { return z[c] > 0.0; });
+      if (kept == m) {
+        for (int c = 0; c < m; ++c) {
+          x[cols[c]] = z[c];
+          passive[cols[c]] = 1;
         }
+        k = m;
         break;
       }
-      k = kept;
+      m = kept;
     }
+    if (k == 0) factored = 0;  // cold start
   }
 
   SolverStatus status = SolverStatus::kOptimal;
   for (;;) {
-    // Dual w = A^T (b - A x).
-    for (int j = 0; j < n; ++j) {
-      double s = Atb_[j];
-      for (int l = 0; l < n; ++l)
-        s -= AtA_(j, l) * x[l];
-      w_[j] = s;
-    }
+    detail::dual_from_normal(n, x.data(), ws_);  // w = A^T (b - A x)
     // Most positive dual among the zero (non-passive, not rejected) variables.
     int t = -1;
     double best = tol;
     for (int j = 0; j < n; ++j) {
-      if (!passive_[j] && !rejected_[j] && w_[j] > best) {
-        best = w_[j];
+      if (!passive[j] && !rejected[j] && ws_.w[j] > best) {
+        best = ws_.w[j];
         t = j;
       }
     }
     if (t < 0) break;  // KKT conditions hold
-    passive_[t] = 1;
+    passive[t] = 1;
+    cols[k++] = t;
 
     bool x_changed = false;
     bool first = true;
@@ -139,24 +105,25 @@ SolverStatus Nnls::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
         break;
       }
       ++iterations_;
-      int k = 0;
-      for (int j = 0; j < n; ++j)
-        if (passive_[j]) cols_[k++] = j;
       for (int c = 0; c < k; ++c)
-        rhs_[c] = Atb_[cols_[c]];
-      if (!detail::subset_normal_equations(AtA_, cols_.data(), k, rhs_.data(), L_, z_.data())) {
-        detail::subset_least_squares(A, cols_.data(), k, b.data(), W_, qr_rhs_, diag_, z_.data());
+        ws_.rhs[c] = ws_.Atb[cols[c]];
+      if (!detail::subset_normal_equations(k, factored, ws_)) {
+        if (A == nullptr) {  // normal-equation form: no columns to fall back on (x stays feasible)
+          status = SolverStatus::kNotPositiveDefinite;
+          break;
+        }
+        detail::subset_least_squares(*A, k, b, ws_);
       }
       if (first) {
         first = false;
-        // The entering variable must move into the positive orthant; otherwise (round-off or a
-        // dependent column) it is rejected until x changes, as in Lawson-Hanson's NNLS code.
-        int pos_t = 0;
-        while (cols_[pos_t] != t)
-          ++pos_t;
-        if (!(z_[pos_t] > 0.0)) {
-          passive_[t] = 0;
-          rejected_[t] = 1;
+        // The entering variable (last in the set) must move into the positive orthant; otherwise
+        // (round-off or a dependent column) it is rejected until x changes, as in Lawson-Hanson's
+        // NNLS code.
+        if (!(z[k - 1] > 0.0)) {
+          passive[t] = 0;
+          rejected[t] = 1;
+          --k;
+          factored = std::min(factored, k);
           break;
         }
       }
@@ -164,10 +131,10 @@ SolverStatus Nnls::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
       double alpha = 2.0;
       int blocking = -1;
       for (int c = 0; c < k; ++c) {
-        if (z_[c] <= 0.0) {
+        if (z[c] <= 0.0) {
           all_positive = false;
-          const int j = cols_[c];
-          const double a = x[j] / (x[j] - z_[c]);
+          const int j = cols[c];
+          const double a = x[j] / (x[j] - z[c]);
           if (a < alpha) {
             alpha = a;
             blocking = j;
@@ -177,36 +144,24 @@ SolverStatus Nnls::solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
       x_changed = true;
       if (all_positive) {
         for (int c = 0; c < k; ++c)
-          x[cols_[c]] = z_[c];
+          x[cols[c]] = z[c];
         break;
       }
       for (int c = 0; c < k; ++c) {
-        const int j = cols_[c];
-        x[j] += alpha * (z_[c] - x[j]);
+        const int j = cols[c];
+        x[j] += alpha * (z[c] - x[j]);
         if (j == blocking || x[j] <= 0.0) {
           x[j] = 0.0;
-          passive_[j] = 0;
+          passive[j] = 0;
         }
       }
+      k = detail::compact_columns(k, factored, ws_, [&](int c) { return passive[cols[c]] != 0; });
     }
     if (x_changed) {
       for (int j = 0; j < n; ++j)
-        rejected_[j] = 0;
+        rejected[j] = 0;
     }
     if (status != SolverStatus::kOptimal) break;
-  }
-  // Dual of the returned point from the residual (more accurate than the Gram form).
-  for (int i = 0; i < m; ++i) {
-    double s = b[i];
-    for (int j = 0; j < n; ++j)
-      s -= A(i, j) * x[j];
-    r_[i] = s;
-  }
-  for (int j = 0; j < n; ++j) {
-    double s = 0.0;
-    for (int i = 0; i < m; ++i)
-      s += A(i, j) * r_[i];
-    w_[j] = s;
   }
   return status;
 }

@@ -70,6 +70,39 @@ ContactStatus SequentialOptimizer::solve_single(const ContactProblem& p, int i,
   return ContactStatus::kOk;
 }
 
+// Phi = [B; se_f I] with B the 6 x 8 force / moment block, xi = [xi_6; 0]: the normal equations are
+// B^T B + eps_f I and B^T xi_6, formed from the small block alone (the dense NNLS would multiply
+// the 8 regularisation rows too).
+SolverStatus SequentialOptimizer::solve_force_stage() {
+  SequentialStages& st = stages_;
+  if (use_normal_equations_) {
+    const auto B = st.Phi.topRows<6>();
+    nnls_H_.noalias() = B.transpose().lazyProduct(B);
+    nnls_H_.diagonal() += st.Phi.bottomRows<8>().diagonal().cwiseAbs2();
+    nnls_c_.noalias() = B.transpose() * st.xi.head<6>();
+    const SolverStatus s = nnls_.solve_normal(nnls_H_, nnls_c_, st.xi.head<6>().norm(), st.rho);
+    if (s != SolverStatus::kNotPositiveDefinite) return s;
+  }
+  return nnls_.solve(st.Phi, st.xi, st.rho);
+}
+
+// Psi = [P; se_c I] with P the 3 x 6 torque block, kappa = [kappa_k; se_c eta_d].
+SolverStatus SequentialOptimizer::solve_cop_stage() {
+  SequentialStages& st = stages_;
+  if (use_normal_equations_) {
+    const auto P = st.Psi.topRows<3>();
+    const auto D = st.Psi.bottomRows<6>().diagonal();
+    bvls_H_.noalias() = P.transpose().lazyProduct(P);
+    bvls_H_.diagonal() += D.cwiseAbs2();
+    bvls_c_.noalias() = P.transpose() * st.kappa.head<3>();
+    bvls_c_ += D.cwiseProduct(st.kappa.tail<6>());
+    const SolverStatus s =
+        bvls_.solve_normal(bvls_H_, bvls_c_, st.kappa.norm(), st.eta_lower, st.eta_upper, st.eta);
+    if (s != SolverStatus::kNotPositiveDefinite) return s;
+  }
+  return bvls_.solve(st.Psi, st.kappa, st.eta_lower, st.eta_upper, st.eta);
+}
+
 ContactStatus SequentialOptimizer::solve_double(const ContactProblem& p,
                                                 ContactSolution& solution) {
   SequentialStages& st = stages_;
@@ -90,7 +123,7 @@ ContactStatus SequentialOptimizer::solve_double(const ContactProblem& p,
   st.xi.segment<3>(0) = p.l_dot_desired - p.mass * p.gravity;
   st.xi.segment<3>(3) = sw_k * p.k_dot_desired;
   st.xi.segment<8>(6).setZero();
-  st.nnls_status = nnls_.solve(st.Phi, st.xi, st.rho);
+  st.nnls_status = solve_force_stage();
   if (st.nnls_status == SolverStatus::kInvalidInput) return ContactStatus::kSolverFailure;
 
   // ---- (27)-(30): CoPs and normal torques by BVLS over eta.
@@ -129,7 +162,7 @@ ContactStatus SequentialOptimizer::solve_double(const ContactProblem& p,
   st.Psi.block<6, 6>(3, 0).diagonal().setConstant(se_c);
   st.kappa.head<3>() = kappa_k;
   st.kappa.tail<6>() = se_c * st.eta_desired;
-  st.bvls_status = bvls_.solve(st.Psi, st.kappa, st.eta_lower, st.eta_upper, st.eta);
+  st.bvls_status = solve_cop_stage();
   if (st.bvls_status == SolverStatus::kInvalidInput) return ContactStatus::kSolverFailure;
 
   for (int i = 0; i < 2; ++i) {

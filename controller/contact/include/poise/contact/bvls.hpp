@@ -2,6 +2,7 @@
 
 #include <Eigen/Core>
 
+#include "poise/contact/least_squares_workspace.hpp"
 #include "poise/contact/solver_status.hpp"
 
 namespace poise::contact {
@@ -36,31 +37,38 @@ class Bvls {
                      const Eigen::Ref<const Eigen::VectorXd>& lower,
                      const Eigen::Ref<const Eigen::VectorXd>& upper, Eigen::Ref<Eigen::VectorXd> x);
 
+  /// The same problem given by its normal equations (see Nnls::solve_normal): H = A^T A,
+  /// c = A^T b, b_norm = ||b|| (stopping tolerance only). kNotPositiveDefinite when a sub-problem
+  /// is too ill-conditioned for the normal equations (x: the last feasible iterate): the caller
+  /// must then call solve() with A.
+  SolverStatus solve_normal(const Eigen::Ref<const Eigen::MatrixXd>& H,
+                            const Eigen::Ref<const Eigen::VectorXd>& c, double b_norm,
+                            const Eigen::Ref<const Eigen::VectorXd>& lower,
+                            const Eigen::Ref<const Eigen::VectorXd>& upper,
+                            Eigen::Ref<Eigen::VectorXd> x);
+
   /// Dual w = A^T (b - A x) of the last solve. At the optimum: w_j <= 0 at a lower bound,
   /// w_j >= 0 at an upper bound, w_j = 0 for a free variable.
-  const Eigen::VectorXd& dual() const { return w_; }
+  const Eigen::VectorXd& dual() const { return ws_.w; }
   int iterations() const { return iterations_; }
 
  private:
   enum : int { kFree = 0, kAtLower = 1, kAtUpper = 2 };
-  int max_rows_ = 0;
-  int max_cols_ = 0;
+  /// Checks the bounds (finite, lower <= upper, size n) and sets x to the clamp of 0 into them
+  /// (x = 0 when they are bad). Returns false on bad bounds.
+  static bool check_bounds(int n, const Eigen::Ref<const Eigen::VectorXd>& lower,
+                           const Eigen::Ref<const Eigen::VectorXd>& upper,
+                           Eigen::Ref<Eigen::VectorXd> x);
+  /// Stark-Parker on the normal equations loaded in ws_; A and b (null in the normal-equation
+  /// form) serve the QR fallback of ill-conditioned sub-problems.
+  SolverStatus run(const Eigen::Ref<const Eigen::MatrixXd>* A, const double* b, int n,
+                   double norm_a, double b_norm, const Eigen::Ref<const Eigen::VectorXd>& lower,
+                   const Eigen::Ref<const Eigen::VectorXd>& upper, Eigen::Ref<Eigen::VectorXd> x);
+
   int max_iterations_ = 0;
   double tolerance_ = 1e-12;
   int iterations_ = 0;
-  Eigen::MatrixXd W_;
-  Eigen::VectorXd r_;       // max_rows, residual
-  Eigen::VectorXd qr_rhs_;  // max_rows, QR workspace
-  Eigen::VectorXd diag_;
-  Eigen::VectorXd w_;
-  Eigen::VectorXd z_;
-  Eigen::VectorXi cols_;
-  Eigen::VectorXi state_;
-  Eigen::VectorXi rejected_;
-  Eigen::MatrixXd AtA_;  // max_cols x max_cols, Gram matrix
-  Eigen::VectorXd Atb_;
-  Eigen::MatrixXd L_;  // Cholesky workspace
-  Eigen::VectorXd rhs_;
+  detail::LeastSquaresWorkspace ws_;  // ws_.state: kFree / kAtLower / kAtUpper
 };
 
 }  // namespace poise::contact

@@ -2,6 +2,7 @@
 
 #include <Eigen/Core>
 
+#include "poise/contact/least_squares_workspace.hpp"
 #include "poise/contact/solver_status.hpp"
 
 namespace poise::contact {
@@ -33,31 +34,32 @@ class Nnls {
   SolverStatus solve(const Eigen::Ref<const Eigen::MatrixXd>& A,
                      const Eigen::Ref<const Eigen::VectorXd>& b, Eigen::Ref<Eigen::VectorXd> x);
 
+  /// The same problem given by its normal equations, for callers that form them cheaply from the
+  /// structure of A: H = A^T A (n x n, n <= max_cols), c = A^T b, b_norm = ||b|| (used only for
+  /// the stopping tolerance). Same algorithm, same iterates as solve() as long as every
+  /// sub-problem is well-conditioned; when one is not (solve() would then use QR of the columns
+  /// of A, which this form lacks) it stops with kNotPositiveDefinite and x the last feasible
+  /// iterate: the caller must then call solve() with A. dual() is A^T b - H x.
+  SolverStatus solve_normal(const Eigen::Ref<const Eigen::MatrixXd>& H,
+                            const Eigen::Ref<const Eigen::VectorXd>& c, double b_norm,
+                            Eigen::Ref<Eigen::VectorXd> x);
+
   /// Dual vector w = A^T (b - A x) of the last solve (first n entries valid). At the optimum
   /// w_j <= 0 where x_j = 0 and w_j = 0 where x_j > 0.
-  const Eigen::VectorXd& dual() const { return w_; }
+  const Eigen::VectorXd& dual() const { return ws_.w; }
   /// Inner iterations (least-squares sub-solves) used by the last solve.
   int iterations() const { return iterations_; }
 
  private:
-  int max_rows_ = 0;
-  int max_cols_ = 0;
+  /// Lawson-Hanson on the normal equations loaded in ws_ (n variables). A and b (null in the
+  /// normal-equation form) serve the QR fallback of ill-conditioned sub-problems.
+  SolverStatus run(const Eigen::Ref<const Eigen::MatrixXd>* A, const double* b, int n, double tol,
+                   Eigen::Ref<Eigen::VectorXd> x);
+
   int max_iterations_ = 0;
   double tolerance_ = 1e-12;
   int iterations_ = 0;
-  Eigen::MatrixXd W_;         // max_rows x max_cols, QR workspace
-  Eigen::VectorXd r_;         // max_rows, residual / rhs workspace
-  Eigen::VectorXd qr_rhs_;    // max_rows
-  Eigen::VectorXd diag_;      // max_cols
-  Eigen::VectorXd w_;         // max_cols, dual
-  Eigen::VectorXd z_;         // max_cols, sub-solve
-  Eigen::VectorXi cols_;      // max_cols, passive column list
-  Eigen::VectorXi passive_;   // max_cols, 1 if in passive set
-  Eigen::VectorXi rejected_;  // max_cols
-  Eigen::MatrixXd AtA_;       // max_cols x max_cols, Gram matrix
-  Eigen::VectorXd Atb_;       // max_cols
-  Eigen::MatrixXd L_;         // max_cols x max_cols, Cholesky workspace
-  Eigen::VectorXd rhs_;       // max_cols
+  detail::LeastSquaresWorkspace ws_;  // ws_.state: 1 if the variable is in the passive set
 };
 
 }  // namespace poise::contact

@@ -66,6 +66,20 @@ class SequentialOptimizer {
   Nnls& nnls() { return nnls_; }
   Bvls& bvls() { return bvls_; }
 
+  /// How the two stages call their solvers. true (default): on the normal equations formed from
+  /// the structure of Phi and Psi (their lower blocks are diagonal), Nnls/Bvls::solve_normal(),
+  /// with the dense form as the fallback when a sub-problem is ill-conditioned. false: always the
+  /// dense form, Nnls/Bvls::solve(Phi, xi) (the method before the normal-equation shortcut; kept
+  /// for the benchmark's same-run comparison). Both give the same answer to round-off.
+  void set_use_normal_equations(bool on) { use_normal_equations_ = on; }
+  bool use_normal_equations() const { return use_normal_equations_; }
+
+  /// The two double-support stages on their own, as solve() runs them, on the data in stages()
+  /// (Phi, xi -> rho; Psi, kappa, bounds -> eta) as the last double-support solve() left it. For
+  /// the stage benchmark; solve() is the only entry point a user needs.
+  SolverStatus solve_force_stage();
+  SolverStatus solve_cop_stage();
+
  private:
   ContactStatus solve_single(const ContactProblem& problem, int foot, ContactSolution& solution);
   ContactStatus solve_double(const ContactProblem& problem, ContactSolution& solution);
@@ -73,6 +87,11 @@ class SequentialOptimizer {
   Nnls nnls_;
   Bvls bvls_;
   SequentialStages stages_;
+  bool use_normal_equations_ = true;
+  Eigen::Matrix<double, 8, 8> nnls_H_;  // Phi^T Phi
+  Eigen::Matrix<double, 8, 1> nnls_c_;  // Phi^T xi
+  Eigen::Matrix<double, 6, 6> bvls_H_;  // Psi^T Psi
+  Eigen::Matrix<double, 6, 1> bvls_c_;  // Psi^T kappa
 };
 
 }  // namespace poise::contact

@@ -10,7 +10,9 @@ enum class SolverStatus : std::uint8_t {
   kIterationLimit = 1,  ///< Iteration cap hit; the output is the last iterate (see each solver).
   kInvalidInput = 2,    ///< Wrong size, non-finite entry or inconsistent bounds; output zeroed.
   kInfeasible = 3,      ///< (DualQp only) the constraints admit no point.
-  kNotPositiveDefinite = 4,  ///< (DualQp only) the Hessian is not positive definite.
+  kNotPositiveDefinite = 4,  ///< DualQp: the Hessian is not positive definite; Nnls / Bvls
+                             ///< solve_normal(): a sub-problem too ill-conditioned for the
+                             ///< normal equations (solve() with A handles it).
 };
 
 /// Short lower-case name of a status, e.g. "optimal" (static string, never null).
