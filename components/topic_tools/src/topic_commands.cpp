@@ -29,7 +29,7 @@ using Clock = std::chrono::steady_clock;
 
 std::atomic<bool> g_stop{false};
 
-extern "C" void on_signal(int) {
+extern "C" void topic_tools_on_signal(int) {
   g_stop.store(true);
 }
 
@@ -75,8 +75,8 @@ bool stop_requested() noexcept {
 }
 
 void install_signal_handlers() {
-  std::signal(SIGINT, on_signal);
-  std::signal(SIGTERM, on_signal);
+  std::signal(SIGINT, topic_tools_on_signal);
+  std::signal(SIGTERM, topic_tools_on_signal);
 }
 
 int list_topics(dds::Participant& participant, const ListOptions& options, std::ostream& out) {
