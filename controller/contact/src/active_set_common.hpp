@@ -18,19 +18,20 @@ namespace poise::contact::detail {
 using ConstMatrixRef = Eigen::Ref<const Eigen::MatrixXd>;
 using ConstVectorRef = Eigen::Ref<const Eigen::VectorXd>;
 
+// Finite check without branches: v * 0 is 0 for a finite v and NaN for an infinite or NaN one.
 inline bool all_finite(const ConstMatrixRef& M) {
-  bool ok = true;
+  double acc = 0.0;
   for (Eigen::Index j = 0; j < M.cols(); ++j)
     for (Eigen::Index i = 0; i < M.rows(); ++i)
-      ok &= std::isfinite(M(i, j));
-  return ok;
+      acc += M(i, j) * 0.0;
+  return acc == 0.0;
 }
 
 inline bool all_finite(const ConstVectorRef& v) {
-  bool ok = true;
+  double acc = 0.0;
   for (Eigen::Index i = 0; i < v.size(); ++i)
-    ok &= std::isfinite(v[i]);
-  return ok;
+    acc += v[i] * 0.0;
+  return acc == 0.0;
 }
 
 /// Dense form min ||A x - b||: checks that A (m x n) and b fit the workspace and are finite, then
@@ -107,9 +108,10 @@ inline void dual_from_residual(const ConstMatrixRef& A, const double* b, const d
 /// ws.w = A^T b - A^T A x from the normal equations.
 inline void dual_from_normal(int n, const double* x, LeastSquaresWorkspace& ws) {
   for (int j = 0; j < n; ++j) {
+    const double* col = &ws.AtA(0, j);  // AtA is symmetric: column j = row j, contiguous
     double s = ws.Atb[j];
     for (int l = 0; l < n; ++l)
-      s -= ws.AtA(j, l) * x[l];
+      s -= col[l] * x[l];
     ws.w[j] = s;
   }
 }
@@ -182,19 +184,21 @@ inline void subset_least_squares(const ConstMatrixRef& A, int k, const double* r
   }
 }
 
-/// Solves AtA(cols, cols) z = rhs for the k columns in ws.cols (rhs in ws.rhs, z in ws.z) by
-/// Cholesky in ws.L, updated incrementally: rows [0, factored) of the factor are those of the
-/// current first `factored` columns and are kept (callers append columns at the end and, when they
-/// remove one at position p, lower `factored` to p); rows [factored, k) are computed here, and
-/// `factored` is set to k. Returns false, leaving z unspecified, when a pivot falls below
-/// `pivot_tol` times the largest diagonal entry: the subset is too ill-conditioned for the normal
-/// equations and the caller must use subset_least_squares() instead (or give up when it has no A).
-/// ws.L keeps 1 / L(j, j) on its diagonal and ws.pivot the squared pivots L(j, j)^2.
+/// Solves AtA(cols, cols) z = rhs for the k columns in ws.cols (rhs in ws.rhs, z in ws.z) by an
+/// L D L^T factorisation (no square roots), updated incrementally: rows [0, factored) of the factor
+/// are those of the current first `factored` columns and are kept (callers append columns at the
+/// end and, when they remove one at position p, lower `factored` to p); rows [factored, k) are
+/// computed here, and `factored` is set to k. Returns false, leaving z unspecified, when a pivot
+/// d_i falls below `pivot_tol` times the largest diagonal entry: the subset is too ill-conditioned
+/// for the normal equations and the caller must use subset_least_squares() instead (or give up
+/// when it has no A).
+/// Storage: ws.L holds the unit lower factor transposed, ws.L(p, i) = L(i, p) for p < i (a row of
+/// L is a contiguous column), and 1 / d_i on its diagonal; ws.pivot holds d_i.
 inline bool subset_normal_equations(int k, int& factored, LeastSquaresWorkspace& ws,
                                     double pivot_tol = 1e-10) {
   const int* cols = ws.cols.data();
   const Eigen::MatrixXd& AtA = ws.AtA;
-  Eigen::MatrixXd& L = ws.L;
+  Eigen::MatrixXd& U = ws.L;
   double* pivot = ws.pivot.data();
   const double* rhs = ws.rhs.data();
   double* z = ws.z.data();
@@ -209,36 +213,42 @@ inline bool subset_normal_equations(int k, int& factored, LeastSquaresWorkspace&
       return false;
     }
   }
-  for (int i = factored; i < k; ++i) {  // new rows, one column at a time (row-oriented Cholesky)
-    const int ci = cols[i];
-    for (int j = 0; j < i; ++j) {
-      double t = AtA(ci, cols[j]);
+  for (int i = factored; i < k; ++i) {  // new rows of L (columns of U)
+    const double* a = &AtA(0, cols[i]);
+    double* ui = &U(0, i);
+    for (int j = 0; j < i; ++j) {  // ui[j] = L(i, j) d_j first
+      const double* uj = &U(0, j);
+      double t = a[cols[j]];
       for (int p = 0; p < j; ++p)
-        t -= L(i, p) * L(j, p);
-      L(i, j) = t * L(j, j);
+        t -= ui[p] * uj[p];
+      ui[j] = t;
     }
-    double s = AtA(ci, ci);
-    for (int p = 0; p < i; ++p)
-      s -= L(i, p) * L(i, p);
-    if (!(s > min_pivot)) {
+    double d = a[cols[i]];
+    for (int p = 0; p < i; ++p) {  // then L(i, p) = ui[p] / d_p, d_i = a_ii - sum L(i, p)^2 d_p
+      const double l = ui[p] * U(p, p);
+      d -= l * ui[p];
+      ui[p] = l;
+    }
+    if (!(d > min_pivot)) {
       factored = i;
       return false;
     }
-    pivot[i] = s;
-    L(i, i) = 1.0 / std::sqrt(s);
+    pivot[i] = d;
+    ui[i] = 1.0 / d;
   }
   factored = k;
   for (int i = 0; i < k; ++i) {  // L y = rhs
+    const double* ui = &U(0, i);
     double s = rhs[i];
     for (int p = 0; p < i; ++p)
-      s -= L(i, p) * z[p];
-    z[i] = s * L(i, i);
+      s -= ui[p] * z[p];
+    z[i] = s;
   }
-  for (int i = k - 1; i >= 0; --i) {  // L^T z = y
-    double s = z[i];
+  for (int i = k - 1; i >= 0; --i) {  // L^T z = D^-1 y
+    double s = z[i] * U(i, i);
     for (int p = i + 1; p < k; ++p)
-      s -= L(p, i) * z[p];
-    z[i] = s * L(i, i);
+      s -= U(i, p) * z[p];
+    z[i] = s;
   }
   return true;
 }

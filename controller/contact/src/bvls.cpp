@@ -73,11 +73,15 @@ SolverStatus Bvls::run(const Eigen::Ref<const Eigen::MatrixXd>* A, const double*
   const double tol = tolerance_ * norm_a * (b_norm + norm_a * std::sqrt(bound_scale)) + 1e-300;
 
   // Right-hand side of the free variables' normal equations, A_F^T (b - A_B x_B), in ws_.rhs.
+  double* x_bound = ws_.xb.data();
   auto free_rhs = [&](int k) {
+    for (int j = 0; j < n; ++j)
+      x_bound[j] = state[j] != kFree ? x[j] : 0.0;
     for (int c = 0; c < k; ++c) {
+      const double* col = &ws_.AtA(0, cols[c]);  // symmetric: column = row, contiguous
       double s = ws_.Atb[cols[c]];
       for (int j = 0; j < n; ++j)
-        if (state[j] != kFree) s -= ws_.AtA(cols[c], j) * x[j];
+        s -= col[j] * x_bound[j];
       ws_.rhs[c] = s;
     }
   };

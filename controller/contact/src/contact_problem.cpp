@@ -38,8 +38,9 @@ const char* validate_foot(const FootContact& foot, int i) {
        "feet[1]: mu_torsion is negative or not finite"},
   };
   if (!finite_and_bounded(foot.R_WF)) return kMsg[0][i];
-  const double ortho = (foot.R_WF.transpose() * foot.R_WF - Eigen::Matrix3d::Identity()).norm();
-  if (!(ortho < 1e-6) || !(foot.R_WF.determinant() > 0.0)) return kMsg[1][i];
+  const double ortho2 =
+      (foot.R_WF.transpose() * foot.R_WF - Eigen::Matrix3d::Identity()).squaredNorm();
+  if (!(ortho2 < 1e-12) || !(foot.R_WF.determinant() > 0.0)) return kMsg[1][i];  // |.| < 1e-6
   if (!finite_and_bounded(foot.p_WF)) return kMsg[2][i];
   const SoleRectangle& s = foot.sole;
   if (!finite_and_bounded(s.x_min) || !finite_and_bounded(s.x_max) ||

@@ -26,6 +26,7 @@ void LeastSquaresWorkspace::resize(const char* solver, int rows, int cols_max) {
   L.setZero(cols_max, cols_max);
   pivot.setZero(cols_max);
   rhs.setZero(cols_max);
+  xb.setZero(cols_max);
 }
 
 }  // namespace poise::contact::detail

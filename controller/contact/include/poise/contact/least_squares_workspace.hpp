@@ -31,6 +31,7 @@ struct LeastSquaresWorkspace {
   Eigen::MatrixXd L;         // max_cols x max_cols, Cholesky factor of a subset
   Eigen::VectorXd pivot;     // max_cols, squared pivots of L
   Eigen::VectorXd rhs;       // max_cols, sub-problem right-hand side
+  Eigen::VectorXd xb;        // max_cols, x with the free variables zeroed (Bvls)
 };
 
 }  // namespace poise::contact::detail
