@@ -134,5 +134,48 @@ TEST(Bvls, IterationCapAndBadInput) {
   EXPECT_TRUE(x.allFinite());
 }
 
+TEST(Bvls, NormalEquationFormMatchesDenseForm) {
+  std::mt19937 rng(43);
+  for (int trial = 0; trial < 200; ++trial) {
+    const int n = uniform_int(rng, 1, 6);
+    const int m = n + uniform_int(rng, 0, 3);
+    const Eigen::MatrixXd A = random_matrix(rng, m, n);
+    const Eigen::VectorXd b = random_matrix(rng, m, 1, 3.0);
+    Eigen::VectorXd lo(n), hi(n);
+    for (int j = 0; j < n; ++j) {
+      lo[j] = uniform(rng, -1.5, 0.5);
+      hi[j] = lo[j] + (uniform_int(rng, 0, 9) == 0 ? 0.0 : uniform(rng, 0.0, 2.0));
+    }
+    Bvls dense(9, 6), normal(9, 6);
+    Eigen::VectorXd x_dense(n), x_normal(n);
+    ASSERT_EQ(dense.solve(A, b, lo, hi, x_dense), SolverStatus::kOptimal) << "trial " << trial;
+    ASSERT_EQ(normal.solve_normal(A.transpose() * A, A.transpose() * b, b.norm(), lo, hi, x_normal),
+              SolverStatus::kOptimal)
+        << "trial " << trial;
+    EXPECT_LT((x_normal - x_dense).norm(), 1e-8 * (1.0 + x_dense.norm())) << "trial " << trial;
+    const Eigen::VectorXd w = A.transpose() * (b - A * x_normal);
+    EXPECT_LT((normal.dual().head(n) - w).norm(), 1e-8 * (1.0 + A.norm() * b.norm()))
+        << "trial " << trial;
+  }
+}
+
+TEST(Bvls, NormalEquationFormReportsIllConditioningAndBadInput) {
+  Bvls solver(6, 3);
+  Eigen::VectorXd x(3);
+  const Eigen::VectorXd lo = -Eigen::VectorXd::Ones(3), hi = Eigen::VectorXd::Ones(3);
+  EXPECT_EQ(
+      solver.solve_normal(Eigen::MatrixXd::Zero(3, 3), Eigen::VectorXd::Ones(3), 1.0, lo, hi, x),
+      SolverStatus::kNotPositiveDefinite);
+  EXPECT_TRUE((x.array() >= lo.array()).all() && (x.array() <= hi.array()).all());
+  Eigen::MatrixXd H = Eigen::MatrixXd::Identity(3, 3);
+  H(0, 1) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(solver.solve_normal(H, Eigen::VectorXd::Ones(3), 1.0, lo, hi, x),
+            SolverStatus::kInvalidInput);
+  EXPECT_EQ(solver.solve_normal(Eigen::MatrixXd::Identity(3, 3), Eigen::VectorXd::Ones(3), 1.0, hi,
+                                lo, x),
+            SolverStatus::kInvalidInput);  // lower > upper
+  EXPECT_TRUE(x.allFinite());
+}
+
 }  // namespace
 }  // namespace poise::contact

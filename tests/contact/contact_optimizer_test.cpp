@@ -307,6 +307,31 @@ TEST(SequentialOptimizer, NnlsStageMinimisesObjective21) {
   }
 }
 
+TEST(SequentialOptimizer, NormalEquationStagesMatchDenseStages) {
+  // The default stages (normal equations formed from the structure of Phi and Psi) and the dense
+  // NNLS / BVLS calls solve the same problems: same answers to round-off, same statuses.
+  std::mt19937 rng(2718);
+  SequentialOptimizer fast, dense;
+  dense.set_use_normal_equations(false);
+  ASSERT_TRUE(fast.use_normal_equations());
+  for (int trial = 0; trial < 300; ++trial) {
+    ContactProblem p =
+        trial % 2 ? random_feasible(rng, true, true) : random_arbitrary(rng, true, true);
+    if (trial % 7 == 0) p.weights.eps_f = p.weights.eps_cop = 1e-9;  // ill-conditioned stages
+    ContactSolution a, b;
+    fast.solve(p, a);
+    dense.solve(p, b);
+    ASSERT_EQ(a.status, b.status) << "trial " << trial;
+    const double mg = p.mass * 9.81;
+    for (int i = 0; i < kMaxFeet; ++i) {
+      EXPECT_LT((a.feet[i].force_W - b.feet[i].force_W).norm(), 1e-6 * mg) << "trial " << trial;
+      EXPECT_LT((a.feet[i].torque_ankle_W - b.feet[i].torque_ankle_W).norm(), 1e-6 * mg)
+          << "trial " << trial;
+    }
+    EXPECT_LT((fast.stages().rho - dense.stages().rho).norm(), 1e-6 * mg) << "trial " << trial;
+  }
+}
+
 TEST(SequentialOptimizer, DerivedPsiAndKappaMatchEq27) {
   // Psi_k eta - kappa_k must equal sum_i tau_i(eta) - (k_dot_d - k_dot_f), with tau_i from (19)
   // evaluated directly (make_foot_wrench) for random eta.

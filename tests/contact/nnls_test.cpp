@@ -108,5 +108,58 @@ TEST(Nnls, RejectsBadInput) {
   EXPECT_THROW(Nnls(0, 3), std::invalid_argument);
 }
 
+TEST(Nnls, NormalEquationFormMatchesDenseForm) {
+  // solve_normal(A^T A, A^T b, |b|) follows the same iterates as solve(A, b) when every sub-problem
+  // is well-conditioned (A of full column rank): same x, and the dual is A^T (b - A x).
+  std::mt19937 rng(31);
+  for (int trial = 0; trial < 200; ++trial) {
+    const int n = uniform_int(rng, 1, 8);
+    const int m = n + uniform_int(rng, 0, 6);
+    const Eigen::MatrixXd A = random_matrix(rng, m, n);
+    const Eigen::VectorXd b = random_matrix(rng, m, 1, 2.0);
+    Nnls dense(m, n), normal(m, n);
+    Eigen::VectorXd x_dense(n), x_normal(n);
+    ASSERT_EQ(dense.solve(A, b, x_dense), SolverStatus::kOptimal) << "trial " << trial;
+    const Eigen::MatrixXd H = A.transpose() * A;
+    const Eigen::VectorXd c = A.transpose() * b;
+    ASSERT_EQ(normal.solve_normal(H, c, b.norm(), x_normal), SolverStatus::kOptimal)
+        << "trial " << trial;
+    EXPECT_LT((x_normal - x_dense).norm(), 1e-8 * (1.0 + x_dense.norm())) << "trial " << trial;
+    const Eigen::VectorXd w = A.transpose() * (b - A * x_normal);
+    EXPECT_LT((normal.dual().head(n) - w).norm(), 1e-8 * (1.0 + A.norm() * b.norm()))
+        << "trial " << trial;
+  }
+}
+
+TEST(Nnls, NormalEquationFormReportsIllConditioningAndBadInput) {
+  Nnls solver(6, 4);
+  Eigen::VectorXd x(4);
+  // H = 0 with a positive c: every sub-problem is singular; without A there is no QR fallback.
+  EXPECT_EQ(solver.solve_normal(Eigen::MatrixXd::Zero(4, 4), Eigen::VectorXd::Ones(4), 1.0, x),
+            SolverStatus::kNotPositiveDefinite);
+  EXPECT_TRUE((x.array() >= 0.0).all() && x.allFinite());
+  // A rank-deficient H (A of 2 rows, 4 columns): either solved, or reported; x always feasible,
+  // and when solved its objective is the dense solver's.
+  std::mt19937 rng(77);
+  for (int trial = 0; trial < 50; ++trial) {
+    const Eigen::MatrixXd A = random_matrix(rng, 2, 4);
+    const Eigen::VectorXd b = random_matrix(rng, 2, 1);
+    const SolverStatus s = solver.solve_normal(A.transpose() * A, A.transpose() * b, b.norm(), x);
+    ASSERT_TRUE(s == SolverStatus::kOptimal || s == SolverStatus::kNotPositiveDefinite);
+    EXPECT_TRUE((x.array() >= 0.0).all() && x.allFinite());
+    if (s == SolverStatus::kOptimal) {
+      Eigen::VectorXd x_dense(4);
+      ASSERT_EQ(solver.solve(A, b, x_dense), SolverStatus::kOptimal);
+      EXPECT_NEAR((A * x - b).squaredNorm(), (A * x_dense - b).squaredNorm(), 1e-9);
+    }
+  }
+  Eigen::MatrixXd H = Eigen::MatrixXd::Identity(4, 4);
+  H(2, 2) = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(solver.solve_normal(H, Eigen::VectorXd::Ones(4), 1.0, x), SolverStatus::kInvalidInput);
+  EXPECT_EQ(solver.solve_normal(Eigen::MatrixXd::Identity(5, 5), Eigen::VectorXd::Ones(5), 1.0, x),
+            SolverStatus::kInvalidInput);  // more columns than configured / x of the wrong size
+  EXPECT_TRUE(x.isZero());
+}
+
 }  // namespace
 }  // namespace poise::contact

@@ -5,7 +5,7 @@
 // corpus text format, tagged recorded_double / recorded_single by the support of that tick.
 //
 //   poise-contact-record OUTPUT [SCENARIO...] [--every N] [--method sequential|qp]
-//                        [--ground-truth]
+//                        [--ground-truth] [--duration S]
 // Default scenarios: the paper's pushes, forward_push_double_support and
 // lateral_push_single_support (deploy/scenarios/). Lockstep simulation: the same command line
 // gives the same file.
@@ -47,6 +47,7 @@ int main(int argc, char** argv) {
   int every = 1;
   std::string method = "sequential";
   bool ground_truth = false;
+  double duration = 0.0;
   app.add_option("output", out, "output corpus file")->required();
   app.add_option("scenarios", scenarios, "scenario files or names in deploy/scenarios/")
       ->capture_default_str();
@@ -55,6 +56,8 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"sequential", "qp"}));
   app.add_flag("--ground-truth", ground_truth,
                "controller state from the simulator's ground truth (default: the estimator)");
+  app.add_option("--duration", duration, "simulated seconds per scenario (default: the scenario's)")
+      ->check(CLI::NonNegativeNumber);
   CLI11_PARSE(app, argc, argv);
 
   std::vector<contact::bench::CorpusEntry> corpus;
@@ -68,6 +71,7 @@ int main(int argc, char** argv) {
                              ? inprocess::StateSource::kGroundTruth
                              : inprocess::StateSource::kEstimator;
       opt.contact_method = *contact::parse_method(method);
+      opt.duration = duration;
       inprocess::InProcessLoop loop(scenario, opt);
       long ticks = 0, kept_double = 0, kept_single = 0, skipped = 0;
       while (loop.time() < loop.duration()) {
