@@ -4,7 +4,8 @@
 // Contract
 //   subscribes  poise/robot_description   RobotDescription  once at start (latched): joint order
 //               poise/state               State             1 kHz  reliable, keep-last 1
-//               poise/balance_reference   BalanceReference  on change (latched); default: stand
+//               poise/balance_reference   BalanceReference  on change (latched, reader keeps up
+//                                                           to 512); default: stand
 //               poise/contact_solution    ContactSolution   one per problem, tick k
 //   publishes   poise/contact_problem     ContactProblem    one per state, tick k
 //               poise/joint_command       JointCommand      one per state, tick k
@@ -15,6 +16,14 @@
 //               phase B (eq 33, inverse dynamics, PD references), or the library's fallback on a
 //               miss (counted as a deadline miss) -> joint command k
 //   repeats     a state with the tick just handled is answered with the same command again
+//   references  applied by header tick: state k takes every reference with 0 < tick <= k (or
+//               tick 0 = at once) and applies the one with the largest tick; a reference sent
+//               ahead of its tick (`poise reference play` sends them --lead-ticks ahead) is
+//               applied exactly at its tick, also in lockstep. One arriving after the state of
+//               its tick was handled is applied at the next state and counted (late_references,
+//               an error). The IDL has no posture-target velocity: when the reference applied at
+//               tick t follows one for tick t-1 (a trajectory played per tick), upper_body_qd is
+//               their difference over the control period, else zero.
 // ------------------------------------------------------------------------------------------------
 #include <CLI/CLI.hpp>
 
@@ -27,6 +36,7 @@
 #include "poise/contact_node/contact_messages.hpp"
 #include "poise/controller/balance_controller.hpp"
 #include "poise/controller_node/controller_messages.hpp"
+#include "poise/controller_node/reference_queue.hpp"
 #include "poise/model/robot_config.hpp"
 #include "poise/node/mailbox.hpp"
 #include "poise/node/node.hpp"
@@ -35,6 +45,8 @@
 namespace {
 
 using namespace poise;
+
+constexpr std::size_t kReferenceQueue = 512;  // references held ahead of their tick
 
 int run(int argc, char** argv) {
   node::NodeOptions options;
@@ -79,10 +91,12 @@ int run(int argc, char** argv) {
 
   node::Mailbox<msg::State> state_box;
   node::Mailbox<msg::ContactSolution> solution_box;
-  node::Mailbox<msg::BalanceReference> reference_box;
+  controller_node::ReferenceQueue reference_queue(kReferenceQueue);
   dds::Subscriber<msg::State> states(node.participant(), state_box.callback());
   dds::Subscriber<msg::ContactSolution> solutions(node.participant(), solution_box.callback());
-  dds::Subscriber<msg::BalanceReference> references(node.participant(), reference_box.callback());
+  dds::Subscriber<msg::BalanceReference> references(
+      node.participant(), reference_queue.callback(),
+      dds::Qos::latched(static_cast<int>(kReferenceQueue)));
   node.watch(states);
   node.watch(solutions);
   node.watch(references);
@@ -100,9 +114,17 @@ int run(int argc, char** argv) {
   msg::ContactProblem problem_out;
   msg::ContactSolution solution_in;
   msg::JointCommand out;
-  std::uint64_t state_seen = 0, solution_seen = 0, reference_seen = 0;
+  std::uint64_t state_seen = 0, solution_seen = 0;
   bool have_last = false;
   std::uint64_t last_tick = 0;
+  // Posture-target velocity of a reference trajectory played per tick (see the contract above).
+  const double period_s =
+      description.control_period_s() > 0.0 ? description.control_period_s() : 1e-3;
+  const auto n_joints = static_cast<Eigen::Index>(model_to_wire.size());
+  std::vector<double> previous_wire_q(msg::MAX_JOINTS, 0.0);
+  Eigen::VectorXd applied_q = Eigen::VectorXd::Zero(n_joints);
+  bool applied_has_q = false;
+  std::uint64_t applied_tick = 0, references_applied = 0;
   const auto deadline_ns = static_cast<std::int64_t>(deadline_us * 1e3);
   while (node.running()) {
     const std::int64_t next_diag = node.poll();
@@ -113,10 +135,32 @@ int run(int argc, char** argv) {
       continue;
     }
     const std::int64_t t0 = node::now_ns();
-    if (reference_box.take(ref_in, reference_seen) &&
-        !controller_node::from_msg(ref_in, model_to_wire, reference))
-      node.error("balance reference with joint_count %u (robot has %zu): joint targets ignored",
-                 ref_in.joint_count(), model_to_wire.size());
+    const auto due = reference_queue.take_due(k, have_last, last_tick, ref_in,
+                                              previous_wire_q.data(), previous_wire_q.size());
+    if (due.late > 0)
+      node.error("tick %llu: %u balance reference(s) arrived after their tick",
+                 static_cast<unsigned long long>(k), due.late);
+    if (due.taken) {
+      ++references_applied;
+      if (!controller_node::from_msg(ref_in, model_to_wire, reference)) {
+        node.error("balance reference with joint_count %u (robot has %zu): joint targets ignored",
+                   ref_in.joint_count(), model_to_wire.size());
+      } else {
+        const bool follows = due.tick > 1 && reference.has_upper_body_q;
+        if (follows && due.has_previous) {
+          for (Eigen::Index j = 0; j < n_joints; ++j)
+            reference.upper_body_qd[j] =
+                (reference.upper_body_q[j] - previous_wire_q[model_to_wire[j]]) / period_s;
+        } else if (follows && applied_has_q && applied_tick + 1 == due.tick) {
+          reference.upper_body_qd = (reference.upper_body_q - applied_q) / period_s;
+        } else {
+          reference.upper_body_qd.setZero();
+        }
+        applied_q = reference.upper_body_q;
+        applied_has_q = reference.has_upper_body_q;
+        applied_tick = due.tick;
+      }
+    }
     controller_node::from_msg(in, model_to_wire, state);
     ctrl.prepare(state, reference, problem);
     contact_node::to_msg(problem, problem_out);
@@ -144,12 +188,18 @@ int run(int argc, char** argv) {
     node.tick_done(k, (t_sent - t0) + (node::now_ns() - t_back));  // own compute, not the wait
   }
   const auto& d = ctrl.diagnostics();
-  char extra[256];
+  char extra[512];
   std::snprintf(extra, sizeof(extra),
-                "{\"late_solutions\": %llu, \"qp_failures\": %llu, \"controller_ticks\": %llu}",
+                "{\"late_solutions\": %llu, \"qp_failures\": %llu, \"controller_ticks\": %llu, "
+                "\"references_received\": %llu, \"references_applied\": %llu, "
+                "\"late_references\": %llu, \"reference_overflows\": %llu}",
                 static_cast<unsigned long long>(d.late_solutions),
                 static_cast<unsigned long long>(d.qp_failures),
-                static_cast<unsigned long long>(d.ticks));
+                static_cast<unsigned long long>(d.ticks),
+                static_cast<unsigned long long>(reference_queue.received()),
+                static_cast<unsigned long long>(references_applied),
+                static_cast<unsigned long long>(reference_queue.late()),
+                static_cast<unsigned long long>(reference_queue.overflows()));
   node.write_summary(extra);
   return 0;
 }

@@ -1,0 +1,61 @@
+#pragma once
+// A balance-reference trajectory (file format: deploy/scenarios/references/README.md): CoM moves
+// and upper-body joint swings as functions of robot time, played over DDS by
+// `poise reference play` (components/reference/src/play.cpp). Pure functions, no DDS.
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+namespace poise::reference {
+
+/// The CoM target moves by `shift` [m] along a minimum-jerk profile in [start, start + duration].
+struct ComMove {
+  double start = 0.0;
+  double duration = 1.0;
+  Eigen::Vector3d shift = Eigen::Vector3d::Zero();
+};
+
+/// An upper-body joint swings about its nominal angle:
+/// q = q_nominal + e(t) * amplitude * sin(2 pi frequency (t - start) + phase), the envelope e(t)
+/// rising from 0 to 1 over `fade` seconds after `start` and falling back over the last `fade`
+/// seconds before start + duration (quintic smooth steps, so q, qd, qdd are continuous).
+struct JointSwing {
+  std::string joint;
+  double start = 0.0;
+  double duration = 1.0;
+  double amplitude = 0.0;  ///< [rad]
+  double frequency = 1.0;  ///< [Hz]
+  double phase = 0.0;      ///< [rad]
+  double fade = 0.5;       ///< [s], <= duration / 2
+};
+
+struct Trajectory {
+  std::string name;
+  std::string description;
+  int lead_ticks = 200;      ///< how far ahead of the state the player sends each reference
+  std::vector<ComMove> com;  ///< in time order, not overlapping
+  std::vector<JointSwing> joints;
+  /// First and last time at which the trajectory changes anything [s].
+  double begin() const;
+  double end() const;
+};
+
+/// Loads and checks a trajectory file. Throws std::runtime_error naming the file and the key
+/// (unknown keys, missing or non-positive durations, overlapping CoM moves, fades too long).
+Trajectory load_trajectory(const std::string& path);
+
+/// CoM target offset and velocity at time t, relative to the CoM at the first move's start
+/// (moves add up). False before the first move (no CoM target yet).
+bool com_offset(const Trajectory& traj, double t, Eigen::Vector3d& offset,
+                Eigen::Vector3d& velocity) noexcept;
+
+/// Offset of one swing from the nominal angle at time t, with its first and second derivatives
+/// (all zero outside [start, start + duration]).
+void swing_offset(const JointSwing& s, double t, double& q, double& qd, double& qdd) noexcept;
+
+/// True once any joint swing has started (t >= its start): the reference then carries an
+/// upper-body posture target.
+bool has_joint_motion(const Trajectory& traj, double t) noexcept;
+
+}  // namespace poise::reference
