@@ -322,28 +322,28 @@ void report(const std::vector<Record>& rs, int reps) {
   std::printf("\n\n");
 }
 
-void BM_Sequential(benchmark::State& state) {
-  SequentialOptimizer seq;
-  seq.set_use_normal_equations(state.range(0) != 0);
+// One solve per iteration, cycling through the corpus.
+template <typename Optimizer>
+void solve_loop(benchmark::State& state, Optimizer& optimizer) {
   ContactSolution s;
   std::size_t i = 0;
   for (auto _ : state) {
-    seq.solve(g_corpus[i].problem, s);
+    optimizer.solve(g_corpus[i].problem, s);
     benchmark::DoNotOptimize(s);
     i = (i + 1) % g_corpus.size();
   }
+}
+
+void BM_Sequential(benchmark::State& state) {
+  SequentialOptimizer seq;
+  seq.set_use_normal_equations(state.range(0) != 0);
+  solve_loop(state, seq);
 }
 BENCHMARK(BM_Sequential)->ArgName("normal_equations")->Arg(1)->Arg(0);
 
 void BM_Qp(benchmark::State& state) {
   QpOptimizer qp;
-  ContactSolution s;
-  std::size_t i = 0;
-  for (auto _ : state) {
-    qp.solve(g_corpus[i].problem, s);
-    benchmark::DoNotOptimize(s);
-    i = (i + 1) % g_corpus.size();
-  }
+  solve_loop(state, qp);
 }
 BENCHMARK(BM_Qp);
 

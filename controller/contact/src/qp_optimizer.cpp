@@ -5,16 +5,6 @@
 
 namespace poise::contact {
 
-namespace {
-
-Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d S;
-  S << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
-  return S;
-}
-
-}  // namespace
-
 QpOptimizer::QpOptimizer() : qp_(kMaxVars, 0, kMaxConstraints) {
   M_.setZero();
   c_.setZero();
@@ -60,7 +50,7 @@ void QpOptimizer::solve(const ContactProblem& p, ContactSolution& solution) {
     S << 0.0, h, 0.0, -h, 0.0, 0.0, 0.0, 0.0, 0.0;
     const int col = kVarsPerFoot * s;
     M_.block<3, 4>(0, col).noalias() = R * B;
-    M_.block<3, 4>(3, col).noalias() = sw_k * (skew(foot.p_WF - p.com) * R + R * S) * B;
+    M_.block<3, 4>(3, col).noalias() = sw_k * (detail::skew(foot.p_WF - p.com) * R + R * S) * B;
     M_.block<3, 3>(3, col + 4) = sw_k * R;
     M_.block<4, 4>(6 + 7 * s, col) = se_f * Eigen::Matrix4d::Identity();
     M_.block<3, 4>(10 + 7 * s, col).noalias() = se_t * S * B;

@@ -7,12 +7,6 @@ namespace poise::contact {
 
 namespace {
 
-Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d S;
-  S << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
-  return S;
-}
-
 // Below this normal force (relative to m |g| + 1 N) a foot is treated as unloaded.
 double unloaded_threshold(const ContactProblem& p) {
   return 1e-9 * (p.mass * p.gravity.norm() + 1.0);
@@ -117,7 +111,8 @@ ContactStatus SequentialOptimizer::solve_double(const ContactProblem& p,
     const FootContact& foot = p.feet[i];
     const Eigen::Matrix<double, 3, 4> beta = friction_basis_W(foot);
     st.Phi.block<3, 4>(0, 4 * i) = beta;
-    st.Phi.block<3, 4>(3, 4 * i).noalias() = sw_k * skew(foot.p_WF - p.com) * beta;  // delta_i
+    st.Phi.block<3, 4>(3, 4 * i).noalias() =
+        sw_k * detail::skew(foot.p_WF - p.com) * beta;  // delta_i
   }
   st.Phi.block<8, 8>(6, 0).diagonal().setConstant(se_f);
   st.xi.segment<3>(0) = p.l_dot_desired - p.mass * p.gravity;

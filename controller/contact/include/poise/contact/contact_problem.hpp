@@ -138,6 +138,12 @@ double qp_objective(const ContactProblem& problem, const ContactSolution& soluti
 void set_safe_solution(ContactStatus status, ContactSolution& solution);
 
 namespace detail {
+/// Cross-product matrix: skew(v) w = v x w.
+inline Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d S;
+  S << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+  return S;
+}
 /// Shared prologue of both methods: validates, handles zero contacts. Returns true when the caller
 /// must still solve (>= 1 foot in contact); otherwise `solution` is complete.
 bool prepare(const ContactProblem& problem, ContactSolution& solution);
