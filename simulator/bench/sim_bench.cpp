@@ -17,7 +17,8 @@ namespace {
 
 using namespace poise::sim;
 
-void run(benchmark::State& state, const std::string& scenario_name, int iterations) {
+void run(benchmark::State& state, const std::string& scenario_name, int iterations,
+         bool warm_start) {
   const std::filesystem::path file =
       std::filesystem::path(POISE_SOURCE_DIR) / "deploy/scenarios" / (scenario_name + ".yaml");
   Scenario sc;
@@ -29,6 +30,7 @@ void run(benchmark::State& state, const std::string& scenario_name, int iteratio
   }
   sc.sim.pushes.clear();  // steady standing
   sc.sim.solver.iterations = iterations;
+  sc.sim.solver.warm_start = warm_start;
   Simulator sim(sc.sim);
   SensorFrame s = sim.make_sensor_frame();
   GroundTruth g = sim.make_ground_truth();
@@ -45,10 +47,12 @@ void run(benchmark::State& state, const std::string& scenario_name, int iteratio
   std::vector<double> us;
   us.reserve(1 << 20);
   long n = 0;
+  double solver_iterations = 0.0;
   for (auto _ : state) {
     const auto t0 = std::chrono::steady_clock::now();
     sim.step(c, s, g);
     const auto t1 = std::chrono::steady_clock::now();
+    solver_iterations += sim.solver_iterations_used();
     if (us.size() < us.capacity())
       us.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
     if (++n % 2000 == 0) {
@@ -69,21 +73,28 @@ void run(benchmark::State& state, const std::string& scenario_name, int iteratio
     state.counters["rt_factor"] = 1e6 * sim.dt() / mean;
   }
   state.counters["joints"] = sim.num_joints();
+  if (n > 0) state.counters["solver_iters"] = solver_iterations / static_cast<double>(n);
 }
 
+// Arguments: {solver iterations, articulated warm starting (1 = the default, 0 = off)}; the
+// warm-start-off rows are the settings before warm starting was turned on (same run, A/B).
 void BM_StepStandingDoubleSupport(benchmark::State& st) {
-  run(st, "forward_push_double_support", static_cast<int>(st.range(0)));
+  run(st, "forward_push_double_support", static_cast<int>(st.range(0)), st.range(1) != 0);
 }
 void BM_StepSingleSupport(benchmark::State& st) {
-  run(st, "lateral_push_single_support", static_cast<int>(st.range(0)));
+  run(st, "lateral_push_single_support", static_cast<int>(st.range(0)), st.range(1) != 0);
 }
 void BM_StepMovingPlatforms(benchmark::State& st) {
-  run(st, "platforms_out_of_phase", static_cast<int>(st.range(0)));
+  run(st, "platforms_out_of_phase", static_cast<int>(st.range(0)), st.range(1) != 0);
 }
 
 }  // namespace
 
-BENCHMARK(BM_StepStandingDoubleSupport)->Arg(50)->Arg(20)->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_StepSingleSupport)->Arg(50)->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_StepMovingPlatforms)->Arg(50)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_StepStandingDoubleSupport)
+    ->Args({50, 1})
+    ->Args({50, 0})
+    ->Args({20, 1})
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_StepSingleSupport)->Args({50, 1})->Args({50, 0})->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_StepMovingPlatforms)->Args({50, 1})->Args({50, 0})->Unit(benchmark::kMicrosecond);
 BENCHMARK_MAIN();

@@ -373,7 +373,8 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
   if (const YAML::Node s = root["solver"]) {
     c.allow(s, "solver",
             {"dt", "iterations", "contact_erp", "contact_cfm", "friction_anchor",
-             "residual_threshold", "joint_friction_constraint", "joint_friction_velocity"});
+             "residual_threshold", "joint_friction_constraint", "joint_friction_velocity",
+             "warm_start", "warm_start_factor"});
     SolverConfig& sv = sc.sim.solver;
     sv.dt = c.num(s, "dt", "solver", sv.dt);
     if (!(sv.dt > 0.0 && sv.dt <= 0.01)) c.fail("solver.dt", "must be in (0, 0.01] s");
@@ -390,6 +391,10 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
         c.num(s, "joint_friction_velocity", "solver", sv.joint_friction_velocity);
     if (!(sv.joint_friction_velocity > 0.0))
       c.fail("solver.joint_friction_velocity", "must be > 0");
+    sv.warm_start = c.boolean(s, "warm_start", "solver", sv.warm_start);
+    sv.warm_start_factor = c.num(s, "warm_start_factor", "solver", sv.warm_start_factor);
+    if (!(sv.warm_start_factor >= 0.0 && sv.warm_start_factor <= 1.0))
+      c.fail("solver.warm_start_factor", "must be in [0, 1]");
   }
 
   // success criteria

@@ -246,6 +246,12 @@ Simulator::Impl::Impl(const SimulatorConfig& c) : cfg(c), rng(c.imu.seed) {
   info.m_solverMode |= SOLVER_USE_2_FRICTION_DIRECTIONS;
   info.m_timeStep = dt;
   info.m_leastSquaresResidualThreshold = cfg.solver.residual_threshold;
+  if (cfg.solver.warm_start) {
+    if (!(cfg.solver.warm_start_factor >= 0.0 && cfg.solver.warm_start_factor <= 1.0))
+      throw std::runtime_error("solver.warm_start_factor must be in [0, 1]");
+    info.m_solverMode |= SOLVER_USE_ARTICULATED_WARMSTARTING;
+    info.m_articulatedWarmstartingFactor = cfg.solver.warm_start_factor;
+  }
 
   build_robot();
   build_world();
@@ -397,7 +403,10 @@ void Simulator::Impl::build_robot() {
   mb->setCanSleep(false);
   mb->setUseGyroTerm(true);
   mb->setMaxCoordinateVelocity(1000.0);
-  world->addMultiBody(mb.get(), kRobotGroup, kRobotGroup | kEnvGroup);
+  // Without self-collision the robot's links only meet the environment: robot-robot pairs are
+  // then not even created by the broadphase (instead of being created and rejected each step).
+  const int robot_mask = cfg.robot.self_collision ? (kRobotGroup | kEnvGroup) : kEnvGroup;
+  world->addMultiBody(mb.get(), kRobotGroup, robot_mask);
 
   for (std::size_t b = 0; b < nb; ++b) {
     const BodySpec& body = tree.bodies[b];
@@ -430,7 +439,7 @@ void Simulator::Impl::build_robot() {
     if (cfg.solver.friction_anchor && foot_of_body[b] >= 0)
       col->setCollisionFlags(col->getCollisionFlags() | btCollisionObject::CF_HAS_FRICTION_ANCHOR);
     shapes.push_back(std::move(compound));
-    world->addCollisionObject(col.get(), kRobotGroup, kRobotGroup | kEnvGroup);
+    world->addCollisionObject(col.get(), kRobotGroup, robot_mask);
     if (b == 0)
       mb->setBaseCollider(col.get());
     else
@@ -816,6 +825,9 @@ const Eigen::VectorXd& Simulator::effort_limits() const {
 }
 double Simulator::damping_kd() const {
   return impl_->cfg.robot.damping_mode_kd;
+}
+int Simulator::solver_iterations_used() const {
+  return impl_->solver->m_analyticsData.m_numIterationsUsed;
 }
 
 SensorFrame Simulator::make_sensor_frame() const {

@@ -65,6 +65,10 @@ class Simulator {
   /// Torque applied in damping mode: tau = -damping_kd * qd.
   double damping_kd() const;
 
+  /// Contact-solver iterations used by the last step (<= solver.iterations; fewer when the
+  /// residual fell under solver.residual_threshold). For benchmarks and diagnostics.
+  int solver_iterations_used() const;
+
   /// Joint positions / base pose setters for tests (configuration time).
   void set_state(const Eigen::Isometry3d& X_WB, const Eigen::VectorXd& q,
                  const Eigen::Vector3d& v_WB = Eigen::Vector3d::Zero(),
