@@ -75,6 +75,7 @@ TEST(NodesNoAlloc, OneTickOfEveryConversionAllocatesNothing) {
   sim::JointCommand sim_cmd = simulator.make_command();
   sim_node::settle(simulator, 5, sensors, truth);
   sim_node::SlipTracker slip(sim::platforms_of_feet(sc));
+  const std::vector<std::int32_t> urdf_link_of_body(simulator.body_names().size(), 0);
   auto m_sensors = std::make_unique<msg::Sensors>();
   auto m_truth = std::make_unique<msg::GroundTruth>();
   auto m_state = std::make_unique<msg::State>();
@@ -90,7 +91,7 @@ TEST(NodesNoAlloc, OneTickOfEveryConversionAllocatesNothing) {
   auto one_tick = [&] {
     sim_node::to_msg(sensors, feet, *m_sensors);
     slip.update(truth);
-    sim_node::to_msg(truth, feet, slip, 0, *m_truth);
+    sim_node::to_msg(truth, feet, slip, urdf_link_of_body, 0, *m_truth);
     estimator_node::from_msg(*m_sensors, map, frame);
     est.update(frame, est_state);
     estimator_node::to_msg(est_state, map, *m_state);

@@ -2,6 +2,9 @@
 #include "poise/sim_node/sim_messages.hpp"
 #include "poise/node/convert.hpp"
 
+#include <tinyxml.h>
+
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -131,8 +134,30 @@ void SlipTracker::update(const sim::GroundTruth& truth) noexcept {
   }
 }
 
+std::vector<std::int32_t> urdf_link_index_of_bodies(const std::string& urdf_xml,
+                                                    const std::vector<std::string>& body_names) {
+  TiXmlDocument doc;
+  doc.Parse(urdf_xml.c_str());
+  const TiXmlElement* robot = doc.Error() ? nullptr : doc.FirstChildElement("robot");
+  if (robot == nullptr) throw std::runtime_error("the URDF text is not a readable <robot>");
+  std::vector<std::string> links;
+  for (const TiXmlElement* e = robot->FirstChildElement("link"); e != nullptr;
+       e = e->NextSiblingElement("link"))
+    links.emplace_back(e->Attribute("name") ? e->Attribute("name") : "");
+  std::vector<std::int32_t> index;
+  index.reserve(body_names.size());
+  for (const std::string& b : body_names) {
+    const auto it = std::find(links.begin(), links.end(), b);
+    if (it == links.end())
+      throw std::runtime_error("simulator body '" + b + "' is not a <link> of the URDF");
+    index.push_back(static_cast<std::int32_t>(it - links.begin()));
+  }
+  return index;
+}
+
 void to_msg(const sim::GroundTruth& in, const FootOrder& feet, const SlipTracker& slip,
-            std::uint64_t total_other_contacts, msg::GroundTruth& out) noexcept {
+            const std::vector<std::int32_t>& urdf_link_of_body, std::uint64_t total_other_contacts,
+            msg::GroundTruth& out) noexcept {
   out.header().tick(static_cast<std::uint64_t>(in.tick));
   out.header().stamp_ns(std::llround(in.time * 1e9));
   put_pose(in.X_WB, out.base_W());
@@ -151,8 +176,11 @@ void to_msg(const sim::GroundTruth& in, const FootOrder& feet, const SlipTracker
   }
   std::uint32_t count = 0;
   out.other_contact_links().fill(-1);
-  for (std::size_t b = 0; b < in.non_foot_contact.size() && count < 8; ++b)
-    if (in.non_foot_contact[b]) out.other_contact_links()[count++] = static_cast<std::int32_t>(b);
+  const std::size_t capacity = out.other_contact_links().size();
+  for (std::size_t b = 0; b < in.non_foot_contact.size() && count < capacity; ++b)
+    if (in.non_foot_contact[b])
+      out.other_contact_links()[count++] =
+          b < urdf_link_of_body.size() ? urdf_link_of_body[b] : std::int32_t{-1};
   out.other_contact_count(count);
   out.total_other_contacts(total_other_contacts);
 }

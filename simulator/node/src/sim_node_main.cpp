@@ -89,7 +89,10 @@ class SimNode {
     node.watch(disturbances_);
     sim::make_damping_command(sim_.damping_kd(), damping_);
     command_ = damping_;
-    description_pub_.publish(sim_node::make_robot_description(scenario_, sim_, feet_));
+    const msg::RobotDescription description =
+        sim_node::make_robot_description(scenario_, sim_, feet_);
+    urdf_link_of_body_ = sim_node::urdf_link_index_of_bodies(description.urdf(), sim_.body_names());
+    description_pub_.publish(description);
     sim_node::settle(sim_, settings_.settle_ticks, sensors_, truth_);
     monitor_.update(truth_);
     slip_.update(truth_);
@@ -161,7 +164,8 @@ class SimNode {
     sim_node::to_msg(sensors_, feet_, sensors_msg_);
     node_.publish(sensors_pub_, sensors_msg_);
     publish_ns_[static_cast<std::size_t>(sensors_.tick) % publish_ns_.size()] = node::now_ns();
-    sim_node::to_msg(truth_, feet_, slip_, figures_.total_other_contacts, truth_msg_);
+    sim_node::to_msg(truth_, feet_, slip_, urdf_link_of_body_, figures_.total_other_contacts,
+                     truth_msg_);
     node_.publish(truth_pub_, truth_msg_);
     figures_.publish.add(static_cast<double>(node::now_ns() - t0) * 1e-3);
   }
@@ -335,6 +339,7 @@ class SimNode {
   sim_node::FootOrder feet_;
   sim::ScenarioMonitor monitor_;
   sim_node::SlipTracker slip_;
+  std::vector<std::int32_t> urdf_link_of_body_;  ///< GroundTruth.other_contact_links numbering
   sim::SensorFrame sensors_;
   sim::GroundTruth truth_;
   sim::JointCommand command_, damping_;

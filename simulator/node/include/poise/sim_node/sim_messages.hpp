@@ -5,6 +5,8 @@
 // wire's [right, left]. Per-tick functions are allocation-free and noexcept.
 
 #include <array>
+#include <cstdint>
+#include <string>
 #include <vector>
 
 #include <poise/msg/disturbance.h>
@@ -49,10 +51,18 @@ class SlipTracker {
   std::vector<Eigen::Vector3d> slip_;
 };
 
-/// GroundTruth -> GroundTruth. Non-foot contacts are listed by simulator body index
-/// (Simulator::body_names(), each named after its URDF link).
+/// URDF link index of every simulator body: the position of the body's link (a body is named
+/// after its URDF link, Simulator::body_names()) among the <link> elements of `urdf_xml`, in
+/// document order, as GroundTruth.other_contact_links counts them. Configuration time; throws
+/// std::runtime_error on unreadable XML or a body whose link the URDF does not have.
+std::vector<std::int32_t> urdf_link_index_of_bodies(const std::string& urdf_xml,
+                                                    const std::vector<std::string>& body_names);
+
+/// GroundTruth -> GroundTruth. Non-foot contacts are listed by URDF link index
+/// (`urdf_link_of_body`[body], see urdf_link_index_of_bodies()), at most MAX_OTHER_CONTACTS.
 void to_msg(const sim::GroundTruth& in, const FootOrder& feet, const SlipTracker& slip,
-            std::uint64_t total_other_contacts, msg::GroundTruth& out) noexcept;
+            const std::vector<std::int32_t>& urdf_link_of_body, std::uint64_t total_other_contacts,
+            msg::GroundTruth& out) noexcept;
 
 /// JointCommand -> simulator command (sized by Simulator::make_command()). COMMAND_TORQUE is
 /// tau_ff plus the PD terms (the simulator's kPd), COMMAND_DAMPING is -kd qd, COMMAND_ZERO is no
