@@ -106,7 +106,8 @@ ContactStatus SequentialOptimizer::solve_double(const ContactProblem& p,
   const double se_c = std::sqrt(p.weights.eps_cop);
 
   // ---- (21)-(26): foot GRFs by NNLS over rho.
-  st.Phi.setZero();
+  // Every entry of Phi's top 6 rows and of Psi's top 3 rows is written below; their lower blocks
+  // are diagonal (set below) and their off-diagonal zeros come from SequentialStages' initialiser.
   for (int i = 0; i < 2; ++i) {
     const FootContact& foot = p.feet[i];
     const Eigen::Matrix<double, 3, 4> beta = friction_basis_W(foot);
@@ -133,7 +134,6 @@ ContactStatus SequentialOptimizer::solve_double(const ContactProblem& p,
   }
   Eigen::Vector3d kappa_k = p.k_dot_desired - k_dot_f;  // k_dot_tau,d
   const double threshold = unloaded_threshold(p);
-  st.Psi.setZero();
   for (int i = 0; i < 2; ++i) {
     const FootContact& foot = p.feet[i];
     const Eigen::Matrix3d& R = foot.R_WF;
