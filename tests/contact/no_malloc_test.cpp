@@ -54,6 +54,8 @@ TEST(NoMalloc, OptimisersAndSolversDoNotAllocateInSolve) {
   SequentialOptimizer seq;
   QpOptimizer qp;
   ContactOptimizer facade(Method::kQp);
+  SequentialOptimizer seq_dense;  // the dense-stage variant and, with tiny eps, the fallback path
+  seq_dense.set_use_normal_equations(false);
   std::vector<ContactProblem> problems;
   for (int i = 0; i < 60; ++i) {
     const bool right = i % 3 != 1, left = i % 3 != 2;
@@ -62,11 +64,15 @@ TEST(NoMalloc, OptimisersAndSolversDoNotAllocateInSolve) {
   }
   problems[5].com.x() = std::numeric_limits<double>::quiet_NaN();           // invalid input path
   problems[6].feet[0].in_contact = problems[6].feet[1].in_contact = false;  // no contact
+  for (int i = 9; i < 60; i += 10) {  // ill-conditioned stages: normal equations fall back to dense
+    problems[i].weights.eps_f = problems[i].weights.eps_cop = 1e-12;
+  }
   ContactSolution s;
   {
     NoMalloc guard;
     for (const ContactProblem& p : problems) {
       seq.solve(p, s);
+      seq_dense.solve(p, s);
       qp.solve(p, s);
       facade.solve(p, s);
       (void)validate(p);
@@ -85,13 +91,16 @@ TEST(NoMalloc, OptimisersAndSolversDoNotAllocateInSolve) {
   const Eigen::MatrixXd Ae = test::random_matrix(rng, 2, 8), Ai = test::random_matrix(rng, 10, 8);
   const Eigen::VectorXd be = test::random_matrix(rng, 2, 1), bi = test::random_matrix(rng, 10, 1);
   Eigen::VectorXd x(8);
-  SolverStatus status[3];
+  const Eigen::MatrixXd AtA = A.transpose() * A;
+  SolverStatus status[5];
   long count = 0;
   {
     NoMalloc guard;
     status[0] = nnls.solve(A, b, x);
     status[1] = bvls.solve(A, b, lo, hi, x);
     status[2] = dual.solve(G, g, Ae, be, Ai, bi, x);
+    status[3] = nnls.solve_normal(AtA, g, b.norm(), x);
+    status[4] = bvls.solve_normal(AtA, g, b.norm(), lo, hi, x);
     count = guard.count();
   }
   EXPECT_EQ(count, 0);
