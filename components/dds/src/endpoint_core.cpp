@@ -3,6 +3,7 @@
 #include <time.h>
 
 #include <cstring>
+#include <memory>
 #include <stdexcept>
 
 #include "poise/dds/log.hpp"
@@ -140,11 +141,14 @@ void ReaderCore::set_callback(void* scratch, std::function<void(const void*)> ca
 
 void ReaderCore::set_raw_callback(
     std::function<void(const std::vector<std::uint8_t>&, const SampleMeta&)> callback) {
-  reader_->set_on_data_available([this, cb = std::move(callback)] {
-    std::vector<std::uint8_t> bytes;
+  // One buffer for the reader's lifetime: taking a sample does not allocate once it has seen
+  // the largest sample (the listener runs on one thread at a time).
+  auto bytes = std::make_shared<std::vector<std::uint8_t>>();
+  bytes->reserve(4096);
+  reader_->set_on_data_available([this, bytes, cb = std::move(callback)] {
     SampleMeta meta;
-    while (take_raw(bytes, meta))
-      cb(bytes, meta);
+    while (take_raw(*bytes, meta))
+      cb(*bytes, meta);
   });
 }
 

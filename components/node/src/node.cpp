@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -95,6 +96,18 @@ std::int64_t Node::poll() noexcept {
     if (next_diag_ns_ <= now) next_diag_ns_ = now + period_ns_;
   }
   return next_diag_ns_;
+}
+
+void Node::serve(std::mutex& state_mutex) noexcept {
+  while (running()) {
+    std::int64_t next = 0;
+    {
+      std::lock_guard lock(state_mutex);
+      next = poll();
+    }
+    // A shutdown signal may go to another thread: wake at least every 50 ms to notice it.
+    sleep_until_ns(std::min(next, now_ns() + 50'000'000));
+  }
 }
 
 void Node::publish_diagnostics() noexcept {

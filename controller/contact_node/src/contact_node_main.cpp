@@ -14,22 +14,24 @@
 //   never       publishes a non-finite number (checked before publishing).
 // ------------------------------------------------------------------------------------------------
 // The problem topic is read as raw CDR so that a problem failing validation still yields its tick
-// (the typed subscriber would drop it silently for the sender).
+// (the typed subscriber would drop it silently for the sender). Each problem is solved and
+// answered on the DDS listener thread as it arrives (no wake-up of a loop thread per tick); the
+// main thread only publishes the diagnostics (Node::serve).
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
 #include <cstring>
 #include <exception>
+#include <mutex>
 
 #include "poise/contact_node/contact_messages.hpp"
-#include "poise/node/mailbox.hpp"
 #include "poise/node/node.hpp"
 
 namespace {
 
 using namespace poise;
 
-/// One received problem, as the loop thread sees it.
+/// One received problem, decoded.
 struct Incoming {
   msg::ContactProblem problem;
   bool readable = false;  ///< CDR decoded (the header is meaningful)
@@ -53,35 +55,23 @@ int run(int argc, char** argv) {
   contact::ContactProblem problem;
   contact::ContactSolution solution;
 
-  node::Mailbox<Incoming> inbox;
-  Incoming scratch;  // written on the listener thread only
-  std::uint64_t bad_cdr = 0;
-  const dds::TypeSupport& ts = dds::TopicTraits<msg::ContactProblem>::type_support();
-  dds::RawSubscriber problems(
-      node.participant(), dds::TopicTraits<msg::ContactProblem>::topic_name,
-      dds::TopicTraits<msg::ContactProblem>::type_name,
-      dds::TopicTraits<msg::ContactProblem>::default_qos(),
-      [&](const std::vector<std::uint8_t>& bytes, const dds::SampleMeta&) {
-        scratch.readable = ts.deserialize(bytes.data(), bytes.size(), &scratch.problem, scratch.why,
-                                          sizeof(scratch.why));
-        scratch.valid =
-            scratch.readable && ts.validate(&scratch.problem, scratch.why, sizeof(scratch.why));
-        if (!scratch.readable) ++bad_cdr;
-        inbox.put(scratch);
-      });
   dds::Publisher<msg::ContactSolution> solutions(node.participant());
-
+  const dds::TypeSupport& ts = dds::TopicTraits<msg::ContactProblem>::type_support();
   Incoming in;
   msg::ContactSolution out;
-  std::uint64_t seen = 0;
-  while (node.running()) {
-    const std::int64_t next_diag = node.poll();
-    if (!inbox.wait(seen, next_diag) || !inbox.take(in, seen)) continue;
+  std::uint64_t bad_cdr = 0;
+  // One received problem: decode, validate, solve, answer. Runs on the DDS listener thread as the
+  // sample arrives (no hand-off to a loop thread), under state_mutex (diagnostics: Node::serve).
+  auto handle = [&](const std::vector<std::uint8_t>& bytes) noexcept {
     const std::int64_t t0 = node::now_ns();
+    in.readable = ts.deserialize(bytes.data(), bytes.size(), &in.problem, in.why, sizeof(in.why));
+    in.valid = in.readable && ts.validate(&in.problem, in.why, sizeof(in.why));
     if (!in.readable) {
+      ++bad_cdr;
       node.error("unreadable contact problem (%s): not answered", in.why);
-      continue;
+      return;
     }
+    const std::int64_t t_solve = node::now_ns();
     const char* bad_geometry = in.valid ? contact_node::from_msg(in.problem, problem) : nullptr;
     if (bad_geometry) {
       node.error("tick %llu: invalid contact problem: %s",
@@ -100,7 +90,7 @@ int run(int argc, char** argv) {
                  static_cast<unsigned long long>(in.problem.header().tick()), in.why);
       contact::set_safe_solution(contact::ContactStatus::kInvalidInput, solution);
     }
-    const double solve_us = static_cast<double>(node::now_ns() - t0) * 1e-3;
+    const double solve_us = static_cast<double>(node::now_ns() - t_solve) * 1e-3;
     contact_node::to_msg(solution, in.problem.header(), solve_us, method, out);
     if (!reflect::validate(out)) {  // never send a non-finite answer
       node.error("tick %llu: non-finite solution replaced by the safe answer",
@@ -110,7 +100,17 @@ int run(int argc, char** argv) {
     }
     node.publish(solutions, out);
     node.tick_done(in.problem.header().tick(), node::now_ns() - t0);
-  }
+  };
+  std::mutex state_mutex;
+  dds::RawSubscriber problems(node.participant(), dds::TopicTraits<msg::ContactProblem>::topic_name,
+                              dds::TopicTraits<msg::ContactProblem>::type_name,
+                              dds::TopicTraits<msg::ContactProblem>::default_qos(),
+                              [&](const std::vector<std::uint8_t>& bytes, const dds::SampleMeta&) {
+                                std::lock_guard lock(state_mutex);
+                                handle(bytes);
+                              });
+  node.serve(state_mutex);
+  std::lock_guard lock(state_mutex);
   char extra[128];
   std::snprintf(extra, sizeof(extra), "{\"method\": \"%s\", \"unreadable_problems\": %llu}",
                 contact::to_string(method), static_cast<unsigned long long>(bad_cdr));

@@ -11,6 +11,8 @@
 //   repeats     a sensor sample with the tick just handled is answered with the same state again
 //               (the simulator repeats tick 0 until the loop is connected)
 //   bad input   rejected by the DDS layer (counted) or by the library (state held, status bit)
+//   threading   each sensor sample is handled on the DDS listener thread as it arrives (no
+//               wake-up of a loop thread per tick); the main thread publishes the diagnostics.
 //   debug       --ground-truth-state: base pose/twist, CoM and contacts copied from the
 //               simulator's ground truth of the same tick (STATE_GROUND_TRUTH set). Off by default.
 // ------------------------------------------------------------------------------------------------
@@ -18,6 +20,8 @@
 
 #include <cstdio>
 #include <exception>
+#include <memory>
+#include <mutex>
 
 #include "poise/estimator/estimator.hpp"
 #include "poise/estimator_node/estimator_messages.hpp"
@@ -59,9 +63,6 @@ int run(int argc, char** argv) {
   estimator::SensorFrame frame = estimator.make_sensor_frame();
   estimator::EstimatorState state = estimator.make_state();
 
-  node::Mailbox<msg::Sensors> sensor_box;
-  dds::Subscriber<msg::Sensors> sensors(node.participant(), sensor_box.callback());
-  node.watch(sensors);
   node::Mailbox<msg::GroundTruth> truth_box;
   std::unique_ptr<dds::Subscriber<msg::GroundTruth>> truths;
   if (ground_truth_state) {
@@ -72,19 +73,17 @@ int run(int argc, char** argv) {
   }
   dds::Publisher<msg::State> states(node.participant());
 
-  msg::Sensors in;
   msg::GroundTruth truth;
   msg::State out;
-  std::uint64_t seen = 0, truth_seen = 0;
+  std::uint64_t truth_seen = 0;
   bool have_last = false;
   std::uint64_t last_tick = 0, library_rejected = 0;
-  while (node.running()) {
-    const std::int64_t next_diag = node.poll();
-    if (!sensor_box.wait(seen, next_diag) || !sensor_box.take(in, seen)) continue;
+  // One sensor sample: estimate, answer. Allocation-free; runs on one thread at a time.
+  auto handle = [&](const msg::Sensors& in) noexcept {
     const std::uint64_t k = in.header().tick();
     if (have_last && k == last_tick) {  // repeated sample: same answer
       node.publish(states, out);
-      continue;
+      return;
     }
     const std::int64_t t0 = node::now_ns();
     estimator_node::from_msg(in, model_to_wire, frame);
@@ -110,7 +109,35 @@ int run(int argc, char** argv) {
     have_last = true;
     last_tick = k;
     node.tick_done(k, node::now_ns() - t0);
+  };
+
+  std::mutex state_mutex;
+  node::Mailbox<msg::Sensors> sensor_box;
+  std::unique_ptr<dds::Subscriber<msg::Sensors>> sensors;
+  if (!ground_truth_state) {
+    // Estimate on the DDS listener thread as the sample arrives (no hand-off to a loop thread).
+    sensors = std::make_unique<dds::Subscriber<msg::Sensors>>(node.participant(),
+                                                              [&](const msg::Sensors& in) {
+                                                                std::lock_guard lock(state_mutex);
+                                                                handle(in);
+                                                              });
+    node.watch(*sensors);
+    node.serve(state_mutex);
+  } else {
+    // Debug mode: the loop thread waits for the ground truth of the tick, which arrives on the
+    // listener thread, so the sensors go through a mailbox.
+    sensors =
+        std::make_unique<dds::Subscriber<msg::Sensors>>(node.participant(), sensor_box.callback());
+    node.watch(*sensors);
+    msg::Sensors in;
+    std::uint64_t seen = 0;
+    while (node.running()) {
+      const std::int64_t next_diag = node.poll();
+      if (!sensor_box.wait(seen, next_diag) || !sensor_box.take(in, seen)) continue;
+      handle(in);
+    }
   }
+  std::lock_guard lock(state_mutex);
   node.write_summary(ground_truth_state ? R"({"state_source": "ground_truth"})"
                                         : R"({"state_source": "estimator"})");
   return 0;

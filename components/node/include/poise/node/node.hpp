@@ -14,7 +14,8 @@
 // deadline misses, rejected samples (sum over the watched subscribers), type mismatches, errors
 // and the last error. poll() publishes them when due; call it from the loop thread.
 //
-// Threading: every member except the constructor is meant for the node's loop thread only.
+// Threading: every member except the constructor is meant for the node's loop thread only (or,
+// with serve(), for whichever thread holds the node's state mutex).
 // Real-time behaviour: tick_done(), deadline_miss(), publish() and poll() do not allocate and do
 // not throw; error() logs at most once a second (the others are counted).
 
@@ -23,6 +24,7 @@
 #include <cstdarg>
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -117,6 +119,12 @@ class Node {
   std::int64_t poll() noexcept;
   /// Publishes the diagnostics now.
   void publish_diagnostics() noexcept;
+
+  /// For nodes that do their per-tick work in a subscriber callback (on the DDS listener thread,
+  /// which saves the wake-up of a loop thread per sample): runs poll() under `state_mutex` at the
+  /// diagnostics rate until shutdown is requested. The callback must hold the same mutex while
+  /// it uses the node (tick_done, publish, error). Call from the main thread.
+  void serve(std::mutex& state_mutex) noexcept;
   /// The last published diagnostics sample.
   const msg::Diagnostics& diagnostics() const noexcept { return diag_; }
 
