@@ -172,19 +172,4 @@ int play_main(int argc, char** argv) {
   }
 }
 
-int cli_main(int argc, char** argv) {
-  if (argc >= 2 && std::string(argv[1]) == "play") {
-    std::string name = std::string(argc > 0 ? argv[0] : "poise reference") + " play";
-    std::vector<char*> args{name.data()};
-    for (int i = 2; i < argc; ++i)
-      args.push_back(argv[i]);
-    return play_main(static_cast<int>(args.size()), args.data());
-  }
-  const bool help = argc >= 2 && (std::string(argv[1]) == "--help" || std::string(argv[1]) == "-h");
-  std::fprintf(help ? stdout : stderr,
-               "usage: poise reference play FILE [options]   (poise reference play --help)\n"
-               "Plays a balance-reference trajectory over DDS in step with the robot's state.\n");
-  return help ? 0 : 2;
-}
-
 }  // namespace poise::reference

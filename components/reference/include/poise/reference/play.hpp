@@ -12,7 +12,9 @@ namespace poise::reference {
 /// trajectory was played to its end, 2 bad arguments or setup failure, 3 interrupted first.
 int play_main(int argc, char** argv);
 
-/// The `poise reference` verb: `play` sub-command.
+/// The `poise reference` verb: `poise reference play ...` runs the poise-reference executable
+/// beside the `poise` tool (exec, same arguments), so that the tool does not link the node
+/// runtime (src/cli.cpp).
 int cli_main(int argc, char** argv);
 
 }  // namespace poise::reference
