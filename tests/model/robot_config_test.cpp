@@ -84,9 +84,9 @@ TEST(RobotConfig, ErrorsNameTheProblem) {
   expect_config_error("imu_frame: imu_link", "imu_frame: imu_lnk", "imu_lnk");
   expect_config_error("frame: r_foot", "frame: r_fot", "r_fot");
   expect_config_error("sole_frame: l_sole", "sole_frame: l_foot", "sole frame 'l_foot'");
-  expect_config_error("l_knee: 0.6", "l_kne: 0.6", "l_kne");
-  expect_config_error("l_knee: 0.6", "l_knee: 3.5", "outside the joint limits");
-  expect_config_error("l_knee: 0.6", "l_knee: 0.2", "not flat");
+  expect_config_error("l_knee: 0.556", "l_kne: 0.556", "l_kne");
+  expect_config_error("l_knee: 0.556", "l_knee: 3.5", "outside the joint limits");
+  expect_config_error("l_knee: 0.556", "l_knee: 0.2", "not flat");
   expect_config_error("torso_yaw, l_shoulder_pitch", "l_shoulder_pitch", "torso_yaw");
   expect_config_error("friction_mu: 0.8", "friction_mu: -1", "friction_mu");
   expect_config_error("default: {kp: 100.0, kd: 2.0}", "default: {kp: 100.0}", "kd");
