@@ -49,18 +49,6 @@ int run(int argc, char** argv) {
   app.add_option("--truth-timeout-ms", truth_timeout_ms,
                  "with --ground-truth-state: how long to wait for the ground truth of a tick")
       ->capture_default_str();
-  estimator::EstimatorConfig config;
-  app.add_option("--support-velocity-std", config.noise.support_velocity_std,
-                 "moving supports: stationary std of the supports' common velocity [m/s] "
-                 "(0: they do not move as a whole; see estimator/core invariant_ekf.hpp)")
-      ->check(CLI::Range(0.0, 10.0))
-      ->capture_default_str();
-  app.add_option(
-         "--support-velocity-diff-std", config.noise.support_velocity_diff_std,
-         "moving supports: stationary std of the horizontal velocity difference of the "
-         "two supports [m/s] (0: fixed contacts; ~1 for the paper's out-of-phase platforms)")
-      ->check(CLI::Range(0.0, 10.0))
-      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   node::Node node(options);
@@ -71,7 +59,7 @@ int run(int argc, char** argv) {
   const std::vector<int> model_to_wire =
       node::model_to_wire_map(description.joint_names(), model.joint_names);
 
-  estimator::Estimator estimator(model, robot, config);
+  estimator::Estimator estimator(model, robot);
   estimator::SensorFrame frame = estimator.make_sensor_frame();
   estimator::EstimatorState state = estimator.make_state();
 
