@@ -44,11 +44,6 @@
 // support_velocity_diff_std ~ 1 m/s for supports that move against each other (measured in
 // tests/estimator/invariant_ekf_test.cpp), support_velocity_std > 0 for a support moving as a
 // whole (then the tilt is only as good as its initial value and the gyro).
-// STATUS (experimental): verified on the analytic out-of-phase trajectory with clean contacts
-// (tests/estimator). In the simulator, with a PD-held robot dragged by out-of-phase platforms
-// (feet rocking, contacts toggling 66 ticks in 6 s), the opt-in model diverged (orientation error
-// 56 deg vs 17 deg fixed-contact at 0.04 m / 1 Hz): touch-down and lift-off handling of the
-// support velocities needs work before the platform scenarios can rely on it.
 // u_f is one more column of the group: d_dot = u and u_dot = -u/tau are linear in the columns,
 // so the dynamics stay group-affine and the error dynamics stay exact up to the bias terms.
 //
