@@ -169,12 +169,6 @@ void Estimator::compute_leg_kinematics(const SensorFrame& frame) noexcept {
   }
 }
 
-Vector3 Estimator::contact_velocity_I(int f) const noexcept {
-  // Velocity of foot f's contact point relative to the IMU origin, in IMU axes:
-  // v_BF_B (relative to the base origin, rotation included) minus omega_B x p_BI.
-  return X_IB_.R * (legs_.v_BF_B[f] - omega_B_.cross(X_BI_.p));
-}
-
 InvariantEkf::Covariance Estimator::initial_covariance() const noexcept {
   InvariantEkf::Covariance P = InvariantEkf::Covariance::Zero();
   const auto sq = [](double x) { return x * x; };
@@ -182,10 +176,8 @@ InvariantEkf::Covariance Estimator::initial_covariance() const noexcept {
   P.block<3, 3>(InvariantEkf::kR, InvariantEkf::kR) = sq(config_.init_std_orientation) * I3;
   P.block<3, 3>(InvariantEkf::kV, InvariantEkf::kV) = sq(config_.init_std_velocity) * I3;
   P.block<3, 3>(InvariantEkf::kP, InvariantEkf::kP) = sq(config_.init_std_position) * I3;
-  for (int f = 0; f < kNumFeet; ++f) {
+  for (int f = 0; f < kNumFeet; ++f)
     P.block<3, 3>(InvariantEkf::d_index(f), InvariantEkf::d_index(f)) = I3;
-    P.block<3, 3>(InvariantEkf::u_index(f), InvariantEkf::u_index(f)) = I3;
-  }
   P.block<3, 3>(InvariantEkf::kBg, InvariantEkf::kBg) = sq(config_.init_std_gyro_bias) * I3;
   P.block<3, 3>(InvariantEkf::kBa, InvariantEkf::kBa) = sq(config_.init_std_accel_bias) * I3;
   return P;
@@ -226,12 +218,13 @@ void Estimator::initialize(const SensorFrame& frame) noexcept {
   m.b_a = config_.init_accel_bias_I;
   m.d_W[0] = m.d_W[1] = m.p_WI;
   ekf_.reset(m, initial_covariance());
+  for (int f = 0; f < kNumFeet; ++f) {
+    ekf_.set_contact(f, legs_.contact[f], X_IB_.act(legs_.X_BF[f].p));
+  }
   const Vector3 omega_B = X_BI_.R * (frame.imu_omega_I - m.b_g);
   for (int f = 0; f < kNumFeet; ++f)
     legs_.v_BF_B[f] = omega_B.cross(legs_.X_BF[f].p) + v_F0_B_[f];
   omega_B_ = omega_B;
-  for (int f = 0; f < kNumFeet; ++f)
-    ekf_.set_contact(f, legs_.contact[f], X_IB_.act(legs_.X_BF[f].p), contact_velocity_I(f));
   baseline_.reset(X_WB, Vector3::Zero(), legs_);
   fallback_.reset(X_WB, Vector3::Zero(), legs_);
   initialized_ = true;
@@ -319,7 +312,7 @@ StatusFlags Estimator::update(const SensorFrame& frame, EstimatorState& out) noe
     for (int f = 0; f < kNumFeet; ++f) {
       legs_.v_BF_B[f] = omega_B_.cross(legs_.X_BF[f].p) + v_F0_B_[f];
       const Vector3 s_I = X_IB_.act(legs_.X_BF[f].p);
-      ekf_.set_contact(f, legs_.contact[f], s_I, contact_velocity_I(f));
+      ekf_.set_contact(f, legs_.contact[f], s_I);
       if (legs_.contact[f]) ekf_.correct(f, s_I);
     }
   }

@@ -22,9 +22,9 @@
 // they drift slowly with the gyro bias and foot slip; roll, pitch and velocity are observable.
 // While standing still, the horizontal accelerometer bias and the tilt cannot be told apart
 // (a bias b shows up as a tilt error of about b / 9.81 rad).
-// Moving supports (the paper's platforms): each stance contact point carries the velocity of its
-// support as a filter state (a mean-reverting random process, invariant_ekf.hpp), so the base
-// velocity comes out in W, not relative to the support.
+// LIMITATION: a stance foot is modelled as fixed in W (with a small random walk, noise.foot_slip).
+// On moving supports (the paper's platforms) that model is wrong: the base velocity then comes
+// out relative to the support. Not handled yet (it needs contact-point velocity states).
 
 #include <Eigen/Core>
 #include <array>
@@ -110,7 +110,6 @@ class Estimator {
   void write_output(const SensorFrame& frame, StatusFlags flags, EstimatorState& out) noexcept;
   void hold_output(const SensorFrame& frame, StatusFlags flags, EstimatorState& out) noexcept;
   InvariantEkf::Covariance initial_covariance() const noexcept;
-  Vector3 contact_velocity_I(int foot) const noexcept;
 
   model::Model model_;
   model::Data data_;

@@ -15,48 +15,19 @@
 //    yaw) and slow to converge from a bad initial guess;
 //  - the yaw and absolute-position unobservability is kept by construction (no false
 //    confidence), so the reported covariance stays meaningful over long runs;
-//  - the price is the same as the Bloesch EKF: a 21-dimensional error state (27 here, with the
-//    support velocities below). Everything is fixed-size (Eigen::Matrix<double, 27, 27>), so one
-//    tick is a few microseconds.
+//  - the price is the same as the Bloesch EKF: a 21-dimensional error state. Everything is
+//    fixed-size (Eigen::Matrix<double, 21, 21>), so one tick is a few microseconds.
 // The biases break exact invariance ("imperfect IEKF", Hartley Sec. 5.4): they are carried in a
 // separate vector with a linearised error zeta = b_hat - b, as in the paper.
 //
-// MOVING SUPPORTS (the paper's platforms, Sec. 4.2). Hartley's filter models a stance contact
-// point as fixed in W (d_dot = slip noise). On a moving support that is wrong and the base
-// velocity comes out relative to the support. Here each stance contact point also carries its
-// velocity u_f (the support's velocity at the contact), split into a common and a differential
-// part, u_0 = c + e and u_1 = c - e, each an Ornstein-Uhlenbeck process ("supports may move, but
-// do not keep accelerating one way"):
-//   c_dot = -c / tau + w_c (stationary std ImuNoise::support_velocity_std),
-//   e_dot = -e / tau + w_e (stationary std ImuNoise::support_velocity_diff_std, horizontal in W,
-//   used only while both feet are in contact).
-// A foot touching down while the other stands starts with the other support's velocity (then
-// the difference may grow); a foot touching down alone starts at rest unless the supports may
-// move as a whole.
-// Why two parts: the kinematics measure the feet relative to the IMU, so the DIFFERENCE of the
-// support velocities (feet moving against each other, the paper's out-of-phase platforms) is
-// observed directly and costs nothing; the COMMON motion (both supports accelerating together,
-// the in-phase platforms, a ship's deck) cannot be told apart from a tilt or an accelerometer
-// bias except through the gyro and the mean reversion. And a horizontal differential motion
-// perpendicular to the line between the feet looks like a yaw rotation of the robot, so it
-// costs the yaw gyro bias (heading then drifts with it). Hence the defaults keep both at 0
-// (Hartley's fixed contacts, best on fixed ground) and a robot on moving supports opts in:
-// support_velocity_diff_std ~ 1 m/s for supports that move against each other (measured in
-// tests/estimator/invariant_ekf_test.cpp), support_velocity_std > 0 for a support moving as a
-// whole (then the tilt is only as good as its initial value and the gyro).
-// u_f is one more column of the group: d_dot = u and u_dot = -u/tau are linear in the columns,
-// so the dynamics stay group-affine and the error dynamics stay exact up to the bias terms.
-//
 // STATE (I = IMU frame, W = world)
 //   R_WI (3x3), v_WI (velocity of the IMU origin, W), p_WI (position of the IMU origin, W),
-//   d_W[f] (position of foot f's contact point in W; f = 0 right, 1 left), u_W[f] (its velocity,
-//   W), b_g, b_a (IMU axes).
-// ERROR  xi (dim 27) = [xi_R, xi_v, xi_p, xi_d0, xi_d1, xi_u0, xi_u1, zeta_g, zeta_a] with
-//   exp(xi[0:21]) = X_hat X^-1 on SE_6(3), i.e. R_hat R^T = Exp(xi_R),
-//   x_hat - R_hat R^T x = J_l(xi_R) xi_x for x in {v, p, d, u}; zeta = b_hat - b.
-// PROCESS  gyro = omega + b_g + w_g, accel = R^T (a - g) + b_a + w_a, d_dot = u + w_d (foot
-//   slip), u_dot = -u / tau + w_u, b_dot = w_b. The w are white with the continuous densities of
-//   ImuNoise.
+//   d_W[f] (position of foot f's contact point in W; f = 0 right, 1 left), b_g, b_a (IMU axes).
+// ERROR  xi (dim 21) = [xi_R, xi_v, xi_p, xi_d0, xi_d1, zeta_g, zeta_a] with
+//   exp(xi[0:15]) = X_hat X^-1 on SE_4(3), i.e. R_hat R^T = Exp(xi_R),
+//   x_hat - R_hat R^T x = J_l(xi_R) xi_x for x in {v, p, d}; zeta = b_hat - b.
+// PROCESS  gyro = omega + b_g + w_g, accel = R^T (a - g) + b_a + w_a, d_dot = R w_d (foot slip),
+//   b_dot = w_b. The w are white with the continuous densities of ImuNoise.
 // MEASUREMENT  s_f = R^T (d_f - p) + n (foot contact point in IMU coordinates, from forward
 //   kinematics of the joint encoders), used while foot f is in contact.
 // Units: SI. A foot out of contact has no measurement; when it touches down its contact point is
@@ -81,26 +52,15 @@ struct ImuNoise {
   double gyro_bias_walk = 1e-4;   ///< gyro bias random walk [rad/s^2/sqrt(Hz)]
   double accel_bias_walk = 1e-3;  ///< accelerometer bias random walk [m/s^3/sqrt(Hz)]
   double foot_slip = 1e-3;        ///< velocity noise of a stance contact point [m/s/sqrt(Hz)]
-  /// Stationary std of the supports' common velocity (Ornstein-Uhlenbeck, see above) [m/s];
-  /// 0 = the supports do not move as a whole (Hartley's model).
-  double support_velocity_std = 0.0;
-  /// Stationary std of the supports' differential velocity (both feet in contact) [m/s].
-  double support_velocity_diff_std = 0.0;
-  /// Correlation time of the support velocities [s] (> 0).
-  double support_velocity_tau = 2.0;
-  /// Std of the contact point's velocity from the leg kinematics at touch-down [m/s].
-  double touchdown_velocity = 0.05;
-  double position = 0.0;     ///< extra IMU position process noise [m/s/sqrt(Hz)]
-  double kinematics = 3e-3;  ///< std of the leg-kinematics contact position [m]
+  double position = 0.0;          ///< extra IMU position process noise [m/s/sqrt(Hz)]
+  double kinematics = 3e-3;       ///< std of the leg-kinematics contact position [m]
 };
 
 class InvariantEkf {
  public:
-  static constexpr int kDim = 27;
-  static constexpr int kR = 0, kV = 3, kP = 6, kD = 9, kU = 15, kBg = 21, kBa = 24;
-  static constexpr int kGroupDim = kBg;  ///< the SE_6(3) part of the error
+  static constexpr int kDim = 21;
+  static constexpr int kR = 0, kV = 3, kP = 6, kD = 9, kBg = 15, kBa = 18;
   static constexpr int d_index(int foot) { return kD + 3 * foot; }
-  static constexpr int u_index(int foot) { return kU + 3 * foot; }
   using Covariance = Eigen::Matrix<double, kDim, kDim>;
   using ErrorVector = Eigen::Matrix<double, kDim, 1>;
 
@@ -109,14 +69,12 @@ class InvariantEkf {
     Vector3 v_WI = Vector3::Zero();
     Vector3 p_WI = Vector3::Zero();
     std::array<Vector3, kNumFeet> d_W{Vector3::Zero(), Vector3::Zero()};
-    std::array<Vector3, kNumFeet> u_W{Vector3::Zero(), Vector3::Zero()};  ///< support velocity
-    Vector3 b_g = Vector3::Zero();                                        ///< gyro bias, I axes
+    Vector3 b_g = Vector3::Zero();  ///< gyro bias, I axes
     Vector3 b_a = Vector3::Zero();  ///< accelerometer bias, I axes
   };
 
   InvariantEkf() = default;
-  /// Throws std::invalid_argument when a density is negative or non-finite, kinematics <= 0 or
-  /// support_velocity_tau <= 0.
+  /// Throws std::invalid_argument when a density is negative or non-finite, or kinematics <= 0.
   InvariantEkf(const ImuNoise& noise, const Vector3& gravity_W);
 
   /// Sets mean and covariance; every foot is marked out of contact.
@@ -125,12 +83,10 @@ class InvariantEkf {
   /// Propagates mean and covariance over dt with the IMU sample (held constant over dt).
   void propagate(const Vector3& gyro_I, const Vector3& specific_force_I, double dt) noexcept;
 
-  /// Declares foot `foot` in contact with its contact point measured at s_I (IMU coordinates)
-  /// moving at sdot_I relative to the IMU (I coordinates, including omega x s).
-  /// At touch-down (false -> true) the contact point and its velocity v + R sdot are added to the
-  /// state; while in contact nothing happens (call correct()). true -> false removes them.
-  void set_contact(int foot, bool in_contact, const Vector3& s_I,
-                   const Vector3& sdot_I = Vector3::Zero()) noexcept;
+  /// Declares foot `foot` in contact with its contact point measured at s_I (IMU coordinates).
+  /// At touch-down (false -> true) the contact point is added to the state; while in contact
+  /// nothing happens (call correct()). true -> false removes it from the state.
+  void set_contact(int foot, bool in_contact, const Vector3& s_I) noexcept;
   bool in_contact(int foot) const noexcept { return contact_[foot]; }
 
   /// Leg-kinematics correction with foot `foot`'s contact point s_I (IMU coordinates). No-op when
@@ -148,15 +104,13 @@ class InvariantEkf {
   const Vector3& gravity() const noexcept { return g_; }
 
   /// Linearised error transition Phi (kDim x kDim) for a step of dt from the mean `m` with the
-  /// IMU sample (exposed for tests: checked against the nonlinear propagation). tau: the support
-  /// velocity correlation time.
-  static Covariance error_transition(const Mean& m, const Vector3& gravity_W, double dt,
-                                     double tau) noexcept;
-  /// Applies a correction: X <- exp(-dx[0:21]) X (SE_6(3)), b <- b - dx[21:27].
+  /// IMU sample (exposed for tests: checked against the nonlinear propagation).
+  static Covariance error_transition(const Mean& m, const Vector3& gravity_W, double dt) noexcept;
+  /// Applies a correction: X <- exp(-dx[0:15]) X (SE_4(3)), b <- b - dx[15:21].
   static void apply_correction(const ErrorVector& dx, Mean& m) noexcept;
   /// Propagates a mean (no covariance), the same discretisation as propagate().
   static void propagate_mean(const Vector3& gyro_I, const Vector3& specific_force_I, double dt,
-                             const Vector3& gravity_W, double tau, Mean& m) noexcept;
+                             const Vector3& gravity_W, Mean& m) noexcept;
 
  private:
   ImuNoise noise_{};
@@ -166,8 +120,8 @@ class InvariantEkf {
   std::array<bool, kNumFeet> contact_{false, false};
 };
 
-/// Right-invariant error of `estimate` relative to `truth` (dim 27): the xi with
-/// exp(xi[0:21]) = X_est X_true^-1 and zeta = b_est - b_true (tests, consistency checks).
+/// Right-invariant error of `estimate` relative to `truth` (dim 21): the xi with
+/// exp(xi[0:15]) = X_est X_true^-1 and zeta = b_est - b_true (tests, consistency checks).
 InvariantEkf::ErrorVector invariant_error(const InvariantEkf::Mean& estimate,
                                           const InvariantEkf::Mean& truth) noexcept;
 
