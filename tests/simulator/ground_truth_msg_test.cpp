@@ -13,7 +13,7 @@
 namespace poise::sim {
 namespace {
 
-using test::biped_config;
+using test::biped_lying_on_back_config;
 
 std::string read_text(const std::string& path) {
   std::ifstream f(path);
@@ -59,12 +59,7 @@ std::vector<std::string> flagged_bodies(const GroundTruth& g, const Simulator& s
 }
 
 TEST(SimGroundTruthMsg, OtherContactLinksAreUrdfLinkIndices) {
-  SimulatorConfig cfg = biped_config();
-  // Lying on its back, dropped from 5 cm: the trunk touches the ground.
-  const Eigen::Quaterniond q(Eigen::AngleAxisd(-M_PI / 2, Eigen::Vector3d::UnitY()));
-  cfg.initial.base_orientation_wxyz << q.w(), q.x(), q.y(), q.z();
-  cfg.initial.auto_base_height = false;
-  cfg.initial.base_position = Eigen::Vector3d(0, 0, 0.25);
+  const SimulatorConfig cfg = biped_lying_on_back_config();  // the trunk touches the ground
   Simulator sim(cfg);
   SensorFrame s = sim.make_sensor_frame();
   GroundTruth g = sim.make_ground_truth();

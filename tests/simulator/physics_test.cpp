@@ -13,6 +13,7 @@ namespace poise::sim {
 namespace {
 
 using test::biped_config;
+using test::biped_lying_on_back_config;
 using test::box_config;
 
 // Holds the biped posture with stiff PD around its initial joint angles.
@@ -61,13 +62,7 @@ TEST(SimPhysics, FreeFallingRobotAcceleratesAtG) {
 }
 
 TEST(SimPhysics, PassiveRobotLyingOnGroundCarriesItsWeight) {
-  SimulatorConfig cfg = biped_config();
-  // Lying on its back: base rotated -90 deg about y, dropped from 5 cm.
-  const Eigen::Quaterniond q(Eigen::AngleAxisd(-M_PI / 2, Eigen::Vector3d::UnitY()));
-  cfg.initial.base_orientation_wxyz << q.w(), q.x(), q.y(), q.z();
-  cfg.initial.auto_base_height = false;
-  cfg.initial.base_position = Eigen::Vector3d(0, 0, 0.25);
-  Simulator sim(cfg);
+  Simulator sim(biped_lying_on_back_config());
   SensorFrame s = sim.make_sensor_frame();
   GroundTruth g = sim.make_ground_truth();
   JointCommand cmd = sim.make_command();

@@ -1,6 +1,8 @@
 #pragma once
 // Shared helpers of the simulator tests: configurations of the small test robots.
 
+#include <Eigen/Geometry>
+#include <cmath>
 #include <string>
 
 #include "poise/sim/sim_config.hpp"
@@ -41,6 +43,16 @@ inline SoleConfig biped_sole() {
   s.y_max = 0.06;
   s.height = 0.0;
   return s;
+}
+
+/// The test biped lying on its back (base rotated -90 deg about y), dropped from 5 cm.
+inline SimulatorConfig biped_lying_on_back_config() {
+  SimulatorConfig cfg = biped_config();
+  const Eigen::Quaterniond q(Eigen::AngleAxisd(-M_PI / 2, Eigen::Vector3d::UnitY()));
+  cfg.initial.base_orientation_wxyz << q.w(), q.x(), q.y(), q.z();
+  cfg.initial.auto_base_height = false;
+  cfg.initial.base_position = Eigen::Vector3d(0, 0, 0.25);
+  return cfg;
 }
 
 }  // namespace poise::sim::test
