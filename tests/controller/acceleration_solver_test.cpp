@@ -6,7 +6,9 @@
 #include <random>
 
 #include "controller_test_util.hpp"
+#include "poise/contact/sequential_optimizer.hpp"
 #include "poise/controller/acceleration_solver.hpp"
+#include "poise/controller/balance_controller.hpp"
 
 namespace poise::controller {
 namespace {
@@ -108,6 +110,55 @@ TEST(AccelerationSolver, WithoutActiveBoundsEqualsDirectKktSolve) {
     const Eigen::VectorXd sol = KKT.fullPivLu().solve(rhs);
     EXPECT_LT((sol.head(nv) - x).norm(), 1e-7 * (1.0 + x.norm())) << trial;
   }
+}
+
+// The controller's own data (project humanoid, CMM, foot Jacobians, posture weight 1e-3 next to
+// w_b |A|^2 ~ 1e3: G has a condition number ~1e7): the Woodbury path, the dense-Cholesky path and a
+// full-pivot LU solve of the KKT system agree, and the constraints hold.
+TEST(AccelerationSolver, WoodburyEqualsDenseAndKktOnHumanoidTicks) {
+  BalanceController c(test::humanoid().model, test::humanoid().robot, ControllerConfig{});
+  const int nv = c.model().nv;
+  std::mt19937 rng(36);
+  contact::ContactProblem problem;
+  int compared = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    const RobotState st = test::random_state(c, rng, 0.15, 1.0);
+    c.prepare(st, c.make_reference(), problem);
+    contact::ContactSolution sol;
+    contact::SequentialOptimizer().solve(problem, sol);
+    JointCommand cmd = c.make_command();
+    c.finish(sol, cmd);
+    const double w_b = c.config().acceleration.w_b;
+    const Eigen::MatrixXd A = c.centroidal_matrix();
+    const Eigen::VectorXd b = c.diagnostics().hdot_admissible - c.centroidal_bias();
+    const Eigen::MatrixXd& C = c.foot_jacobians();
+    Eigen::VectorXd d = -c.foot_bias_acceleration();
+    for (int i = 0; i < 2; ++i)
+      d.segment<6>(6 * i) += c.diagnostics().foot_acceleration_desired[i];
+    const Eigen::VectorXd& w = c.qp_weights();
+    const Eigen::VectorXd& t = c.qp_targets();
+    const Eigen::VectorXd lo = Eigen::VectorXd::Constant(nv - 6, -1e9), hi = -lo;
+    AccelerationSolver fast(nv, 12), dense(nv, 12);
+    dense.set_dense_equality_path(true);
+    Eigen::VectorXd x(nv), x_dense(nv);
+    ASSERT_EQ(fast.solve(A, b, w_b, w, t, C, d, lo, hi, x).status, contact::SolverStatus::kOptimal);
+    ASSERT_EQ(dense.solve(A, b, w_b, w, t, C, d, lo, hi, x_dense).status,
+              contact::SolverStatus::kOptimal);
+    Eigen::MatrixXd KKT = Eigen::MatrixXd::Zero(nv + 12, nv + 12);
+    KKT.topLeftCorner(nv, nv) = w_b * A.transpose() * A;
+    KKT.topLeftCorner(nv, nv).diagonal() += w;
+    KKT.topRightCorner(nv, 12) = C.transpose();
+    KKT.bottomLeftCorner(12, nv) = C;
+    Eigen::VectorXd rhs(nv + 12);
+    rhs << w_b * A.transpose() * b + w.cwiseProduct(t), d;
+    const Eigen::VectorXd ref = KKT.fullPivLu().solve(rhs).head(nv);
+    const double scale = 1.0 + ref.norm();
+    EXPECT_LT((x - ref).norm(), 1e-8 * scale) << trial;
+    EXPECT_LT((x_dense - ref).norm(), 1e-8 * scale) << trial;
+    EXPECT_LT((C * x - d).lpNorm<Eigen::Infinity>(), 1e-9 * (1.0 + d.norm())) << trial;
+    ++compared;
+  }
+  EXPECT_EQ(compared, 40);
 }
 
 TEST(AccelerationSolver, InfeasibleBoundsAreDroppedNotViolatedSilently) {

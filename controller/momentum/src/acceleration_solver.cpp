@@ -28,11 +28,139 @@ void AccelerationSolver::resize(int nv, int max_eq) {
   u_.setZero(nv);
   lambda_.setZero(max_eq);
   r_.setZero(max_eq);
+  winv_.setZero(nv);
+  P_.setZero(6, nv);
+  Ft_.setZero(max_eq, 6);
+  FtKinv_.setZero(max_eq, 6);
+  cols_.assign(static_cast<std::size_t>(nv), 0);
+  ncols_ = 0;
+  y_.setZero(nv);
+  x_corr_.setZero(nv);
+  rg_.setZero(nv);
+  rd_.setZero(max_eq);
+  lambda_corr_.setZero(max_eq);
 }
 
-bool AccelerationSolver::solve_equality_only(const Eigen::Ref<const Eigen::MatrixXd>& C,
-                                             const Eigen::Ref<const Eigen::VectorXd>& d,
-                                             Eigen::Ref<Eigen::VectorXd> x) {
+void AccelerationSolver::form_hessian(const Eigen::Ref<const Eigen::MatrixXd>& A, double w_b,
+                                      const Eigen::Ref<const Eigen::VectorXd>& w) {
+  G_.noalias() = A.transpose() * A;
+  G_ *= w_b;
+  G_.diagonal() += w;
+}
+
+// The products below are written as loops over the columns of A and C: the sizes are small
+// (6 or m <= 12 rows, nv ~ 25 columns), where Eigen's general GEMM/GEMV kernels spend more time on
+// blocking and packing than on arithmetic, and C has whole zero columns (a foot's Jacobian does
+// not depend on the other limbs' joints), which are skipped (cols_ lists the others).
+
+void AccelerationSolver::apply_g_inverse(const Eigen::Ref<const Eigen::VectorXd>& v,
+                                         Eigen::Ref<Eigen::VectorXd> y) {
+  // y = W^-1 v - P^T K^-1 P v
+  Vector6 pv = Vector6::Zero();
+  for (int j = 0; j < nv_; ++j)
+    pv += P_.col(j) * v[j];
+  const Vector6 kpv = Kinv_ * pv;
+  for (int j = 0; j < nv_; ++j)
+    y[j] = winv_[j] * v[j] - P_.col(j).dot(kpv);
+}
+
+void AccelerationSolver::woodbury_kkt_solve(const Eigen::Ref<const Eigen::MatrixXd>& C,
+                                            const Eigen::Ref<const Eigen::VectorXd>& g_rhs,
+                                            const Eigen::Ref<const Eigen::VectorXd>& d_rhs,
+                                            Eigen::Ref<Eigen::VectorXd> x,
+                                            Eigen::Ref<Eigen::VectorXd> lambda) {
+  // G x + g = C^T lambda, C x = d:  S lambda = d + C G^-1 g,  x = G^-1 (C^T lambda - g).
+  const Eigen::Index m = C.rows();
+  if (m == 0) {
+    apply_g_inverse(g_rhs, x);
+    x = -x;
+    return;
+  }
+  apply_g_inverse(g_rhs, u_);
+  lambda = d_rhs;
+  for (int k = 0; k < ncols_; ++k)
+    lambda += C.col(cols_[k]) * u_[cols_[k]];
+  const auto L = S_.topLeftCorner(m, m).triangularView<Eigen::Lower>();
+  L.solveInPlace(lambda);
+  L.transpose().solveInPlace(lambda);
+  y_ = -g_rhs;
+  for (int k = 0; k < ncols_; ++k)
+    y_[cols_[k]] += C.col(cols_[k]).dot(lambda);
+  apply_g_inverse(y_, x);
+}
+
+bool AccelerationSolver::solve_equality_woodbury(const Eigen::Ref<const Eigen::MatrixXd>& A,
+                                                 double w_b,
+                                                 const Eigen::Ref<const Eigen::VectorXd>& w,
+                                                 const Eigen::Ref<const Eigen::MatrixXd>& C,
+                                                 const Eigen::Ref<const Eigen::VectorXd>& d,
+                                                 Eigen::Ref<Eigen::VectorXd> x) {
+  const Eigen::Index m = C.rows();
+  // P = A W^-1 and K = I / w_b + P A^T (a sum of nv outer products of 6-vectors).
+  Matrix6 K = Matrix6::Identity() / w_b;
+  for (int j = 0; j < nv_; ++j) {
+    winv_[j] = 1.0 / w[j];
+    P_.col(j) = A.col(j) * winv_[j];
+    K.noalias() += P_.col(j) * A.col(j).transpose();
+  }
+  llt_k_.compute(K);
+  if (llt_k_.info() != Eigen::Success) return false;
+  Kinv_ = llt_k_.solve(Matrix6::Identity());
+  ncols_ = 0;
+  for (int j = 0; j < nv_; ++j)
+    if (m > 0 && !C.col(j).isZero(0.0)) cols_[ncols_++] = j;
+  auto lambda = lambda_.head(m);
+  if (m > 0) {
+    // S = C W^-1 C^T - F^T K^-1 F with F = P C^T; built as Ft = F^T (m x 6) and the lower triangle
+    // of S from outer products of C's columns.
+    auto Ft = Ft_.topRows(m);
+    auto S = S_.topLeftCorner(m, m);
+    Ft.setZero();
+    S.setZero();
+    for (int k = 0; k < ncols_; ++k) {
+      const int j = cols_[k];
+      const auto c = C.col(j);
+      for (Eigen::Index r = 0; r < 6; ++r)
+        Ft.col(r) += c * P_(r, j);
+      for (Eigen::Index col = 0; col < m; ++col)
+        S.col(col).tail(m - col) += (winv_[j] * c[col]) * c.tail(m - col);
+    }
+    auto FtKinv = FtKinv_.topRows(m);
+    FtKinv.noalias() = Ft.lazyProduct(Kinv_);
+    for (Eigen::Index r = 0; r < 6; ++r)
+      for (Eigen::Index col = 0; col < m; ++col)
+        S.col(col).tail(m - col) -= FtKinv(col, r) * Ft.col(r).tail(m - col);
+    Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt_s(S);
+    if (llt_s.info() != Eigen::Success) return false;
+  }
+  woodbury_kkt_solve(C, g_, d, x, lambda);
+  // One step of iterative refinement on the KKT system: the Woodbury form subtracts two large
+  // terms when w is small next to A^T A, and the residual is cheap (G v = w .* v + w_b A^T (A v)).
+  Vector6 ax = Vector6::Zero();
+  for (int j = 0; j < nv_; ++j)
+    ax += A.col(j) * x[j];
+  ax *= w_b;
+  for (int j = 0; j < nv_; ++j)
+    rg_[j] = w[j] * x[j] + g_[j] + A.col(j).dot(ax);
+  auto rd = rd_.head(m);
+  auto lambda_corr = lambda_corr_.head(m);
+  if (m > 0) {
+    rd = d;
+    for (int k = 0; k < ncols_; ++k) {
+      const int j = cols_[k];
+      rg_[j] -= C.col(j).dot(lambda);
+      rd -= C.col(j) * x[j];
+    }
+  }
+  woodbury_kkt_solve(C, rg_, rd, x_corr_, lambda_corr);
+  x += x_corr_;
+  lambda += lambda_corr;
+  return x.allFinite();
+}
+
+bool AccelerationSolver::solve_equality_dense(const Eigen::Ref<const Eigen::MatrixXd>& C,
+                                              const Eigen::Ref<const Eigen::VectorXd>& d,
+                                              Eigen::Ref<Eigen::VectorXd> x) {
   // G x + g = C^T lambda, C x = d.  With G = L L^T, Y = L^-1 C^T, u = L^-1 g:
   //   (Y^T Y) lambda = d + Y^T u,   x = L^-T (Y lambda - u).
   const Eigen::Index m = C.rows();
@@ -77,17 +205,24 @@ AccelerationSolver::Result AccelerationSolver::solve(
     if (x.size() > 0) x.setZero();
     return r;
   }
-  // 0.5 x^T G x + g^T x  ==  0.5 * objective + const.
-  G_.noalias() = A.transpose() * A;
-  G_ *= w_b;
-  G_.diagonal() += w;
+  // 0.5 x^T G x + g^T x  ==  0.5 * objective + const, G = w_b A^T A + diag(w).
   g_.noalias() = A.transpose() * b;
   g_ *= -w_b;
   g_ -= w.cwiseProduct(t);
   b_in_.head(n) = lo;
   b_in_.tail(n) = -hi;
-
-  if (fast_path_ && solve_equality_only(C, d, x)) {
+  const bool woodbury = !dense_equality_ && (w.array() > 0.0).all() && w.allFinite();
+  bool have_g = false;
+  bool solved = false;
+  if (fast_path_) {
+    if (woodbury) solved = solve_equality_woodbury(A, w_b, w, C, d, x);
+    if (!solved) {
+      form_hessian(A, w_b, w);
+      have_g = true;
+      solved = solve_equality_dense(C, d, x);
+    }
+  }
+  if (solved) {
     bool inside = true;
     for (int j = 0; j < n && inside; ++j) {
       const double tol = 1e-9 * (1.0 + std::abs(x[6 + j]));
@@ -99,6 +234,7 @@ AccelerationSolver::Result AccelerationSolver::solve(
     }
   }
   r.used_active_set = true;
+  if (!have_g) form_hessian(A, w_b, w);
   r.status = qp_.solve(G_, g_, C, d, A_in_, b_in_, x);
   r.iterations = qp_.iterations();
   if (r.status == contact::SolverStatus::kInfeasible) {

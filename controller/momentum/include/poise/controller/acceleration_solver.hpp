@@ -11,12 +11,21 @@
 // plus a small posture prior on every DoF (see AccelerationConfig::posture_weight); the caller
 // combines them into (w, t).
 //
-// Method: first the equality-constrained problem alone, by Cholesky factorisations of G and of the
-// Schur complement C G^-1 C^T (fast, the usual case); if that solution violates a joint bound, the
-// whole problem is solved as a strictly convex QP by the Goldfarb-Idnani dual method
-// (poise::contact::DualQp); when the bounds make it infeasible it is solved again without them.
+// Method: first the equality-constrained problem alone (the usual case). Its Hessian
+// G = w_b A^T A + diag(w) is a diagonal plus a rank-6 term, so when every w_j > 0, G^-1 is applied
+// through the Sherman-Morrison-Woodbury identity
+//   G^-1 = W^-1 - W^-1 A^T K^-1 A W^-1,   K = I / w_b + A W^-1 A^T   (6 x 6),
+// and the multipliers come from the Schur complement S = C G^-1 C^T (m x m): O(nv (36 + m^2))
+// work and no nv x nv matrix; one step of iterative refinement on the full KKT system (whose
+// residual costs only O(nv (6 + m))) recovers the digits the identity loses when G is badly
+// conditioned. With some w_j == 0, G itself is factorised (Cholesky, O(nv^3)). If that solution
+// violates a joint bound, the whole problem is solved as a strictly convex QP by the
+// Goldfarb-Idnani dual method (poise::contact::DualQp); when the bounds make it infeasible it is
+// solved again without them.
 
+#include <Eigen/Cholesky>
 #include <Eigen/Core>
+#include <vector>
 
 #include "poise/contact/dual_qp.hpp"
 #include "poise/contact/solver_status.hpp"
@@ -41,6 +50,9 @@ class AccelerationSolver {
 
   /// Disables the fast equality-only path (every solve goes through DualQp); for tests.
   void set_fast_path(bool enabled) { fast_path_ = enabled; }
+  /// Forces the equality-only path to factorise G densely even when the Woodbury form applies;
+  /// for tests and the benchmark's before/after comparison.
+  void set_dense_equality_path(bool dense) { dense_equality_ = dense; }
 
   /// A: 6 x nv, b: 6, w_b in (0, 1), w: nv (>= 0, with w_b A^T A + diag(w) positive definite),
   /// t: nv, C: m x nv (m <= max_eq), d: m, lo, hi: nv - 6 (lo <= hi), x: nv (output).
@@ -55,25 +67,54 @@ class AccelerationSolver {
                const Eigen::Ref<const Eigen::VectorXd>& lo,
                const Eigen::Ref<const Eigen::VectorXd>& hi, Eigen::Ref<Eigen::VectorXd> x);
 
-  /// Hessian and gradient of the last solve, 0.5 x^T G x + g^T x form (for KKT checks in tests).
-  const Eigen::MatrixXd& hessian() const { return G_; }
+  /// Gradient of the last solve, 0.5 x^T G x + g^T x form.
   const Eigen::VectorXd& gradient() const { return g_; }
   const contact::DualQp& qp() const { return qp_; }
 
  private:
-  bool solve_equality_only(const Eigen::Ref<const Eigen::MatrixXd>& C,
-                           const Eigen::Ref<const Eigen::VectorXd>& d,
-                           Eigen::Ref<Eigen::VectorXd> x);
+  using Matrix6 = Eigen::Matrix<double, 6, 6>;
+  using Vector6 = Eigen::Matrix<double, 6, 1>;
+
+  void form_hessian(const Eigen::Ref<const Eigen::MatrixXd>& A, double w_b,
+                    const Eigen::Ref<const Eigen::VectorXd>& w);
+  bool solve_equality_dense(const Eigen::Ref<const Eigen::MatrixXd>& C,
+                            const Eigen::Ref<const Eigen::VectorXd>& d,
+                            Eigen::Ref<Eigen::VectorXd> x);
+  bool solve_equality_woodbury(const Eigen::Ref<const Eigen::MatrixXd>& A, double w_b,
+                               const Eigen::Ref<const Eigen::VectorXd>& w,
+                               const Eigen::Ref<const Eigen::MatrixXd>& C,
+                               const Eigen::Ref<const Eigen::VectorXd>& d,
+                               Eigen::Ref<Eigen::VectorXd> x);
+  // y = G^-1 v by the Woodbury form (P_, K factor and winv_ of the current solve).
+  void apply_g_inverse(const Eigen::Ref<const Eigen::VectorXd>& v, Eigen::Ref<Eigen::VectorXd> y);
+  // (x, lambda) of G x + g_rhs = C^T lambda, C x = d_rhs from the Woodbury factors (S_ holds the
+  // Cholesky factor of the Schur complement).
+  void woodbury_kkt_solve(const Eigen::Ref<const Eigen::MatrixXd>& C,
+                          const Eigen::Ref<const Eigen::VectorXd>& g_rhs,
+                          const Eigen::Ref<const Eigen::VectorXd>& d_rhs,
+                          Eigen::Ref<Eigen::VectorXd> x, Eigen::Ref<Eigen::VectorXd> lambda);
 
   int nv_ = 0;
   int max_eq_ = 0;
   bool fast_path_ = true;
+  bool dense_equality_ = false;
   contact::DualQp qp_;
+  // Woodbury path: W^-1 = diag(winv_), P = A W^-1 (6 x nv), K = I / w_b + P A^T (factorised, and
+  // its inverse), Ft = (P C^T)^T (max_eq x 6), FtKinv = Ft K^-1; cols_[0, ncols_) are the columns
+  // of C that are not zero.
+  Eigen::VectorXd winv_;
+  Eigen::Matrix<double, 6, Eigen::Dynamic> P_;
+  Eigen::LLT<Matrix6> llt_k_;
+  Matrix6 Kinv_ = Matrix6::Zero();
+  Eigen::Matrix<double, Eigen::Dynamic, 6> Ft_, FtKinv_;
+  std::vector<int> cols_;
+  int ncols_ = 0;
+  Eigen::VectorXd y_, x_corr_, rg_, rd_, lambda_corr_;
   Eigen::MatrixXd L_;  // Cholesky factor of G (in place)
   Eigen::MatrixXd Y_;  // L^-1 C^T (nv x max_eq)
   Eigen::MatrixXd S_;  // Schur complement Y^T Y (max_eq x max_eq), factorised in place
   Eigen::VectorXd u_, lambda_, r_;
-  Eigen::MatrixXd G_;
+  Eigen::MatrixXd G_;  // formed only for the dense and active-set paths
   Eigen::VectorXd g_;
   Eigen::MatrixXd A_in_;  // 2 (nv - 6) x nv: [I; -I] on the joint columns
   Eigen::VectorXd b_in_;
