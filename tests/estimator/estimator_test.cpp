@@ -222,6 +222,52 @@ TEST_F(Fixture, GarbageFramesNeverProduceNonFiniteOutput) {
   }
 }
 
+TEST_F(Fixture, MovingRobotOutputsEqualTheModelAtTheOutputState) {
+  // Joints moving (seeded random q offsets and qd), the base turning and moving (IMU rates,
+  // feet alternately lifting): CoM, momentum and foot poses/twists must be those of the model
+  // evaluated at the published q_model / v_model (a separate forward kinematics with the base
+  // pose, against the estimator's reuse of its base-at-identity kinematics).
+  std::mt19937 rng(91);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  model::Data data(robot.model);
+  const int n = robot.model.njoints;
+  const Eigen::VectorXd q0 = robot.q_true.tail(n);
+  int checked = 0;
+  for (int i = 0; i < 600; ++i) {
+    robot.fill(k++, frame);
+    for (int j = 0; j < n; ++j) {
+      frame.q[j] = q0[j] + 0.1 * u(rng);
+      frame.qd[j] = 2.0 * u(rng);
+    }
+    frame.imu_omega_I += 0.5 * Vector3(u(rng), u(rng), u(rng));
+    frame.imu_specific_force_I += Vector3(u(rng), u(rng), u(rng));
+    if ((i / 50) % 3 == 1) frame.foot_wrench_Fo_F[(i / 150) % 2].setZero();
+    est.update(frame, state);
+    ASSERT_TRUE(all_finite(state));
+    if (i < 5) continue;
+    model::centroidal_momentum(robot.model, data, state.q_model, state.v_model);
+    const double m = robot.model.total_mass;
+    const double scale_k = 1.0 + data.hg.head<3>().norm(), scale_l = 1.0 + data.hg.tail<3>().norm();
+    EXPECT_LT((state.com_W - data.com).norm(), 1e-12 * (1.0 + data.com.norm()));
+    EXPECT_LT((state.com_velocity_W - data.vcom).norm(), 1e-12 * (1.0 + data.vcom.norm()));
+    EXPECT_LT((state.k_W - data.hg.head<3>()).norm(), 1e-12 * scale_k);
+    EXPECT_LT((state.l_W - data.hg.tail<3>()).norm(), 1e-12 * scale_l);
+    EXPECT_LT((state.l_W - m * state.com_velocity_W).norm(), 1e-12 * scale_l);
+    for (int f = 0; f < kNumFeet; ++f) {
+      const int id = robot.config.feet[f].frame_id;
+      const SE3 X = model::frame_placement(robot.model, data, id);
+      const Motion V = model::frame_velocity(robot.model, data, id);
+      EXPECT_LT((state.feet[f].X_WF.R - X.R).norm(), 1e-12);
+      EXPECT_LT((state.feet[f].X_WF.p - X.p).norm(), 1e-12 * (1.0 + X.p.norm()));
+      EXPECT_LT((state.feet[f].V_WF - V).norm(), 1e-12 * (1.0 + V.norm()));
+    }
+    ++checked;
+  }
+  EXPECT_EQ(checked, 595);
+  // The scenario did move: momentum and foot velocities far from zero.
+  EXPECT_GT(state.k_W.norm(), 0.1);
+}
+
 TEST(EstimatorConfiguration, BadConfigurationsThrowNamingTheProblem) {
   StandingRobot robot;
   const auto message = [&](model::RobotConfig rc, EstimatorConfig c) -> std::string {

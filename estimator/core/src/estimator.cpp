@@ -380,17 +380,34 @@ void Estimator::write_output(const SensorFrame& frame, StatusFlags flags,
   out.v_model.head<3>() = out.X_WB.R.transpose() * out.v_WB;
   out.v_model.segment<3>(3) = omega_B_;
   out.v_model.tail(n) = frame.qd;
-  model::centroidal_momentum(model_, data_, out.q_model, out.v_model);
-  out.com_W = data_.com;
-  out.com_velocity_W = data_.vcom;
-  out.k_W = data_.hg.head<3>();
-  out.l_W = data_.hg.tail<3>();
+  // CoM, momentum and feet from this tick's kinematics (compute_leg_kinematics: base at identity,
+  // base twist zero) and the base pose and twist V_B = [v; omega] (base axes), instead of a second
+  // forward kinematics: oMi = X_WB oMi_rel, v_b = v_b_rel + X_bB V_B (the twist is linear in v).
+  Motion V_B;
+  V_B.head<3>() = out.v_model.head<3>();
+  V_B.tail<3>() = omega_B_;
+  Vector3 mc_B = Vector3::Zero();
+  double mass = 0.0;
+  Force h_B = Force::Zero();  // [l; k about the base origin], base axes
+  for (int b = 0; b < model_.nbodies; ++b) {
+    const model::Inertia& I = model_.inertia[b];
+    const SE3& X_Bb = data_.oMi[b];
+    mc_B += I.mass * X_Bb.act(I.com);
+    mass += I.mass;
+    h_B += X_Bb.act_force(I * (data_.v[b] + X_Bb.act_inv_motion(V_B)));
+  }
+  const Force h_O = out.X_WB.act_force(h_B);  // about the world origin, world axes
+  out.com_W = out.X_WB.act(mc_B / mass);
+  out.l_W = h_O.head<3>();
+  out.k_W = h_O.tail<3>() - out.com_W.cross(out.l_W);
+  out.com_velocity_W = out.l_W / mass;
   for (int f = 0; f < kNumFeet; ++f) {
     FootEstimate& foot = out.feet[f];
     const Force& w = frame.foot_wrench_Fo_F[f];
     foot.in_contact = legs_.contact[f];
-    foot.X_WF = model::frame_placement(model_, data_, foot_frame_[f]);
-    foot.V_WF = model::frame_velocity(model_, data_, foot_frame_[f]);
+    foot.X_WF = out.X_WB * legs_.X_BF[f];
+    foot.V_WF.head<3>() = out.v_WB + out.X_WB.R * (omega_B_.cross(legs_.X_BF[f].p) + v_F0_B_[f]);
+    foot.V_WF.tail<3>() = out.X_WB.R * (omega_B_ + omega_F0_B_[f]);
     foot.normal_force = w[2];
     Vector3 cop_F;
     if (foot.in_contact && center_of_pressure(w, sole_height_[f], 0.0, cop_F))

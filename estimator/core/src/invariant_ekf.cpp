@@ -57,86 +57,145 @@ void InvariantEkf::propagate_mean(const Vector3& gyro_I, const Vector3& specific
   m.R_WI = Eigen::Quaterniond(m.R_WI).normalized().toRotationMatrix();
 }
 
-InvariantEkf::Covariance InvariantEkf::error_transition(const Mean& m, const Vector3& g,
-                                                        double dt) noexcept {
+namespace {
+
+using Ekf = InvariantEkf;
+constexpr int kN = Ekf::kDim;
+
+/// The nonzero 3x3 blocks of N = Phi - I (error_transition()); N(P, V) = PV * I.
+struct TransitionBlocks {
+  Matrix3 VR, PR, RBg, VBg, VBa, PBg, PBa;
+  std::array<Matrix3, kNumFeet> DBg;
+  double PV = 0.0;
+};
+
+TransitionBlocks transition_blocks(const Ekf::Mean& m, const Vector3& g, double dt) noexcept {
   // Phi = I + A dt + A^2 dt^2 / 2 (A^3 terms are O(dt^3) and only touch p/bias).
-  Covariance Phi = Covariance::Identity();
+  TransitionBlocks N;
   const Matrix3 G = skew(g);
   const Matrix3& R = m.R_WI;
   const Matrix3 vxR = skew(m.v_WI) * R;
   const Matrix3 pxR = skew(m.p_WI) * R;
   const double dt2 = 0.5 * dt * dt;
-  Phi.block<3, 3>(kV, kR) = G * dt;
-  Phi.block<3, 3>(kP, kR) = G * dt2;
-  Phi.block<3, 3>(kP, kV) = Matrix3::Identity() * dt;
-  Phi.block<3, 3>(kR, kBg) = -R * dt;
-  Phi.block<3, 3>(kV, kBg) = -vxR * dt - G * R * dt2;
-  Phi.block<3, 3>(kV, kBa) = -R * dt;
-  Phi.block<3, 3>(kP, kBg) = -pxR * dt - vxR * dt2;
-  Phi.block<3, 3>(kP, kBa) = -R * dt2;
-  for (int f = 0; f < kNumFeet; ++f) {
-    Phi.block<3, 3>(d_index(f), kBg) = -skew(m.d_W[f]) * R * dt;
-  }
-  return Phi;
+  N.VR = G * dt;
+  N.PR = G * dt2;
+  N.PV = dt;
+  N.RBg = -R * dt;
+  N.VBg = -vxR * dt - G * R * dt2;
+  N.VBa = -R * dt;
+  N.PBg = -pxR * dt - vxR * dt2;
+  N.PBa = -R * dt2;
+  for (int f = 0; f < kNumFeet; ++f)
+    N.DBg[f] = -skew(m.d_W[f]) * R * dt;
+  return N;
 }
 
-namespace {
+/// Columns [c, c + 3) of P.
+inline auto cols(Ekf::Covariance& P, int c) {
+  return P.block<kN, 3>(0, c);
+}
 
-/// out = Phi * M for the error transition of error_transition(): identity plus the blocks
-/// (v,R) (p,R) (p,v) and the bias columns. ~5x fewer operations than the dense product.
-void apply_transition(const InvariantEkf::Covariance& Phi, const InvariantEkf::Covariance& M,
-                      InvariantEkf::Covariance& out) noexcept {
-  using K = InvariantEkf;
-  constexpr int n = K::kDim;
-  out = M;
-  const auto rows = [&](int i) { return M.block<3, n>(i, 0); };
-  const auto blk = [&](int i, int j) { return Phi.block<3, 3>(i, j); };
-  out.block<3, n>(K::kR, 0).noalias() += blk(K::kR, K::kBg) * rows(K::kBg);
-  out.block<3, n>(K::kV, 0).noalias() += blk(K::kV, K::kR) * rows(K::kR);
-  out.block<3, n>(K::kV, 0).noalias() += blk(K::kV, K::kBg) * rows(K::kBg);
-  out.block<3, n>(K::kV, 0).noalias() += blk(K::kV, K::kBa) * rows(K::kBa);
-  out.block<3, n>(K::kP, 0).noalias() += blk(K::kP, K::kR) * rows(K::kR);
-  out.block<3, n>(K::kP, 0).noalias() += blk(K::kP, K::kV) * rows(K::kV);
-  out.block<3, n>(K::kP, 0).noalias() += blk(K::kP, K::kBg) * rows(K::kBg);
-  out.block<3, n>(K::kP, 0).noalias() += blk(K::kP, K::kBa) * rows(K::kBa);
-  for (int f = 0; f < kNumFeet; ++f)
-    out.block<3, n>(K::d_index(f), 0).noalias() += blk(K::d_index(f), K::kBg) * rows(K::kBg);
+/// Row block [r, r + 3) of P from column C on (C a multiple of 3, known at compile time).
+template <int C>
+inline auto row_tail(Ekf::Covariance& P, int r) {
+  return P.block<3, kN - C>(r, C);
+}
+
+/// Copies the upper triangle of P onto its lower triangle.
+inline void mirror_upper(Ekf::Covariance& P) noexcept {
+  for (int c = 0; c < kN; ++c)
+    for (int r = c + 1; r < kN; ++r)
+      P(r, c) = P(c, r);
+}
+
+/// P <- P - W W^T on the upper triangle only (W is kN x 3), by 3-column blocks.
+template <int J = 0>
+inline void subtract_upper_outer(Ekf::Covariance& P, const Eigen::Matrix<double, kN, 3>& W) {
+  if constexpr (J < kN / 3) {
+    constexpr int rows = 3 * (J + 1);
+    P.block<rows, 3>(0, 3 * J).noalias() -=
+        W.topRows<rows>().lazyProduct(W.block<3, 3>(3 * J, 0).transpose());
+    subtract_upper_outer<J + 1>(P, W);
+  }
 }
 
 }  // namespace
 
+InvariantEkf::Covariance InvariantEkf::error_transition(const Mean& m, const Vector3& g,
+                                                        double dt) noexcept {
+  const TransitionBlocks N = transition_blocks(m, g, dt);
+  Covariance Phi = Covariance::Identity();
+  Phi.block<3, 3>(kV, kR) = N.VR;
+  Phi.block<3, 3>(kP, kR) = N.PR;
+  Phi.block<3, 3>(kP, kV) = N.PV * Matrix3::Identity();
+  Phi.block<3, 3>(kR, kBg) = N.RBg;
+  Phi.block<3, 3>(kV, kBg) = N.VBg;
+  Phi.block<3, 3>(kV, kBa) = N.VBa;
+  Phi.block<3, 3>(kP, kBg) = N.PBg;
+  Phi.block<3, 3>(kP, kBa) = N.PBa;
+  for (int f = 0; f < kNumFeet; ++f)
+    Phi.block<3, 3>(d_index(f), kBg) = N.DBg[f];
+  return Phi;
+}
+
 void InvariantEkf::propagate(const Vector3& gyro_I, const Vector3& specific_force_I,
                              double dt) noexcept {
   if (!(dt > 0.0)) return;
-  const Covariance Phi = error_transition(mean_, g_, dt);
-
-  // Process noise Ad_X Q Ad_X^T dt (state block) and bias random walks.
-  Covariance Q = Covariance::Zero();
-  Eigen::Matrix<double, 15, 3> S;
-  S.block<3, 3>(kR, 0).setIdentity();
-  S.block<3, 3>(kV, 0) = skew(mean_.v_WI);
-  S.block<3, 3>(kP, 0) = skew(mean_.p_WI);
-  for (int f = 0; f < kNumFeet; ++f)
-    S.block<3, 3>(d_index(f), 0) = skew(mean_.d_W[f]);
-  const double sg2 = noise_.gyro * noise_.gyro;
-  Q.topLeftCorner<15, 15>().noalias() = sg2 * S * S.transpose();
-  const Matrix3 I3 = Matrix3::Identity();
-  Q.block<3, 3>(kV, kV) += noise_.accel * noise_.accel * I3;
-  Q.block<3, 3>(kP, kP) += noise_.position * noise_.position * I3;
-  for (int f = 0; f < kNumFeet; ++f)
-    Q.block<3, 3>(d_index(f), d_index(f)) += noise_.foot_slip * noise_.foot_slip * I3;
-  Q.block<3, 3>(kBg, kBg) = noise_.gyro_bias_walk * noise_.gyro_bias_walk * I3;
-  Q.block<3, 3>(kBa, kBa) = noise_.accel_bias_walk * noise_.accel_bias_walk * I3;
-
+  // Everything below linearises about the mean BEFORE the step.
+  const TransitionBlocks N = transition_blocks(mean_, g_, dt);
+  const std::array<Vector3, 4> x{mean_.v_WI, mean_.p_WI, mean_.d_W[0], mean_.d_W[1]};
   propagate_mean(gyro_I, specific_force_I, dt, g_, mean_);
 
-  // Phi P Phi^T = Phi (Phi P)^T (P symmetric), each product using the block sparsity of Phi.
-  Covariance PhiP;
-  apply_transition(Phi, P_, PhiP);
-  const Covariance PhiP_T = PhiP.transpose();
-  apply_transition(Phi, PhiP_T, P_);
-  P_ += Q * dt;
-  P_ = 0.5 * (P_ + P_.transpose()).eval();
+  // P <- Phi P Phi^T with Phi = I + N, N block-sparse (TransitionBlocks), in place.
+  // 1) B = P Phi^T, column blocks: B(:, j) = P(:, j) + sum_k P(:, k) N(j, k)^T. The order P, V,
+  //    D, R reads every source column before it is overwritten (bias columns never change).
+  Covariance& P = P_;
+  cols(P, kP).noalias() += cols(P, kR).lazyProduct(N.PR.transpose()) + N.PV * cols(P, kV) +
+                           cols(P, kBg).lazyProduct(N.PBg.transpose()) +
+                           cols(P, kBa).lazyProduct(N.PBa.transpose());
+  cols(P, kV).noalias() += cols(P, kR).lazyProduct(N.VR.transpose()) +
+                           cols(P, kBg).lazyProduct(N.VBg.transpose()) +
+                           cols(P, kBa).lazyProduct(N.VBa.transpose());
+  for (int f = 0; f < kNumFeet; ++f)
+    cols(P, d_index(f)).noalias() += cols(P, kBg).lazyProduct(N.DBg[f].transpose());
+  cols(P, kR).noalias() += cols(P, kBg).lazyProduct(N.RBg.transpose());
+  // 2) Phi B = B + N B, row blocks, upper triangle only (the result is symmetric): row block i
+  //    from column 3 * (i / 3) on, same order.
+  row_tail<kP>(P, kP).noalias() +=
+      N.PR.lazyProduct(row_tail<kP>(P, kR)) + N.PV * row_tail<kP>(P, kV) +
+      N.PBg.lazyProduct(row_tail<kP>(P, kBg)) + N.PBa.lazyProduct(row_tail<kP>(P, kBa));
+  row_tail<kV>(P, kV).noalias() += N.VR.lazyProduct(row_tail<kV>(P, kR)) +
+                                   N.VBg.lazyProduct(row_tail<kV>(P, kBg)) +
+                                   N.VBa.lazyProduct(row_tail<kV>(P, kBa));
+  row_tail<kD>(P, kD).noalias() += N.DBg[0].lazyProduct(row_tail<kD>(P, kBg));
+  row_tail<kD + 3>(P, kD + 3).noalias() += N.DBg[1].lazyProduct(row_tail<kD + 3>(P, kBg));
+  row_tail<kR>(P, kR).noalias() += N.RBg.lazyProduct(row_tail<kR>(P, kBg));
+
+  // 3) Process noise (G Qc G^T) dt, upper blocks: G = blockdiag(Ad_X, I), the gyro noise enters
+  //    the state block through S = [I; [v]x; [p]x; [d0]x; [d1]x] (the R column of Ad_X R^T), so
+  //    Q(i, j) = q_g S_i S_j^T with [a]x [b]x^T = (a.b) I - b a^T.
+  const double qg = noise_.gyro * noise_.gyro * dt;
+  const double qa = noise_.accel * noise_.accel * dt;
+  const double qp = noise_.position * noise_.position * dt;
+  const double qd = noise_.foot_slip * noise_.foot_slip * dt;
+  const int idx[4] = {kV, kP, kD, kD + 3};
+  P.block<3, 3>(kR, kR).diagonal().array() += qg;
+  for (int j = 0; j < 4; ++j) {
+    P.block<3, 3>(kR, idx[j]) -= qg * skew(x[j]);
+    for (int i = 0; i <= j; ++i) {
+      auto B = P.block<3, 3>(idx[i], idx[j]);
+      B.noalias() -= (qg * x[j]) * x[i].transpose();
+      B.diagonal().array() += qg * x[i].dot(x[j]);
+    }
+  }
+  P.block<3, 3>(kV, kV).diagonal().array() += qa;
+  P.block<3, 3>(kP, kP).diagonal().array() += qp;
+  for (int f = 0; f < kNumFeet; ++f)
+    P.block<3, 3>(d_index(f), d_index(f)).diagonal().array() += qd;
+  P.block<3, 3>(kBg, kBg).diagonal().array() += noise_.gyro_bias_walk * noise_.gyro_bias_walk * dt;
+  P.block<3, 3>(kBa, kBa).diagonal().array() +=
+      noise_.accel_bias_walk * noise_.accel_bias_walk * dt;
+  mirror_upper(P);
 }
 
 void InvariantEkf::set_contact(int foot, bool in_contact, const Vector3& s_I) noexcept {
@@ -161,19 +220,29 @@ double InvariantEkf::correct(int foot, const Vector3& s_I) noexcept {
   if (foot < 0 || foot >= kNumFeet || !contact_[foot]) return 0.0;
   const int d = d_index(foot);
   // H = [0 0 I -I(at d) 0]: P H^T = P(:, p) - P(:, d).
-  Eigen::Matrix<double, kDim, 3> PHt = P_.block<kDim, 3>(0, kP) - P_.block<kDim, 3>(0, d);
+  const Eigen::Matrix<double, kDim, 3> PHt = P_.block<kDim, 3>(0, kP) - P_.block<kDim, 3>(0, d);
   Matrix3 S = PHt.block<3, 3>(kP, 0) - PHt.block<3, 3>(d, 0);
   S += noise_.kinematics * noise_.kinematics * Matrix3::Identity();
   S = 0.5 * (S + S.transpose()).eval();
   const Eigen::LLT<Matrix3> llt(S);
   if (llt.info() != Eigen::Success) return 0.0;
   const Vector3 z = mean_.R_WI * s_I - mean_.d_W[foot] + mean_.p_WI;
-  const Eigen::Matrix<double, 3, kDim> KT = llt.solve(PHt.transpose());  // (P H^T S^-1)^T
-  const ErrorVector dx = KT.transpose() * z;
-  P_.noalias() -= KT.transpose() * PHt.transpose();
-  P_ = 0.5 * (P_ + P_.transpose()).eval();
+  // With S = L L^T and W = P H^T L^-T (forward substitution, column by column):
+  //   K = P H^T S^-1 = W L^-1,  K H P = W W^T,  dx = K z = W (L^-1 z),  chi2 = |L^-1 z|^2.
+  const Matrix3& L = llt.matrixLLT();  // lower triangle
+  Eigen::Matrix<double, kDim, 3> W;
+  W.col(0) = PHt.col(0) / L(0, 0);
+  W.col(1) = (PHt.col(1) - L(1, 0) * W.col(0)) / L(1, 1);
+  W.col(2) = (PHt.col(2) - L(2, 0) * W.col(0) - L(2, 1) * W.col(1)) / L(2, 2);
+  Vector3 y;
+  y[0] = z[0] / L(0, 0);
+  y[1] = (z[1] - L(1, 0) * y[0]) / L(1, 1);
+  y[2] = (z[2] - L(2, 0) * y[0] - L(2, 1) * y[1]) / L(2, 2);
+  const ErrorVector dx = W.col(0) * y[0] + W.col(1) * y[1] + W.col(2) * y[2];
+  subtract_upper_outer(P_, W);
+  mirror_upper(P_);
   apply_correction(dx, mean_);
-  return z.dot(llt.solve(z));
+  return y.squaredNorm();
 }
 
 void InvariantEkf::set_pose_velocity(const Matrix3& R_WI, const Vector3& v_WI,
