@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -21,6 +22,7 @@ void run(benchmark::State& state, const std::string& scenario_name) {
   const int iterations = static_cast<int>(state.range(0));
   const bool warm_start = state.range(1) != 0;
   const bool ground_band = state.range(2) != 0;
+  const double residual = std::pow(10.0, -static_cast<double>(state.range(3)));
   const std::filesystem::path file =
       std::filesystem::path(POISE_SOURCE_DIR) / "deploy/scenarios" / (scenario_name + ".yaml");
   Scenario sc;
@@ -34,6 +36,7 @@ void run(benchmark::State& state, const std::string& scenario_name) {
   sc.sim.solver.iterations = iterations;
   sc.sim.solver.warm_start = warm_start;
   if (!ground_band) sc.sim.solver.ground_aabb_band = 0.0;
+  sc.sim.solver.residual_threshold = residual;
   Simulator sim(sc.sim);
   SensorFrame s = sim.make_sensor_frame();
   GroundTruth g = sim.make_ground_truth();
@@ -91,7 +94,8 @@ void run(benchmark::State& state, const std::string& scenario_name) {
 
 // Arguments: {solver iterations, articulated warm starting (1 = the default, 0 = off), ground
 // broadphase box (1 = the default band above the plane, 0 = infinite: every link paired with the
-// ground)}; the rows with a 0 are the settings before that change (same run, A/B).
+// ground), solver residual threshold 10^-arg (9 = the default)}; the rows with a 0 are the
+// settings before that change (same run, A/B).
 void BM_StepStandingDoubleSupport(benchmark::State& st) {
   run(st, "forward_push_double_support");
 }
@@ -105,19 +109,22 @@ void BM_StepMovingPlatforms(benchmark::State& st) {
 }  // namespace
 
 BENCHMARK(BM_StepStandingDoubleSupport)
-    ->Args({50, 1, 1})
-    ->Args({50, 1, 0})
-    ->Args({50, 0, 0})
-    ->Args({20, 1, 1})
+    ->Args({50, 1, 1, 9})
+    ->Args({50, 1, 1, 7})
+    ->Args({50, 1, 0, 9})
+    ->Args({50, 0, 0, 9})
+    ->Args({20, 1, 1, 9})
     ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_StepSingleSupport)
-    ->Args({50, 1, 1})
-    ->Args({50, 1, 0})
-    ->Args({50, 0, 0})
+    ->Args({50, 1, 1, 9})
+    ->Args({50, 1, 1, 7})
+    ->Args({50, 1, 0, 9})
+    ->Args({50, 0, 0, 9})
     ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_StepMovingPlatforms)
-    ->Args({50, 1, 1})
-    ->Args({50, 1, 0})
-    ->Args({50, 0, 0})
+    ->Args({50, 1, 1, 9})
+    ->Args({50, 1, 1, 7})
+    ->Args({50, 1, 0, 9})
+    ->Args({50, 0, 0, 9})
     ->Unit(benchmark::kMicrosecond);
 BENCHMARK_MAIN();
