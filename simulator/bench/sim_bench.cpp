@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -17,8 +18,11 @@ namespace {
 
 using namespace poise::sim;
 
-void run(benchmark::State& state, const std::string& scenario_name, int iterations,
-         bool warm_start) {
+void run(benchmark::State& state, const std::string& scenario_name) {
+  const int iterations = static_cast<int>(state.range(0));
+  const bool warm_start = state.range(1) != 0;
+  const bool ground_band = state.range(2) != 0;
+  const double residual = std::pow(10.0, -static_cast<double>(state.range(3)));
   const std::filesystem::path file =
       std::filesystem::path(POISE_SOURCE_DIR) / "deploy/scenarios" / (scenario_name + ".yaml");
   Scenario sc;
@@ -31,6 +35,8 @@ void run(benchmark::State& state, const std::string& scenario_name, int iteratio
   sc.sim.pushes.clear();  // steady standing
   sc.sim.solver.iterations = iterations;
   sc.sim.solver.warm_start = warm_start;
+  if (!ground_band) sc.sim.solver.ground_aabb_band = 0.0;
+  sc.sim.solver.residual_threshold = residual;
   Simulator sim(sc.sim);
   SensorFrame s = sim.make_sensor_frame();
   GroundTruth g = sim.make_ground_truth();
@@ -48,11 +54,16 @@ void run(benchmark::State& state, const std::string& scenario_name, int iteratio
   us.reserve(1 << 20);
   long n = 0;
   double solver_iterations = 0.0;
+  double rows_normal = 0.0, rows_friction = 0.0, rows_other = 0.0;
   for (auto _ : state) {
     const auto t0 = std::chrono::steady_clock::now();
     sim.step(c, s, g);
     const auto t1 = std::chrono::steady_clock::now();
     solver_iterations += sim.solver_iterations_used();
+    const SolverRows rows = sim.solver_rows();
+    rows_normal += rows.contact_normal;
+    rows_friction += rows.contact_friction;
+    rows_other += rows.other;
     if (us.size() < us.capacity())
       us.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
     if (++n % 2000 == 0) {
@@ -73,28 +84,47 @@ void run(benchmark::State& state, const std::string& scenario_name, int iteratio
     state.counters["rt_factor"] = 1e6 * sim.dt() / mean;
   }
   state.counters["joints"] = sim.num_joints();
-  if (n > 0) state.counters["solver_iters"] = solver_iterations / static_cast<double>(n);
+  if (n > 0) {
+    state.counters["solver_iters"] = solver_iterations / static_cast<double>(n);
+    state.counters["rows_n"] = rows_normal / static_cast<double>(n);
+    state.counters["rows_f"] = rows_friction / static_cast<double>(n);
+    state.counters["rows_o"] = rows_other / static_cast<double>(n);
+  }
 }
 
-// Arguments: {solver iterations, articulated warm starting (1 = the default, 0 = off)}; the
-// warm-start-off rows are the settings before warm starting was turned on (same run, A/B).
+// Arguments: {solver iterations, articulated warm starting (1 = the default, 0 = off), ground
+// broadphase box (1 = the default band above the plane, 0 = infinite: every link paired with the
+// ground), solver residual threshold 10^-arg (9 = the default)}; the rows with a 0 are the
+// settings before that change (same run, A/B).
 void BM_StepStandingDoubleSupport(benchmark::State& st) {
-  run(st, "forward_push_double_support", static_cast<int>(st.range(0)), st.range(1) != 0);
+  run(st, "forward_push_double_support");
 }
 void BM_StepSingleSupport(benchmark::State& st) {
-  run(st, "lateral_push_single_support", static_cast<int>(st.range(0)), st.range(1) != 0);
+  run(st, "lateral_push_single_support");
 }
 void BM_StepMovingPlatforms(benchmark::State& st) {
-  run(st, "platforms_out_of_phase", static_cast<int>(st.range(0)), st.range(1) != 0);
+  run(st, "platforms_out_of_phase");
 }
 
 }  // namespace
 
 BENCHMARK(BM_StepStandingDoubleSupport)
-    ->Args({50, 1})
-    ->Args({50, 0})
-    ->Args({20, 1})
+    ->Args({50, 1, 1, 9})
+    ->Args({50, 1, 1, 7})
+    ->Args({50, 1, 0, 9})
+    ->Args({50, 0, 0, 9})
+    ->Args({20, 1, 1, 9})
     ->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_StepSingleSupport)->Args({50, 1})->Args({50, 0})->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_StepMovingPlatforms)->Args({50, 1})->Args({50, 0})->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_StepSingleSupport)
+    ->Args({50, 1, 1, 9})
+    ->Args({50, 1, 1, 7})
+    ->Args({50, 1, 0, 9})
+    ->Args({50, 0, 0, 9})
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_StepMovingPlatforms)
+    ->Args({50, 1, 1, 9})
+    ->Args({50, 1, 1, 7})
+    ->Args({50, 1, 0, 9})
+    ->Args({50, 0, 0, 9})
+    ->Unit(benchmark::kMicrosecond);
 BENCHMARK_MAIN();

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <urdf_parser/urdf_parser.h>
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -81,6 +82,37 @@ TEST(SimPhysics, PassiveRobotLyingOnGroundCarriesItsWeight) {
   EXPECT_NEAR(mean.head<2>().norm(), 0.0, 0.01 * mg);
   EXPECT_GT(g.num_non_foot_contacts, 0) << "the trunk lies on the ground";
   EXPECT_LT(g.com_vel_W.norm(), 1e-2);
+}
+
+// The trunk and legs of the robot falling onto its back reach the ground through the ground's
+// finite broadphase box exactly as through Bullet's infinite one (solver.ground_aabb_band).
+TEST(SimPhysics, GroundBroadphaseBandKeepsNonFootContacts) {
+  std::vector<std::vector<std::uint8_t>> touching[2];
+  std::vector<Eigen::Vector3d> force[2];
+  for (int run = 0; run < 2; ++run) {
+    SimulatorConfig cfg = biped_lying_on_back_config();
+    if (run == 1) cfg.solver.ground_aabb_band = 0.0;
+    Simulator sim(cfg);
+    SensorFrame s = sim.make_sensor_frame();
+    GroundTruth g = sim.make_ground_truth();
+    JointCommand cmd = sim.make_command();
+    cmd.mode = CommandMode::kDamping;
+    cmd.kd.setConstant(2.0);
+    for (int k = 0; k < 600; ++k) {
+      sim.step(cmd, s, g);
+      touching[run].push_back(g.non_foot_contact);
+      force[run].push_back(g.total_contact_force_W);
+    }
+  }
+  int non_foot_ticks = 0;
+  double force_diff = 0.0;
+  for (std::size_t k = 0; k < touching[0].size(); ++k) {
+    EXPECT_EQ(touching[0][k], touching[1][k]) << "tick " << k;
+    non_foot_ticks += std::count(touching[0][k].begin(), touching[0][k].end(), 1) > 0;
+    force_diff = std::max(force_diff, (force[0][k] - force[1][k]).norm());
+  }
+  EXPECT_GT(non_foot_ticks, 300) << "the robot lies on non-foot links";
+  EXPECT_LT(force_diff, 1e-6);
 }
 
 TEST(SimPhysics, PushChangesMomentumByForceTimesDuration) {

@@ -116,6 +116,38 @@ struct Platform {
   }
 };
 
+// The ground plane with a broadphase box that ends `band` above the plane (Bullet gives a plane an
+// infinite box, so every link is paired with it and tested by the narrowphase every step). Only
+// the world-space box (identity rotation, which is how the ground is placed) is bounded; in any
+// other frame (e.g. a compound's child culling) the box stays infinite. The shape type and thus
+// the plane/convex contact algorithm are Bullet's.
+class BandedPlaneShape : public btStaticPlaneShape {
+ public:
+  BandedPlaneShape(double height, double band)
+      : btStaticPlaneShape(btVector3(0, 0, 1), height), top_(height + band) {}
+  void getAabb(const btTransform& t, btVector3& aabb_min, btVector3& aabb_max) const override {
+    btStaticPlaneShape::getAabb(t, aabb_min, aabb_max);
+    const btMatrix3x3& R = t.getBasis();
+    if (R == btMatrix3x3::getIdentity()) aabb_max.setZ(top_ + t.getOrigin().z());
+  }
+
+ private:
+  double top_;
+};
+
+// Bullet's multibody solver with read access to the rows it built for the last step
+// (diagnostics: poise-bench-sim counters).
+class RowCountingSolver : public btMultiBodyConstraintSolver {
+ public:
+  int normal_rows() const { return m_multiBodyNormalContactConstraints.size(); }
+  int friction_rows() const { return m_multiBodyFrictionContactConstraints.size(); }
+  int other_rows() const {
+    return m_multiBodyNonContactConstraints.size() +
+           m_multiBodyTorsionalFrictionContactConstraints.size() +
+           m_multiBodySpinningFrictionContactConstraints.size();
+  }
+};
+
 }  // namespace
 
 struct Simulator::Impl {
@@ -133,7 +165,7 @@ struct Simulator::Impl {
   std::unique_ptr<btDefaultCollisionConfiguration> collision_config;
   std::unique_ptr<btCollisionDispatcher> dispatcher;
   std::unique_ptr<btDbvtBroadphase> broadphase;
-  std::unique_ptr<btMultiBodyConstraintSolver> solver;
+  std::unique_ptr<RowCountingSolver> solver;
   std::unique_ptr<btMultiBodyDynamicsWorld> world;
   std::unique_ptr<btMultiBody> mb;
   std::vector<std::unique_ptr<btCollisionShape>> shapes;
@@ -235,7 +267,7 @@ Simulator::Impl::Impl(const SimulatorConfig& c) : cfg(c), rng(c.imu.seed) {
   collision_config->setConvexConvexMultipointIterations(5, 4);
   dispatcher = std::make_unique<btCollisionDispatcher>(collision_config.get());
   broadphase = std::make_unique<btDbvtBroadphase>();
-  solver = std::make_unique<btMultiBodyConstraintSolver>();
+  solver = std::make_unique<RowCountingSolver>();
   world = std::make_unique<btMultiBodyDynamicsWorld>(dispatcher.get(), broadphase.get(),
                                                      solver.get(), collision_config.get());
   world->setGravity(bt(cfg.world.gravity));
@@ -469,8 +501,12 @@ void Simulator::Impl::build_world() {
   if (cfg.world.ground.enabled) {
     if (!(cfg.world.ground.friction >= 0.0))
       throw std::runtime_error("world.ground.friction must be >= 0");
-    ground_shape =
-        std::make_unique<btStaticPlaneShape>(btVector3(0, 0, 1), cfg.world.ground.height);
+    if (cfg.solver.ground_aabb_band > 0.0)
+      ground_shape =
+          std::make_unique<BandedPlaneShape>(cfg.world.ground.height, cfg.solver.ground_aabb_band);
+    else
+      ground_shape =
+          std::make_unique<btStaticPlaneShape>(btVector3(0, 0, 1), cfg.world.ground.height);
     ground = std::make_unique<btCollisionObject>();
     ground->setCollisionShape(ground_shape.get());
     ground->setFriction(cfg.world.ground.friction);
@@ -828,6 +864,10 @@ double Simulator::damping_kd() const {
 }
 int Simulator::solver_iterations_used() const {
   return impl_->solver->m_analyticsData.m_numIterationsUsed;
+}
+SolverRows Simulator::solver_rows() const {
+  const auto& s = *impl_->solver;
+  return SolverRows{s.normal_rows(), s.friction_rows(), s.other_rows()};
 }
 
 SensorFrame Simulator::make_sensor_frame() const {

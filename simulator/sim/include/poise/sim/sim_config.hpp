@@ -117,6 +117,12 @@ struct SolverConfig {
   /// converges in a few iterations instead of running into the iteration cap.
   bool warm_start = true;
   double warm_start_factor = 0.85;
+  /// Broadphase bounding box of the ground plane: infinite below the plane and this far [m]
+  /// above it, so a link more than this (plus Bullet's 0.02 m AABB margin) above the ground has
+  /// no ground pair at all instead of one that the narrowphase tests every step. The contact
+  /// generation itself is unchanged (same plane shape and algorithm; a link this far up gets
+  /// no contact point either way). <= 0: infinite box (every link always paired).
+  double ground_aabb_band = 0.1;
 };
 
 /// Initial state. Unset joints start at 0; the base height is chosen so that the feet rest on

@@ -69,6 +69,9 @@ class Simulator {
   /// residual fell under solver.residual_threshold). For benchmarks and diagnostics.
   int solver_iterations_used() const;
 
+  /// Constraint rows the contact solver built for the last step. For benchmarks and diagnostics.
+  SolverRows solver_rows() const;
+
   /// Joint positions / base pose setters for tests (configuration time).
   void set_state(const Eigen::Isometry3d& X_WB, const Eigen::VectorXd& q,
                  const Eigen::Vector3d& v_WB = Eigen::Vector3d::Zero(),

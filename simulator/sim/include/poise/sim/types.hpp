@@ -94,4 +94,11 @@ enum class StepStatus : std::uint8_t {
   kRejectedCommand = 1,  ///< wrong size, tick or non-finite value: joints were damped instead
 };
 
+/// Constraint rows of the contact solver in one step (diagnostics).
+struct SolverRows {
+  int contact_normal = 0;    ///< one per contact point
+  int contact_friction = 0;  ///< two per contact point (two friction directions)
+  int other = 0;             ///< joint limits, joint-friction motors, torsional friction
+};
+
 }  // namespace poise::sim
