@@ -16,6 +16,16 @@ namespace poise::sim {
 namespace {
 
 namespace fs = std::filesystem;
+
+// PD hold of the posture in `s` (kp 300, kd 6 on every joint).
+JointCommand hold_posture_command(const Simulator& sim, const SensorFrame& s) {
+  JointCommand c = sim.make_command();
+  c.mode = CommandMode::kPd;
+  c.q_ref = s.q;
+  c.kp.setConstant(300);
+  c.kd.setConstant(6);
+  return c;
+}
 const fs::path kScenarios = fs::path(POISE_SOURCE_DIR) / "deploy/scenarios";
 
 std::string error_of(const std::string& yaml) {
@@ -93,11 +103,7 @@ Trace run_pushed(const Scenario& sc, double band, int ticks) {
   SensorFrame s = sim.make_sensor_frame();
   GroundTruth g = sim.make_ground_truth();
   sim.read(s, g);
-  JointCommand c = sim.make_command();
-  c.mode = CommandMode::kPd;
-  c.q_ref = s.q;
-  c.kp.setConstant(300);
-  c.kd.setConstant(6);
+  JointCommand c = hold_posture_command(sim, s);
   Trace t;
   for (int k = 0; k < ticks; ++k) {
     sim.step(c, s, g);
@@ -162,11 +168,7 @@ TEST(SimScenario, PaperScenariosLoadAndStandOnTheirSupports) {
     SensorFrame s = sim.make_sensor_frame();
     GroundTruth g = sim.make_ground_truth();
     sim.read(s, g);
-    JointCommand c = sim.make_command();
-    c.mode = CommandMode::kPd;
-    c.q_ref = s.q;
-    c.kp.setConstant(300);
-    c.kd.setConstant(6);
+    JointCommand c = hold_posture_command(sim, s);
     for (int k = 0; k < 100; ++k)
       sim.step(c, s, g);
     // the supporting feet carry the robot, nothing else touches

@@ -27,7 +27,6 @@ void AccelerationSolver::resize(int nv, int max_eq) {
   S_.setZero(max_eq, max_eq);
   u_.setZero(nv);
   lambda_.setZero(max_eq);
-  r_.setZero(max_eq);
   winv_.setZero(nv);
   P_.setZero(6, nv);
   Ft_.setZero(max_eq, 6);

@@ -113,7 +113,7 @@ class AccelerationSolver {
   Eigen::MatrixXd L_;  // Cholesky factor of G (in place)
   Eigen::MatrixXd Y_;  // L^-1 C^T (nv x max_eq)
   Eigen::MatrixXd S_;  // Schur complement Y^T Y (max_eq x max_eq), factorised in place
-  Eigen::VectorXd u_, lambda_, r_;
+  Eigen::VectorXd u_, lambda_;
   Eigen::MatrixXd G_;  // formed only for the dense and active-set paths
   Eigen::VectorXd g_;
   Eigen::MatrixXd A_in_;  // 2 (nv - 6) x nv: [I; -I] on the joint columns
