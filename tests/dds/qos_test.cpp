@@ -70,14 +70,14 @@ TEST_P(QosBehaviour, KeepLastDepthKeepsTheNewest) {
     while (deep.take(got))
       all.push_back(got.header().tick());
     return all.size() >= 6;
-  }));
+  })) << "the deep reader got " << all.size() << " of 6 samples";
   // The shallow reader (same participant) has had all six delivered too, but kept the newest 2.
   std::vector<std::uint64_t> kept;
   ASSERT_TRUE(test::eventually([&] {
     while (shallow.take(got))
       kept.push_back(got.header().tick());
     return !kept.empty() && kept.back() == 6;
-  }));
+  })) << "the shallow reader got " << kept.size() << " samples";
   EXPECT_EQ(kept, (std::vector<std::uint64_t>{5, 6}));
   // take_latest drains and returns only the newest.
   for (std::uint64_t t = 7; t <= 9; ++t) {

@@ -20,11 +20,14 @@
 #include <utility>
 #include <vector>
 
+#include "test_domain.hpp"
+
 namespace poise::testing {
 
-/// A domain id unlikely to be used by another test running in parallel (ctest -j).
+/// A domain id no other test running in parallel (ctest -j) uses: the lock-file claim of
+/// test_domain.hpp, shared with the DDS tests.
 inline int unique_domain_id() {
-  return 20 + static_cast<int>(::getpid() % 200);
+  return claim_test_domain();
 }
 
 /// Path of an executable in build/bin.
