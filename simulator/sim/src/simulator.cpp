@@ -1,5 +1,9 @@
 #include "poise/sim/simulator.hpp"
 
+// btBoxShape::getPlane (inline, emitted here for PaddedBoxShape's vtable) trips GCC's
+// -Wmaybe-uninitialized inside Bullet's own header.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #include <BulletCollision/CollisionShapes/btBoxShape.h>
 #include <BulletCollision/CollisionShapes/btCompoundShape.h>
 #include <BulletCollision/CollisionShapes/btCylinderShape.h>
@@ -12,6 +16,7 @@
 #include <BulletDynamics/Featherstone/btMultiBodyJointMotor.h>
 #include <BulletDynamics/Featherstone/btMultiBodyLinkCollider.h>
 #include <btBulletDynamicsCommon.h>
+#pragma GCC diagnostic pop
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
@@ -88,7 +93,7 @@ struct Platform {
   PlatformConfig cfg;
   Eigen::Matrix3d R_incline = Eigen::Matrix3d::Identity();
   Eigen::Vector3d base_position = Eigen::Vector3d::Zero();
-  std::unique_ptr<btBoxShape> shape;
+  std::unique_ptr<btBoxShape> shape;  // a PaddedBoxShape
   std::unique_ptr<btRigidBody> body;
 
   // Top-centre pose and its velocity (world) at time t.
@@ -133,6 +138,29 @@ class BandedPlaneShape : public btStaticPlaneShape {
 
  private:
   double top_;
+};
+
+// A platform box whose bounding box is `pad` larger on every side than the box itself.
+// Bullet's compound-shape algorithm (every robot link is a compound) drops a child's contact
+// algorithm, and with it the contact manifold and its warm-start impulses, as soon as the child's
+// exact box stops overlapping the other shape's exact box. A sole resting flat on a level
+// platform touches the platform's box exactly at its top face, so a nanometre of rise dropped
+// every contact point of that foot for one step (then re-created them with a penetration impulse
+// spike): on the moving-platform scenarios thousands of such steps. The pad keeps the child
+// algorithm alive while the sole is within it; contact generation itself is unchanged.
+constexpr double kPlatformAabbPad = 0.02;  // [m] Bullet's default contact breaking threshold
+
+class PaddedBoxShape : public btBoxShape {
+ public:
+  PaddedBoxShape(const btVector3& half_extents, double pad) : btBoxShape(half_extents), pad_(pad) {}
+  void getAabb(const btTransform& t, btVector3& aabb_min, btVector3& aabb_max) const override {
+    btBoxShape::getAabb(t, aabb_min, aabb_max);
+    aabb_min -= btVector3(pad_, pad_, pad_);
+    aabb_max += btVector3(pad_, pad_, pad_);
+  }
+
+ private:
+  double pad_;
 };
 
 // Bullet's multibody solver with read access to the rows it built for the last step
@@ -536,7 +564,7 @@ void Simulator::Impl::build_world() {
                    Eigen::AngleAxisd(pc.roll, Eigen::Vector3d::UnitX()))
                       .toRotationMatrix();
     p.base_position = pc.position;
-    p.shape = std::make_unique<btBoxShape>(bt(pc.half_extents));
+    p.shape = std::make_unique<PaddedBoxShape>(bt(pc.half_extents), kPlatformAabbPad);
     btRigidBody::btRigidBodyConstructionInfo ci(0.0, nullptr, p.shape.get());
     p.body = std::make_unique<btRigidBody>(ci);
     p.body->setCollisionFlags(p.body->getCollisionFlags() | btCollisionObject::CF_KINEMATIC_OBJECT);
