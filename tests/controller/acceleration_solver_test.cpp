@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/LU>
+#include <cstdio>
 #include <random>
 
 #include "controller_test_util.hpp"
@@ -40,7 +41,7 @@ RandomEq33 make_problem(std::mt19937& rng, int nv, int m, double bound) {
 
 TEST(AccelerationSolver, KktConditionsHoldOnRandomProblems) {
   std::mt19937 rng(33);
-  int with_active = 0, used_fast = 0;
+  int with_active = 0, used_fast = 0, primal_active_set = 0, dual_qp = 0;
   for (int trial = 0; trial < 200; ++trial) {
     const int nv = 6 + 8 + trial % 12;
     const int m = trial % 13;
@@ -58,6 +59,8 @@ TEST(AccelerationSolver, KktConditionsHoldOnRandomProblems) {
               contact::SolverStatus::kOptimal);
     EXPECT_LT((x - x2).norm(), 1e-7 * (1.0 + x.norm())) << trial;
     used_fast += r.used_active_set ? 0 : 1;
+    primal_active_set += r.used_active_set && !r.used_dual_qp;
+    dual_qp += r.used_dual_qp;
     // Equalities and bounds.
     if (m > 0) {
       EXPECT_LT((p.C * x - p.d).lpNorm<Eigen::Infinity>(), 1e-8) << trial;
@@ -87,8 +90,11 @@ TEST(AccelerationSolver, KktConditionsHoldOnRandomProblems) {
         EXPECT_GE(y[m + j], -1e-6 * (1.0 + grad.norm())) << trial << " bound " << j;
       }
   }
-  EXPECT_GT(with_active, 50);  // the bounds were really exercised
-  EXPECT_GT(used_fast, 50);    // and so was the fast path
+  std::printf("200 problems: %d equality-only, %d primal active set, %d DualQp; %d active bounds\n",
+              used_fast, primal_active_set, dual_qp, with_active);
+  EXPECT_GT(with_active, 50);        // the bounds were really exercised
+  EXPECT_GT(used_fast, 50);          // and so was the fast path
+  EXPECT_GT(primal_active_set, 50);  // and the primal active set (compared with DualQp above)
 }
 
 TEST(AccelerationSolver, WithoutActiveBoundsEqualsDirectKktSolve) {

@@ -22,22 +22,27 @@ void AccelerationSolver::resize(int nv, int max_eq) {
     A_in_(n + j, 6 + j) = -1.0;
   }
   b_in_.setZero(2 * n);
+  const int max_rows = max_eq + n;  // equalities plus every joint bound active
   L_.setZero(nv, nv);
   Y_.setZero(nv, max_eq);
-  S_.setZero(max_eq, max_eq);
+  S_.setZero(max_rows, max_rows);
   u_.setZero(nv);
-  lambda_.setZero(max_eq);
+  lambda_.setZero(max_rows);
   winv_.setZero(nv);
   P_.setZero(6, nv);
-  Ft_.setZero(max_eq, 6);
-  FtKinv_.setZero(max_eq, 6);
+  Ft_.setZero(max_rows, 6);
+  FtKinv_.setZero(max_rows, 6);
+  C_aug_.setZero(max_rows, nv);
+  d_aug_.setZero(max_rows);
+  active_.assign(static_cast<std::size_t>(n), 0);
+  side_.assign(static_cast<std::size_t>(n), 0);
   cols_.assign(static_cast<std::size_t>(nv), 0);
   ncols_ = 0;
   y_.setZero(nv);
   x_corr_.setZero(nv);
   rg_.setZero(nv);
-  rd_.setZero(max_eq);
-  lambda_corr_.setZero(max_eq);
+  rd_.setZero(max_rows);
+  lambda_corr_.setZero(max_rows);
 }
 
 void AccelerationSolver::form_hessian(const Eigen::Ref<const Eigen::MatrixXd>& A, double w_b,
@@ -157,6 +162,86 @@ bool AccelerationSolver::solve_equality_woodbury(const Eigen::Ref<const Eigen::M
   return x.allFinite();
 }
 
+bool AccelerationSolver::solve_bounds_woodbury(
+    const Eigen::Ref<const Eigen::MatrixXd>& A, double w_b,
+    const Eigen::Ref<const Eigen::VectorXd>& w, const Eigen::Ref<const Eigen::MatrixXd>& C,
+    const Eigen::Ref<const Eigen::VectorXd>& d, const Eigen::Ref<const Eigen::VectorXd>& lo,
+    const Eigen::Ref<const Eigen::VectorXd>& hi, Eigen::Ref<Eigen::VectorXd> x, Result& r) {
+  const int n = nv_ - 6;
+  const auto m = static_cast<int>(C.rows());
+  C_aug_.topRows(m) = C;
+  d_aug_.head(m) = d;
+  std::fill(side_.begin(), side_.end(), 0);
+  int k = 0;  // active bounds: rows m .. m + k - 1 of C_aug_, joints active_[0, k)
+  for (int solves = 0; solves < 2 * n + 4; ++solves) {
+    // 1. An active bound whose multiplier has the wrong sign leaves (the most wrong one first).
+    //    G x + g = C^T lambda + lambda_b e_j: a lower bound needs lambda_b >= 0, an upper one <= 0.
+    if (k > 0) {
+      int worst = -1;
+      double worst_value = 0.0;
+      for (int i = 0; i < k; ++i) {
+        const double l = lambda_[m + i] * (side_[active_[i]] > 0 ? -1.0 : 1.0);  // >= 0 is right
+        if (l < -1e-10 * (1.0 + std::abs(lambda_[m + i])) && l < worst_value) {
+          worst = i;
+          worst_value = l;
+        }
+      }
+      if (worst >= 0) {
+        side_[active_[worst]] = 0;
+        active_[worst] = active_[k - 1];
+        --k;
+        for (int i = 0; i < k; ++i) {  // rebuild the bound rows
+          C_aug_.row(m + i).setZero();
+          C_aug_(m + i, 6 + active_[i]) = 1.0;
+          d_aug_[m + i] = side_[active_[i]] > 0 ? hi[active_[i]] : lo[active_[i]];
+        }
+        if (!solve_equality_woodbury(A, w_b, w, C_aug_.topRows(m + k), d_aug_.head(m + k), x))
+          return false;
+        ++r.iterations;
+        continue;
+      }
+    }
+    // 2. The most violated inactive bound joins.
+    int add = -1, add_side = 0;
+    double add_violation = 0.0;
+    for (int j = 0; j < n; ++j) {
+      if (side_[j] != 0) continue;
+      const double v = x[6 + j];
+      const double tol = 1e-9 * (1.0 + std::abs(v));
+      if (v < lo[j] - tol && lo[j] - v > add_violation) {
+        add = j;
+        add_side = -1;
+        add_violation = lo[j] - v;
+      } else if (v > hi[j] + tol && v - hi[j] > add_violation) {
+        add = j;
+        add_side = 1;
+        add_violation = v - hi[j];
+      }
+    }
+    if (add < 0) {  // primal feasible, multipliers of the right sign: the KKT point
+      // unless nearly dependent rows cost the equalities their accuracy
+      double res = 0.0, scale = 1.0;
+      for (int row = 0; row < m + k; ++row) {
+        res = std::max(res, std::abs(C_aug_.row(row).dot(x) - d_aug_[row]));
+        scale = std::max(scale, std::abs(d_aug_[row]));
+      }
+      if (!(res <= 1e-9 * scale)) return false;
+      r.active_bounds = k;
+      return true;
+    }
+    side_[add] = add_side;
+    active_[k] = add;
+    C_aug_.row(m + k).setZero();
+    C_aug_(m + k, 6 + add) = 1.0;
+    d_aug_[m + k] = add_side > 0 ? hi[add] : lo[add];
+    ++k;
+    if (!solve_equality_woodbury(A, w_b, w, C_aug_.topRows(m + k), d_aug_.head(m + k), x))
+      return false;  // dependent rows (e.g. a bound on a joint the feet fix), or not finite
+    ++r.iterations;
+  }
+  return false;
+}
+
 bool AccelerationSolver::solve_equality_dense(const Eigen::Ref<const Eigen::MatrixXd>& C,
                                               const Eigen::Ref<const Eigen::VectorXd>& d,
                                               Eigen::Ref<Eigen::VectorXd> x) {
@@ -233,6 +318,13 @@ AccelerationSolver::Result AccelerationSolver::solve(
     }
   }
   r.used_active_set = true;
+  if (solved && woodbury && primal_active_set_ && solve_bounds_woodbury(A, w_b, w, C, d, lo, hi, x, r)) {
+    r.status = contact::SolverStatus::kOptimal;
+    return r;
+  }
+  r.used_dual_qp = true;
+  r.iterations = 0;
+  r.active_bounds = 0;
   if (!have_g) form_hessian(A, w_b, w);
   r.status = qp_.solve(G_, g_, C, d, A_in_, b_in_, x);
   r.iterations = qp_.iterations();

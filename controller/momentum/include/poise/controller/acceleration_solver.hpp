@@ -19,9 +19,13 @@
 // work and no nv x nv matrix; one step of iterative refinement on the full KKT system (whose
 // residual costs only O(nv (6 + m))) recovers the digits the identity loses when G is badly
 // conditioned. With some w_j == 0, G itself is factorised (Cholesky, O(nv^3)). If that solution
-// violates a joint bound, the whole problem is solved as a strictly convex QP by the
-// Goldfarb-Idnani dual method (poise::contact::DualQp); when the bounds make it infeasible it is
-// solved again without them.
+// violates a joint bound, a primal active set on the same Woodbury factors follows: the most
+// violated bound joins the equalities (x_j = bound), a bound whose multiplier has the wrong sign
+// leaves them, and the equality problem is solved again, until the KKT conditions hold (a few
+// solves: usually one or two bounds are active). If that does not settle within 2 n + 4 solves, or
+// the rows become dependent, or the Woodbury form does not apply, the whole problem is solved as a
+// strictly convex QP by the Goldfarb-Idnani dual method (poise::contact::DualQp); when the bounds
+// make it infeasible it is solved again without them.
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
@@ -45,7 +49,9 @@ class AccelerationSolver {
     bool bounds_dropped = false;  ///< infeasible with bounds: this is the bound-free solution
     int iterations = 0;
     int active_bounds = 0;
-    bool used_active_set = false;  ///< a bound was violated by the fast solution: DualQp was used
+    /// A bound was violated by the equality-only solution (then the primal active set or DualQp).
+    bool used_active_set = false;
+    bool used_dual_qp = false;  ///< DualQp solved the problem (the primal active set did not)
   };
 
   /// Disables the fast equality-only path (every solve goes through DualQp); for tests.
@@ -53,6 +59,9 @@ class AccelerationSolver {
   /// Forces the equality-only path to factorise G densely even when the Woodbury form applies;
   /// for tests and the benchmark's before/after comparison.
   void set_dense_equality_path(bool dense) { dense_equality_ = dense; }
+  /// Disables the primal active set over the bounds (a violated bound then goes straight to
+  /// DualQp, the method before it); for tests and the benchmark's before/after comparison.
+  void set_primal_active_set(bool enabled) { primal_active_set_ = enabled; }
 
   /// A: 6 x nv, b: 6, w_b in (0, 1), w: nv (>= 0, with w_b A^T A + diag(w) positive definite),
   /// t: nv, C: m x nv (m <= max_eq), d: m, lo, hi: nv - 6 (lo <= hi), x: nv (output).
@@ -85,6 +94,15 @@ class AccelerationSolver {
                                const Eigen::Ref<const Eigen::MatrixXd>& C,
                                const Eigen::Ref<const Eigen::VectorXd>& d,
                                Eigen::Ref<Eigen::VectorXd> x);
+  // Primal active set over the joint bounds on the Woodbury factors (see the top of the file);
+  // x holds the equality-only solution on entry. False: not settled (x is then unspecified).
+  bool solve_bounds_woodbury(const Eigen::Ref<const Eigen::MatrixXd>& A, double w_b,
+                             const Eigen::Ref<const Eigen::VectorXd>& w,
+                             const Eigen::Ref<const Eigen::MatrixXd>& C,
+                             const Eigen::Ref<const Eigen::VectorXd>& d,
+                             const Eigen::Ref<const Eigen::VectorXd>& lo,
+                             const Eigen::Ref<const Eigen::VectorXd>& hi,
+                             Eigen::Ref<Eigen::VectorXd> x, Result& r);
   // y = G^-1 v by the Woodbury form (P_, K factor and winv_ of the current solve).
   void apply_g_inverse(const Eigen::Ref<const Eigen::VectorXd>& v, Eigen::Ref<Eigen::VectorXd> y);
   // (x, lambda) of G x + g_rhs = C^T lambda, C x = d_rhs from the Woodbury factors (S_ holds the
@@ -98,6 +116,7 @@ class AccelerationSolver {
   int max_eq_ = 0;
   bool fast_path_ = true;
   bool dense_equality_ = false;
+  bool primal_active_set_ = true;
   contact::DualQp qp_;
   // Woodbury path: W^-1 = diag(winv_), P = A W^-1 (6 x nv), K = I / w_b + P A^T (factorised, and
   // its inverse), Ft = (P C^T)^T (max_eq x 6), FtKinv = Ft K^-1; cols_[0, ncols_) are the columns
@@ -116,6 +135,12 @@ class AccelerationSolver {
   Eigen::VectorXd u_, lambda_;
   Eigen::MatrixXd G_;  // formed only for the dense and active-set paths
   Eigen::VectorXd g_;
+  // Primal active set: [C; active bound rows] and its right-hand side, the active joints and
+  // their side (+1 upper, -1 lower, 0 inactive).
+  Eigen::MatrixXd C_aug_;
+  Eigen::VectorXd d_aug_;
+  std::vector<int> active_;
+  std::vector<int> side_;
   Eigen::MatrixXd A_in_;  // 2 (nv - 6) x nv: [I; -I] on the joint columns
   Eigen::VectorXd b_in_;
 };
