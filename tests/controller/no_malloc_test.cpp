@@ -10,6 +10,7 @@
 
 #include "controller_test_util.hpp"
 #include "poise/contact/contact_optimizer.hpp"
+#include "poise/controller/acceleration_solver.hpp"
 
 static std::atomic<long> g_news{0};
 void* operator new(std::size_t n) {
@@ -64,6 +65,38 @@ TEST(NoMalloc, ControllerTickPhasesAndFallbacks) {
   EXPECT_EQ(after, before) << "operator new called inside the tick";
   EXPECT_EQ(c.diagnostics().ticks, 40u);
   EXPECT_EQ(cmd.mode, CommandMode::kTorque);
+}
+
+// Eq (33) with active joint bounds: the primal active set (and DualQp, its fallback) allocate
+// nothing either. Seeded random problems with tight bounds, sizes of the humanoid.
+TEST(NoMalloc, Eq33WithActiveBounds) {
+  std::mt19937 rng(11);
+  std::normal_distribution<double> N(0.0, 1.0);
+  const int nv = 31, m = 12, n = nv - 6;
+  AccelerationSolver primal(nv, m), dual(nv, m);
+  dual.set_primal_active_set(false);
+  int primal_used = 0, dual_used = 0;
+  for (int trial = 0; trial < 20; ++trial) {
+    const Eigen::MatrixXd A = Eigen::MatrixXd::NullaryExpr(6, nv, [&] { return 10.0 * N(rng); });
+    const Eigen::MatrixXd C = Eigen::MatrixXd::NullaryExpr(m, nv, [&] { return N(rng); });
+    const Eigen::VectorXd b = Eigen::VectorXd::NullaryExpr(6, [&] { return 100.0 * N(rng); });
+    const Eigen::VectorXd d = Eigen::VectorXd::NullaryExpr(m, [&] { return N(rng); });
+    const Eigen::VectorXd w = Eigen::VectorXd::Constant(nv, 0.05);
+    const Eigen::VectorXd t = Eigen::VectorXd::NullaryExpr(nv, [&] { return 5.0 * N(rng); });
+    const Eigen::VectorXd lo = Eigen::VectorXd::Constant(n, -3.0), hi = -lo;
+    Eigen::VectorXd x(nv);
+    Eigen::internal::set_is_malloc_allowed(false);
+    const long before = g_news.load();
+    const auto r1 = primal.solve(A, b, 0.9, w, t, C, d, lo, hi, x);
+    const auto r2 = dual.solve(A, b, 0.9, w, t, C, d, lo, hi, x);
+    const long after = g_news.load();
+    Eigen::internal::set_is_malloc_allowed(true);
+    EXPECT_EQ(after, before) << "operator new called in trial " << trial;
+    primal_used += r1.used_active_set && !r1.used_dual_qp;
+    dual_used += r2.used_dual_qp;
+  }
+  EXPECT_GT(primal_used, 5);  // both paths really ran
+  EXPECT_GT(dual_used, 5);
 }
 
 // The guard is live in this build (Release with assertions kept on): an allocation aborts.
