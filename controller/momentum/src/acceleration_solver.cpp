@@ -37,6 +37,8 @@ void AccelerationSolver::resize(int nv, int max_eq) {
   active_.assign(static_cast<std::size_t>(n), 0);
   side_.assign(static_cast<std::size_t>(n), 0);
   cols_.assign(static_cast<std::size_t>(nv), 0);
+  row0_.assign(static_cast<std::size_t>(nv), 0);
+  rows_.assign(static_cast<std::size_t>(nv), 0);
   ncols_ = 0;
   y_.setZero(nv);
   x_corr_.setZero(nv);
@@ -83,13 +85,15 @@ void AccelerationSolver::woodbury_kkt_solve(const Eigen::Ref<const Eigen::Matrix
   apply_g_inverse(g_rhs, u_);
   lambda = d_rhs;
   for (int k = 0; k < ncols_; ++k)
-    lambda += C.col(cols_[k]) * u_[cols_[k]];
+    lambda.segment(row0_[k], rows_[k]) +=
+        C.col(cols_[k]).segment(row0_[k], rows_[k]) * u_[cols_[k]];
   const auto L = S_.topLeftCorner(m, m).triangularView<Eigen::Lower>();
   L.solveInPlace(lambda);
   L.transpose().solveInPlace(lambda);
   y_ = -g_rhs;
   for (int k = 0; k < ncols_; ++k)
-    y_[cols_[k]] += C.col(cols_[k]).dot(lambda);
+    y_[cols_[k]] +=
+        C.col(cols_[k]).segment(row0_[k], rows_[k]).dot(lambda.segment(row0_[k], rows_[k]));
   apply_g_inverse(y_, x);
 }
 
@@ -110,9 +114,22 @@ bool AccelerationSolver::solve_equality_woodbury(const Eigen::Ref<const Eigen::M
   llt_k_.compute(K);
   if (llt_k_.info() != Eigen::Success) return false;
   Kinv_ = llt_k_.solve(Matrix6::Identity());
+  // Columns of C that are not zero, and the rows [row0, row0 + rows) between their first and
+  // last non-zero (a leg joint's column has only its foot's 6 rows).
   ncols_ = 0;
-  for (int j = 0; j < nv_; ++j)
-    if (m > 0 && !C.col(j).isZero(0.0)) cols_[ncols_++] = j;
+  for (int j = 0; j < nv_ && m > 0; ++j) {
+    int first = -1, last = -1;
+    for (int r = 0; r < m; ++r)
+      if (C(r, j) != 0.0) {
+        if (first < 0) first = r;
+        last = r;
+      }
+    if (first < 0) continue;
+    cols_[ncols_] = j;
+    row0_[ncols_] = first;
+    rows_[ncols_] = last - first + 1;
+    ++ncols_;
+  }
   auto lambda = lambda_.head(m);
   if (m > 0) {
     // S = C W^-1 C^T - F^T K^-1 F with F = P C^T; built as Ft = F^T (m x 6) and the lower triangle
@@ -123,11 +140,12 @@ bool AccelerationSolver::solve_equality_woodbury(const Eigen::Ref<const Eigen::M
     S.setZero();
     for (int k = 0; k < ncols_; ++k) {
       const int j = cols_[k];
-      const auto c = C.col(j);
+      const Eigen::Index r0 = row0_[k], len = rows_[k];
+      const auto c = C.col(j).segment(r0, len);
       for (Eigen::Index r = 0; r < 6; ++r)
-        Ft.col(r) += c * P_(r, j);
-      for (Eigen::Index col = 0; col < m; ++col)
-        S.col(col).tail(m - col) += (winv_[j] * c[col]) * c.tail(m - col);
+        Ft.col(r).segment(r0, len) += c * P_(r, j);
+      for (Eigen::Index i = 0; i < len; ++i)
+        S.col(r0 + i).segment(r0 + i, len - i) += (winv_[j] * c[i]) * c.tail(len - i);
     }
     auto FtKinv = FtKinv_.topRows(m);
     FtKinv.noalias() = Ft.lazyProduct(Kinv_);
@@ -152,8 +170,8 @@ bool AccelerationSolver::solve_equality_woodbury(const Eigen::Ref<const Eigen::M
     rd = d;
     for (int k = 0; k < ncols_; ++k) {
       const int j = cols_[k];
-      rg_[j] -= C.col(j).dot(lambda);
-      rd -= C.col(j) * x[j];
+      rg_[j] -= C.col(j).segment(row0_[k], rows_[k]).dot(lambda.segment(row0_[k], rows_[k]));
+      rd.segment(row0_[k], rows_[k]) -= C.col(j).segment(row0_[k], rows_[k]) * x[j];
     }
   }
   woodbury_kkt_solve(C, rg_, rd, x_corr_, lambda_corr);
@@ -318,7 +336,8 @@ AccelerationSolver::Result AccelerationSolver::solve(
     }
   }
   r.used_active_set = true;
-  if (solved && woodbury && primal_active_set_ && solve_bounds_woodbury(A, w_b, w, C, d, lo, hi, x, r)) {
+  if (solved && woodbury && primal_active_set_ &&
+      solve_bounds_woodbury(A, w_b, w, C, d, lo, hi, x, r)) {
     r.status = contact::SolverStatus::kOptimal;
     return r;
   }

@@ -127,6 +127,7 @@ class AccelerationSolver {
   Matrix6 Kinv_ = Matrix6::Zero();
   Eigen::Matrix<double, Eigen::Dynamic, 6> Ft_, FtKinv_;
   std::vector<int> cols_;
+  std::vector<int> row0_, rows_;  // per entry of cols_: its rows [row0, row0 + rows) of C
   int ncols_ = 0;
   Eigen::VectorXd y_, x_corr_, rg_, rd_, lambda_corr_;
   Eigen::MatrixXd L_;  // Cholesky factor of G (in place)
