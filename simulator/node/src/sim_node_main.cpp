@@ -167,19 +167,39 @@ class SimNode {
 
   /// Sensors first (they start the loop), then the ground truth, while the others compute.
   void publish_tick() noexcept {
+    const std::int64_t sensors_ns = publish_sensors();
+    publish_truth(sensors_ns);
+  }
+
+  /// Sensors of the current tick; returns the time it took [ns].
+  std::int64_t publish_sensors() noexcept {
     const std::int64_t t0 = node::now_ns();
     sim_node::to_msg(sensors_, feet_, sensors_msg_);
     node_.publish(sensors_pub_, sensors_msg_);
-    publish_ns_[static_cast<std::size_t>(sensors_.tick) % publish_ns_.size()] = node::now_ns();
-    if (truth_pub_.matched() > 0) {  // nobody to send it to: saves its conversion and write
+    const std::int64_t t1 = node::now_ns();
+    publish_ns_[static_cast<std::size_t>(sensors_.tick) % publish_ns_.size()] = t1;
+    return t1 - t0;
+  }
+
+  /// Ground truth of the current tick (needs observe() done for it), while a reader is matched:
+  /// with nobody to send it to, its conversion and write are saved. `sensors_ns`: the time the
+  /// sensors of the tick took to publish (figures).
+  void publish_truth(std::int64_t sensors_ns) noexcept {
+    const std::int64_t t0 = node::now_ns();
+    if (truth_pub_.matched() > 0) {
       sim_node::to_msg(truth_, feet_, slip_, urdf_link_of_body_, figures_.total_other_contacts,
                        truth_msg_);
       node_.publish(truth_pub_, truth_msg_);
     }
-    figures_.publish.add(static_cast<double>(node::now_ns() - t0) * 1e-3);
+    figures_.publish.add(static_cast<double>(sensors_ns + node::now_ns() - t0) * 1e-3);
   }
 
   void step_and_observe(const sim::JointCommand& command) noexcept {
+    step(command);
+    observe();
+  }
+
+  void step(const sim::JointCommand& command) noexcept {
     const std::int64_t t0 = node::now_ns();
     if (sim_.step(command, sensors_, truth_) != sim::StepStatus::kOk) {
       ++figures_.rejected_commands;
@@ -187,6 +207,11 @@ class SimNode {
                   static_cast<long long>(sensors_.tick));
     }
     node_.tick_done(static_cast<std::uint64_t>(sensors_.tick), node::now_ns() - t0);
+  }
+
+  /// Everything after a step that the loop does not wait for: the monitor, foot slip, pushes,
+  /// progress.
+  void observe() noexcept {
     if (truth_.num_non_foot_contacts > 0) ++figures_.total_other_contacts;
     monitor_.update(truth_);
     slip_.update(truth_);
@@ -298,12 +323,19 @@ class SimNode {
         return;
       }
     }
-    step_and_observe(*apply);
+    step(*apply);
     if (++ls.i >= ls.steps || !node_.running()) {
+      observe();
       end_lockstep();
       return;
     }
-    start_tick();
+    // Sensors k+1 first: the others compute while this thread observes the step.
+    ls.k = static_cast<std::uint64_t>(sensors_.tick);
+    const std::int64_t sensors_ns = publish_sensors();
+    ls.t_pub = node::now_ns();
+    ls.active = true;
+    observe();
+    publish_truth(sensors_ns);
   }
 
   bool run_lockstep(std::int64_t steps) {
