@@ -1,5 +1,6 @@
 // The DDS nodes as separate processes: --help, the contact node's round trip on both vendors
-// (valid, NaN and inconsistent problems), the estimator node's states, the lockstep closed loop
+// (valid, NaN and inconsistent problems), the estimator node's states, the controller node's
+// handling of states, solutions, repeats and the contact deadline, the lockstep closed loop
 // through `poise run`'s distributed launcher (Cyclone, mixed vendors, the paper's forward push)
 // and the real-time watchdog when the controller process dies and comes back.
 #include <gtest/gtest.h>
@@ -15,6 +16,7 @@
 
 #include <poise/msg/contact_problem.h>
 #include <poise/msg/contact_solution.h>
+#include <poise/msg/joint_command.h>
 #include <poise/msg/robot_description.h>
 #include <poise/msg/sensors.h>
 #include <poise/msg/state.h>
@@ -252,6 +254,170 @@ TEST(Nodes, EstimatorNodeAnswersEverySensorSampleWithItsState) {
     }
   }
   EXPECT_EQ(node.interrupt(5000ms).value_or(-1), 0) << node.output();
+}
+
+// ---------------------------------------------------------------------------------------------
+// Controller node, with this test in the roles of the estimator and the contact optimiser: a
+// state that arrives while the node still waits for the optimiser is kept and handled at the
+// start; state k -> contact problem k -> solution k -> command k; a repeated state gets the same
+// command again; a repeat while its tick waits for the solution is ignored; no solution -> the
+// fallback command at the deadline (counted), and a late solution is not used.
+msg::State standing_state(std::uint64_t k, int n, const std::vector<double>& q, double weight) {
+  msg::State s;
+  s.header().tick(k);
+  s.header().stamp_ns(static_cast<long long>(k) * 1'000'000);
+  s.base_W().position({0.0, 0.0, 0.85});
+  s.base_W().orientation_wxyz({1.0, 0.0, 0.0, 0.0});
+  s.joint_count(static_cast<std::uint32_t>(n));
+  for (int i = 0; i < n; ++i)
+    s.q()[i] = q[i];
+  s.com_W({0.0, 0.0, 0.8});
+  for (int f = 0; f < 2; ++f) {
+    msg::FootState& foot = s.feet()[f];
+    foot.in_contact(true);
+    foot.pose_W().position({0.0, f == 0 ? -0.1 : 0.1, 0.08});
+    foot.pose_W().orientation_wxyz({1.0, 0.0, 0.0, 0.0});
+    foot.cop_W({0.0, f == 0 ? -0.1 : 0.1, 0.0});
+    foot.normal_force(weight / 2);
+  }
+  return s;
+}
+
+/// Each foot carries half the weight (what the optimiser answers for a robot standing still).
+msg::ContactSolution half_weight_solution(const msg::ContactProblem& p) {
+  msg::ContactSolution s;
+  s.header(p.header());
+  s.status(msg::CONTACT_OK);
+  const double weight = -p.mass() * p.gravity_W()[2];
+  s.l_dot_admissible_W({0.0, 0.0, 0.0});
+  for (int f = 0; f < 2; ++f) {
+    s.feet()[f].wrench_at_ankle_W().force({0.0, 0.0, weight / 2});
+    s.feet()[f].cop_W(p.feet()[f].pose_W().position());
+  }
+  return s;
+}
+
+template <class T>
+std::vector<T> take_all(dds::Subscriber<T>& sub) {
+  std::vector<T> out;
+  T s;
+  while (sub.take(s))
+    out.push_back(s);
+  return out;
+}
+
+TEST(Nodes, ControllerNodeAnswersEachStateOnceAndFallsBackAtTheDeadline) {
+  const auto robot =
+      poise::model::load_robot_config(kSource + "/deploy/robots/poise_humanoid/robot.yaml");
+  const auto model = poise::model::load_robot_model(robot);
+  std::vector<std::string> wire(model.joint_names.rbegin(), model.joint_names.rend());  // permuted
+  const int n = static_cast<int>(wire.size());
+  const double weight = model.total_mass * 9.81;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-0.05, 0.05);
+  std::vector<double> q(n);
+  for (auto& v : q)
+    v = u(rng);
+
+  const fs::path summary =
+      fs::temp_directory_path() / ("poise-controller-test-" + std::to_string(::getpid()) + ".json");
+  fs::remove(summary);
+  dds::Participant participant(options("cyclone"));
+  dds::Publisher<msg::RobotDescription> description(participant);
+  msg::RobotDescription d;
+  d.robot_name("poise_humanoid");
+  d.joint_names(wire);
+  d.control_period_s(0.001);
+  ASSERT_TRUE(description.publish(d));
+  constexpr int kDeadlineMs = 1000;
+  ChildProcess node(node_args("poise-controller", "cyclone",
+                              {"--contact-deadline-us", std::to_string(kDeadlineMs * 1000),
+                               "--contact-wait-ms", "20000", "--summary", summary.string()}),
+                    {}, false, true);
+  dds::Publisher<msg::State> states(participant);
+  dds::Subscriber<msg::ContactProblem> problems(participant, dds::Qos::reliable(100));
+  dds::Subscriber<msg::JointCommand> commands(participant, dds::Qos::reliable(100));
+  ASSERT_TRUE(states.wait_for_matches(1, 20s)) << node.output();
+  ASSERT_TRUE(problems.wait_for_matches(1, 20s)) << node.output();
+  ASSERT_TRUE(commands.wait_for_matches(1, 20s)) << node.output();
+  std::this_thread::sleep_for(300ms);  // the node's side of the matches
+
+  // State 0 while the node waits for the optimiser's solution endpoint: kept, handled at start.
+  ASSERT_TRUE(states.publish(standing_state(0, n, q, weight)));
+  std::this_thread::sleep_for(300ms);
+  EXPECT_TRUE(take_all(problems).empty()) << "problem sent before the optimiser was there";
+  dds::Publisher<msg::ContactSolution> solutions(participant);
+  auto next_problem = [&](std::uint64_t k, msg::ContactProblem& p) {
+    return dds::test::eventually(
+        [&] {
+          while (problems.take(p))
+            if (p.header().tick() == k) return true;
+          return false;
+        },
+        10000ms);
+  };
+  auto next_command = [&](std::uint64_t k, msg::JointCommand& c) {
+    return dds::test::eventually(
+        [&] {
+          while (commands.take(c))
+            if (c.header().tick() == k) return true;
+          return false;
+        },
+        10000ms);
+  };
+  msg::ContactProblem p;
+  ASSERT_TRUE(next_problem(0, p)) << node.output();
+  EXPECT_TRUE(poise::reflect::validate(p));
+  EXPECT_NEAR(p.mass(), model.total_mass, 1e-9);
+  ASSERT_TRUE(solutions.wait_for_matches(1, 10s));
+  ASSERT_TRUE(solutions.publish(half_weight_solution(p)));
+  msg::JointCommand c0;
+  ASSERT_TRUE(next_command(0, c0)) << node.output();
+  EXPECT_EQ(c0.mode(), msg::COMMAND_TORQUE);
+  EXPECT_EQ(c0.joint_count(), static_cast<std::uint32_t>(n));
+  EXPECT_TRUE(poise::reflect::validate(c0));
+  EXPECT_EQ(c0.header().stamp_ns(), 0);
+
+  // A repeated state: the same command again, and no new problem.
+  ASSERT_TRUE(states.publish(standing_state(0, n, q, weight)));
+  msg::JointCommand again;
+  ASSERT_TRUE(next_command(0, again)) << node.output();
+  for (int i = 0; i < n; ++i)
+    EXPECT_EQ(again.tau_ff()[i], c0.tau_ff()[i]) << wire[i];
+  EXPECT_TRUE(take_all(problems).empty());
+
+  // State 1 unanswered: the fallback command, not before the deadline; a late solution is not
+  // used (no second command of tick 1).
+  const auto t1 = std::chrono::steady_clock::now();
+  ASSERT_TRUE(states.publish(standing_state(1, n, q, weight)));
+  ASSERT_TRUE(next_problem(1, p)) << node.output();
+  msg::JointCommand c1;
+  ASSERT_TRUE(next_command(1, c1)) << node.output();
+  EXPECT_GE(std::chrono::steady_clock::now() - t1, std::chrono::milliseconds(kDeadlineMs));
+  EXPECT_TRUE(poise::reflect::validate(c1));
+  ASSERT_TRUE(solutions.publish(half_weight_solution(p)));
+
+  // State 2 twice before its solution: one problem, one command.
+  ASSERT_TRUE(states.publish(standing_state(2, n, q, weight)));
+  ASSERT_TRUE(next_problem(2, p)) << node.output();
+  ASSERT_TRUE(states.publish(standing_state(2, n, q, weight)));
+  std::this_thread::sleep_for(100ms);
+  ASSERT_TRUE(solutions.publish(half_weight_solution(p)));
+  msg::JointCommand c2;
+  ASSERT_TRUE(next_command(2, c2)) << node.output();
+  std::this_thread::sleep_for(200ms);
+  for (const auto& c : take_all(commands))
+    EXPECT_NE(c.header().tick(), 1u) << "a second command of tick 1 (late solution used)";
+  for (const auto& x : take_all(problems))
+    EXPECT_NE(x.header().tick(), 2u) << "a second problem of tick 2";
+
+  EXPECT_EQ(node.interrupt(5000ms).value_or(-1), 0) << node.output();
+  std::ifstream in(summary);
+  ASSERT_TRUE(in) << node.output();
+  const auto j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["diagnostics"]["deadline_misses"].get<int>(), 1) << j.dump(2);  // tick 1 only
+  EXPECT_EQ(j["diagnostics"]["ticks"].get<int>(), 3) << j.dump(2);
+  fs::remove(summary);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -5,9 +5,13 @@
 //     phase B -> simulator, with the SAME IDL conversions as the nodes but no DDS (the baseline);
 //  2. the distributed lockstep loop: `poise-launch SCENARIO` (four processes, Cyclone DDS on
 //     loopback) and its sensor -> command tick latency (p50/p99/max);
-// and prints the realtime factors (simulated time / wall time) and the DDS overhead per tick.
+// and prints the realtime factors (simulated time / wall time) and the DDS overhead per tick, and
+// the CPU time and context switches per tick of all the processes of the distributed run (less
+// sensitive to other load on the machine than the wall time).
+#include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -172,7 +176,12 @@ int main(int argc, char** argv) {
                             " --output " + (dir / "r.json").string() + " --log-dir " +
                             (dir / "logs").string();
     std::fflush(stdout);
+    // CPU time and context switches of every process of the run (the launcher waits for its
+    // children, so they count): less sensitive to other load on the machine than the wall time.
+    rusage before{}, after{};
+    getrusage(RUSAGE_CHILDREN, &before);
     const int code = std::system(cmd.c_str());
+    getrusage(RUSAGE_CHILDREN, &after);
     std::ifstream f(dir / "r.json");
     if (!f) {
       std::fprintf(stderr, "distributed run failed (exit %d): see %s\n", code, dir.c_str());
@@ -196,6 +205,17 @@ int main(int argc, char** argv) {
         std::printf("  %-10s compute per tick: p50 %.0f us, p99 %.0f us, max %.0f us\n", n,
                     c.value("p50", 0.0), c.value("p99", 0.0), c.value("max", 0.0));
     }
+    const double ticks = std::max(1.0, lat.value("count", 0.0));
+    auto seconds = [](const timeval& t) {
+      return static_cast<double>(t.tv_sec) + t.tv_usec * 1e-6;
+    };
+    const double cpu_s = seconds(after.ru_utime) - seconds(before.ru_utime) +
+                         seconds(after.ru_stime) - seconds(before.ru_stime);
+    std::printf(
+        "distributed CPU (5 processes, start-up and exit included): %.0f us per tick; context "
+        "switches per tick: %.1f voluntary, %.1f involuntary\n",
+        cpu_s * 1e6 / ticks, static_cast<double>(after.ru_nvcsw - before.ru_nvcsw) / ticks,
+        static_cast<double>(after.ru_nivcsw - before.ru_nivcsw) / ticks);
     std::printf("DDS + process overhead: %.1f us per tick; distributed / in-process speed: %.2f\n",
                 (rtf > 0 ? 1e3 / rtf : 0.0) - in.us_per_tick,
                 in.realtime_factor > 0 ? rtf / in.realtime_factor : 0.0);

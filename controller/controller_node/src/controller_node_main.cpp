@@ -15,7 +15,13 @@
 //               contact solution k until --contact-deadline-us after the problem was sent ->
 //               phase B (eq 33, inverse dynamics, PD references), or the library's fallback on a
 //               miss (counted as a deadline miss) -> joint command k
-//   repeats     a state with the tick just handled is answered with the same command again
+//   repeats     a state with the tick just handled is answered with the same command again; one
+//               with the tick still waiting for its contact solution is ignored (the command
+//               follows); states that arrive before the start-up is complete are kept (the newest)
+//   threading   phase A runs in the state callback, phase B in the contact-solution callback, on
+//               the DDS listener threads as the samples arrive (no loop-thread wake-up per
+//               sample), under one mutex; the main thread publishes the diagnostics and applies
+//               the fallback when the solution is not there by the deadline
 //   references  applied by header tick: state k takes every reference with 0 < tick <= k (or
 //               tick 0 = at once) and applies the one with the largest tick; a reference sent
 //               ahead of its tick (`poise reference play` sends them --lead-ticks ahead) is
@@ -27,8 +33,13 @@
 // ------------------------------------------------------------------------------------------------
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
+#include <condition_variable>
 #include <cstdio>
 #include <exception>
+#include <functional>
+#include <memory>
+#include <mutex>
 
 #include <poise/msg/contact_problem.h>
 #include <poise/msg/contact_solution.h>
@@ -38,7 +49,6 @@
 #include "poise/controller_node/controller_messages.hpp"
 #include "poise/controller_node/reference_queue.hpp"
 #include "poise/model/robot_config.hpp"
-#include "poise/node/mailbox.hpp"
 #include "poise/node/node.hpp"
 #include "poise/node/robot_description.hpp"
 
@@ -89,32 +99,17 @@ int run(int argc, char** argv) {
   contact::ContactProblem problem;
   contact::ContactSolution solution;
 
-  node::Mailbox<msg::State> state_box;
-  node::Mailbox<msg::ContactSolution> solution_box;
   controller_node::ReferenceQueue reference_queue(kReferenceQueue);
-  dds::Subscriber<msg::State> states(node.participant(), state_box.callback());
-  dds::Subscriber<msg::ContactSolution> solutions(node.participant(), solution_box.callback());
   dds::Subscriber<msg::BalanceReference> references(
       node.participant(), reference_queue.callback(),
       dds::Qos::latched(static_cast<int>(kReferenceQueue)));
-  node.watch(states);
-  node.watch(solutions);
   node.watch(references);
   dds::Publisher<msg::ContactProblem> problems(node.participant());
   dds::Publisher<msg::JointCommand> commands(node.participant());
-  if (!problems.wait_for_matches(1, std::chrono::milliseconds(contact_wait_ms)) ||
-      !solutions.wait_for_matches(1, std::chrono::milliseconds(contact_wait_ms)))
-    dds::log(dds::LogLevel::warn,
-             "no contact optimiser matched after %d ms: starting anyway "
-             "(fallback wrenches until one answers)",
-             contact_wait_ms);
 
-  msg::State in;
   msg::BalanceReference ref_in;
   msg::ContactProblem problem_out;
-  msg::ContactSolution solution_in;
   msg::JointCommand out;
-  std::uint64_t state_seen = 0, solution_seen = 0;
   bool have_last = false;
   std::uint64_t last_tick = 0;
   // Posture-target velocity of a reference trajectory played per tick (see the contract above).
@@ -126,13 +121,41 @@ int run(int argc, char** argv) {
   bool applied_has_q = false;
   std::uint64_t applied_tick = 0, references_applied = 0;
   const auto deadline_ns = static_cast<std::int64_t>(deadline_us * 1e3);
-  while (node.running()) {
-    const std::int64_t next_diag = node.poll();
-    if (!state_box.wait(state_seen, next_diag) || !state_box.take(in, state_seen)) continue;
+
+  // Threading: phase A runs in the state callback and phase B in the contact-solution callback,
+  // on the DDS listener threads as the samples arrive (no wake-up of a loop thread per sample);
+  // the main thread publishes the diagnostics and applies the fallback when the solution of the
+  // pending tick is not there by its deadline. Everything below is guarded by `mutex`.
+  std::mutex mutex;
+  std::condition_variable wake;    // a pending deadline earlier than the main thread's wake-up
+  std::int64_t main_wakes_at = 0;  // when the waiting main thread wakes up by itself
+  struct Pending {
+    bool active = false;  ///< problem k sent, command k not yet
+    std::uint64_t k = 0;
+    std::int64_t t0 = 0, t_sent = 0, deadline = 0;
+    msg::Header header;
+  } pending;
+  bool started = false;  // setup complete: states are handled
+  // A state that cannot be handled yet (before the start, or while another tick is pending in
+  // real time): the newest is kept and handled as soon as possible.
+  auto held_state = std::make_unique<msg::State>();
+  bool have_held = false;
+
+  // Phase B (or the fallback, `answer` null) of the pending tick, then command k. Under `mutex`.
+  std::function<void(const msg::ContactSolution*)> complete;
+  // State k: references due, phase A, contact problem k out. Under `mutex`.
+  auto handle_state = [&](const msg::State& in) noexcept {
     const std::uint64_t k = in.header().tick();
+    if (pending.active) {
+      if (k > pending.k) {  // a newer tick: handled after the pending one
+        *held_state = in;
+        have_held = true;
+      }
+      return;  // a repeat of the pending tick (the answer follows) or an older one
+    }
     if (have_last && k == last_tick) {  // repeated state: same answer
       node.publish(commands, out);
-      continue;
+      return;
     }
     const std::int64_t t0 = node::now_ns();
     const auto due = reference_queue.take_due(k, have_last, last_tick, ref_in,
@@ -165,28 +188,88 @@ int run(int argc, char** argv) {
     ctrl.prepare(state, reference, problem);
     contact_node::to_msg(problem, problem_out);
     problem_out.header(in.header());
+    pending.active = true;
+    pending.k = k;
+    pending.t0 = t0;
+    pending.header = in.header();
     const bool sent = node.publish(problems, problem_out);
-    const std::int64_t t_sent = node::now_ns();
-
-    bool answered = false;
-    while (sent && !answered && solution_box.wait(solution_seen, t_sent + deadline_ns))
-      answered = solution_box.take(solution_in, solution_seen) && solution_in.header().tick() == k;
+    pending.t_sent = node::now_ns();
+    pending.deadline = pending.t_sent + deadline_ns;
+    if (!sent)
+      complete(nullptr);                        // nobody will answer: the fallback at once
+    else if (pending.deadline < main_wakes_at)  // lockstep (1 s deadline): no wake-up per tick
+      wake.notify_one();
+  };
+  complete = [&](const msg::ContactSolution* answer) noexcept {
     const std::int64_t t_back = node::now_ns();
-    if (answered) {
-      contact_node::from_msg(solution_in, solution);
+    if (answer) {
+      contact_node::from_msg(*answer, solution);
       ctrl.finish(solution, command);
     } else {
       node.deadline_miss();
       node.error("tick %llu: no contact solution within %.0f us: fallback wrenches",
-                 static_cast<unsigned long long>(k), deadline_us);
+                 static_cast<unsigned long long>(pending.k), deadline_us);
       ctrl.finish_fallback(command);
     }
-    controller_node::to_msg(command, in.header(), model_to_wire, out);
+    controller_node::to_msg(command, pending.header, model_to_wire, out);
     node.publish(commands, out);
+    pending.active = false;
     have_last = true;
-    last_tick = k;
-    node.tick_done(k, (t_sent - t0) + (node::now_ns() - t_back));  // own compute, not the wait
+    last_tick = pending.k;
+    // Own compute, not the wait for the contact optimiser.
+    node.tick_done(pending.k, (pending.t_sent - pending.t0) + (node::now_ns() - t_back));
+    if (have_held) {
+      have_held = false;
+      handle_state(*held_state);
+    }
+  };
+
+  dds::Subscriber<msg::State> states(node.participant(), [&](const msg::State& in) {
+    std::lock_guard lock(mutex);
+    if (started) {
+      handle_state(in);
+    } else {  // kept until the setup is complete
+      *held_state = in;
+      have_held = true;
+    }
+  });
+  dds::Subscriber<msg::ContactSolution> solutions(
+      node.participant(), [&](const msg::ContactSolution& in) {
+        std::lock_guard lock(mutex);
+        // A solution of another tick (late, or of a tick already answered) is not used.
+        if (pending.active && in.header().tick() == pending.k) complete(&in);
+      });
+  node.watch(states);
+  node.watch(solutions);
+  if (!problems.wait_for_matches(1, std::chrono::milliseconds(contact_wait_ms)) ||
+      !solutions.wait_for_matches(1, std::chrono::milliseconds(contact_wait_ms)))
+    dds::log(dds::LogLevel::warn,
+             "no contact optimiser matched after %d ms: starting anyway "
+             "(fallback wrenches until one answers)",
+             contact_wait_ms);
+
+  {
+    std::unique_lock lock(mutex);
+    started = true;
+    if (have_held) {
+      have_held = false;
+      handle_state(*held_state);
+    }
+    while (node.running()) {
+      const std::int64_t next_diag = node.poll();
+      const std::int64_t now = node::now_ns();
+      if (pending.active && now >= pending.deadline) {
+        complete(nullptr);
+        continue;
+      }
+      // A shutdown signal may go to another thread: wake at least every 50 ms to notice it.
+      std::int64_t until = std::min(next_diag, now + 50'000'000);
+      if (pending.active) until = std::min(until, pending.deadline);
+      main_wakes_at = until;
+      wake.wait_until(lock, std::chrono::steady_clock::time_point(std::chrono::nanoseconds(until)));
+    }
   }
+  std::lock_guard lock(mutex);
   const auto& d = ctrl.diagnostics();
   char extra[512];
   std::snprintf(extra, sizeof(extra),

@@ -5,14 +5,18 @@
 //   publishes   poise/robot_description  RobotDescription  once at start (reliable,
 //                                                          transient-local: late joiners get it)
 //               poise/sensors            Sensors           every tick k (reliable, keep-last 1)
-//               poise/ground_truth       GroundTruth       every tick k (reliable, keep-last 1)
+//               poise/ground_truth       GroundTruth       every tick k while a reader is
+//                                                          matched (reliable, keep-last 1)
 //               poise/diagnostics        Diagnostics       ~10 Hz best-effort (compute = step)
 //   subscribes  poise/joint_command      JointCommand      reliable, keep-last 1
 //               poise/disturbance        Disturbance       reliable, keep-last 16: pushes applied
 //                                                          live (start < 0: at once)
 //   --lockstep  (default) publish sensors k, wait for the command with header.tick == k (at most
 //               --command-timeout-ms; on a timeout: logged, counted, damping for that step), then
-//               step. Tick 0 is repeated every 100 ms until the loop answers (start-up).
+//               step. Tick 0 is repeated every 100 ms until the loop answers (start-up). The
+//               step and the next sensors are done in the command callback on the DDS listener
+//               thread (no wake-up of the main thread per tick); the main thread publishes the
+//               diagnostics and handles the start-up repeats and the timeouts.
 //   --realtime  1 kHz on the wall clock with the newest command; the watchdog switches to damping
 //               when no fresh command came for --watchdog-ms (default 5) and resumes when they
 //               come back (both transitions logged).
@@ -25,9 +29,12 @@
 // ------------------------------------------------------------------------------------------------
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <condition_variable>
 #include <cstdio>
 #include <exception>
+#include <mutex>
 #include <nlohmann/json.hpp>
 
 #include "poise/node/mailbox.hpp"
@@ -79,12 +86,12 @@ class SimNode {
         truth_(sim_.make_ground_truth()),
         command_(sim_.make_command()),
         damping_(sim_.make_command()),
-        commands_in_(node.participant(), command_box_.callback()),
         disturbances_(node.participant()),
         description_pub_(node.participant()),
         sensors_pub_(node.participant()),
         truth_pub_(node.participant()),
-        publish_ns_(1024, 0) {
+        publish_ns_(1024, 0),
+        commands_in_(node.participant(), [this](const msg::JointCommand& c) { on_command(c); }) {
     node.watch(commands_in_);
     node.watch(disturbances_);
     sim::make_damping_command(sim_.damping_kd(), damping_);
@@ -160,17 +167,39 @@ class SimNode {
 
   /// Sensors first (they start the loop), then the ground truth, while the others compute.
   void publish_tick() noexcept {
+    const std::int64_t sensors_ns = publish_sensors();
+    publish_truth(sensors_ns);
+  }
+
+  /// Sensors of the current tick; returns the time it took [ns].
+  std::int64_t publish_sensors() noexcept {
     const std::int64_t t0 = node::now_ns();
     sim_node::to_msg(sensors_, feet_, sensors_msg_);
     node_.publish(sensors_pub_, sensors_msg_);
-    publish_ns_[static_cast<std::size_t>(sensors_.tick) % publish_ns_.size()] = node::now_ns();
-    sim_node::to_msg(truth_, feet_, slip_, urdf_link_of_body_, figures_.total_other_contacts,
-                     truth_msg_);
-    node_.publish(truth_pub_, truth_msg_);
-    figures_.publish.add(static_cast<double>(node::now_ns() - t0) * 1e-3);
+    const std::int64_t t1 = node::now_ns();
+    publish_ns_[static_cast<std::size_t>(sensors_.tick) % publish_ns_.size()] = t1;
+    return t1 - t0;
+  }
+
+  /// Ground truth of the current tick (needs observe() done for it), while a reader is matched:
+  /// with nobody to send it to, its conversion and write are saved. `sensors_ns`: the time the
+  /// sensors of the tick took to publish (figures).
+  void publish_truth(std::int64_t sensors_ns) noexcept {
+    const std::int64_t t0 = node::now_ns();
+    if (truth_pub_.matched() > 0) {
+      sim_node::to_msg(truth_, feet_, slip_, urdf_link_of_body_, figures_.total_other_contacts,
+                       truth_msg_);
+      node_.publish(truth_pub_, truth_msg_);
+    }
+    figures_.publish.add(static_cast<double>(sensors_ns + node::now_ns() - t0) * 1e-3);
   }
 
   void step_and_observe(const sim::JointCommand& command) noexcept {
+    step(command);
+    observe();
+  }
+
+  void step(const sim::JointCommand& command) noexcept {
     const std::int64_t t0 = node::now_ns();
     if (sim_.step(command, sensors_, truth_) != sim::StepStatus::kOk) {
       ++figures_.rejected_commands;
@@ -178,6 +207,11 @@ class SimNode {
                   static_cast<long long>(sensors_.tick));
     }
     node_.tick_done(static_cast<std::uint64_t>(sensors_.tick), node::now_ns() - t0);
+  }
+
+  /// Everything after a step that the loop does not wait for: the monitor, foot slip, pushes,
+  /// progress.
+  void observe() noexcept {
     if (truth_.num_non_foot_contacts > 0) ++figures_.total_other_contacts;
     monitor_.update(truth_);
     slip_.update(truth_);
@@ -220,57 +254,126 @@ class SimNode {
     return true;
   }
 
-  bool run_lockstep(std::int64_t steps) {
+  // Lockstep: the command of tick k is taken, the simulator stepped and sensors k+1 published in
+  // the command callback, on the DDS listener thread as the command arrives (no wake-up of the
+  // main thread per tick). The main thread publishes the diagnostics, repeats tick 0 at start-up
+  // and handles a command timeout. Both under lockstep_mutex_.
+  struct Lockstep {
+    bool active = false;  ///< waiting for command k
+    bool done = false;
+    std::int64_t i = 0, steps = 0;
+    std::uint64_t k = 0;
+    std::int64_t t_pub = 0, wall0 = 0;
     int consecutive = 0;
-    std::int64_t wall0 = 0;
-    for (std::int64_t i = 0; i < steps && node_.running(); ++i) {
-      const auto k = static_cast<std::uint64_t>(sensors_.tick);
-      publish_tick();
-      const std::int64_t t_pub = node::now_ns();
-      const std::int64_t timeout_ns =
-          std::int64_t{i == 0 ? settings_.startup_timeout_ms : settings_.command_timeout_ms} *
-          1'000'000;
-      bool got = false;
-      std::int64_t arrival = 0;
-      std::int64_t next_repeat = t_pub + 100'000'000;
-      while (!got && node_.running()) {
-        const std::int64_t now = node::now_ns();
-        if (now >= t_pub + timeout_ns) break;
-        const std::int64_t until =
-            std::min({t_pub + timeout_ns, node_.poll(), i == 0 ? next_repeat : t_pub + timeout_ns});
-        if (command_box_.wait(command_seen_, until)) {
-          got = take_command(&arrival) && command_.tick == static_cast<std::int64_t>(k);
-        } else if (i == 0 && node::now_ns() >= next_repeat) {
-          publish_tick();  // start-up: the loop may not be connected yet
-          next_repeat += 100'000'000;
-        }
+  };
+
+  void on_command(const msg::JointCommand& c) noexcept {
+    command_box_.put(c);
+    if (settings_.realtime) return;  // the loop thread takes the newest at its tick
+    std::lock_guard lock(lockstep_mutex_);
+    take_lockstep_commands();
+  }
+
+  /// Lockstep, under lockstep_mutex_: takes the commands that came and finishes tick k with the
+  /// one for it.
+  void take_lockstep_commands() noexcept {
+    std::int64_t arrival = 0;
+    while (lockstep_.active && take_command(&arrival))
+      if (command_.tick == static_cast<std::int64_t>(lockstep_.k)) finish_tick(true, arrival);
+  }
+
+  /// Publishes sensors k (the current tick) and waits for its command.
+  void start_tick() noexcept {
+    lockstep_.k = static_cast<std::uint64_t>(sensors_.tick);
+    publish_tick();
+    lockstep_.t_pub = node::now_ns();
+    lockstep_.active = true;
+  }
+
+  void end_lockstep() noexcept {
+    lockstep_.active = false;
+    lockstep_.done = true;
+    lockstep_wake_.notify_one();
+  }
+
+  /// Tick k with its command (`got`, received at `arrival`) or after a timeout (damping), then
+  /// the next tick. Under lockstep_mutex_.
+  void finish_tick(bool got, std::int64_t arrival) noexcept {
+    Lockstep& ls = lockstep_;
+    ls.active = false;
+    if (ls.i == 0) ls.wall0 = node::now_ns();
+    const sim::JointCommand* apply = &command_;
+    if (got) {
+      ls.consecutive = 0;
+      const std::int64_t published = publish_ns_[ls.k % publish_ns_.size()];
+      figures_.latency.add(static_cast<double>(arrival - published) * 1e-3);
+      figures_.loop_wait.add(static_cast<double>(node::now_ns() - published) * 1e-3);
+    } else {
+      ++figures_.command_timeouts;
+      ++figures_.damping_ticks;
+      node_.deadline_miss();
+      node_.error("tick %llu: no joint command within %d ms: damping",
+                  static_cast<unsigned long long>(ls.k),
+                  ls.i == 0 ? settings_.startup_timeout_ms : settings_.command_timeout_ms);
+      apply = &damping_;
+      if (++ls.consecutive >= settings_.max_consecutive_timeouts) {
+        node_.error("%d ticks in a row without a command: giving up", ls.consecutive);
+        figures_.aborted = true;
+        end_lockstep();
+        return;
       }
-      if (i == 0) wall0 = node::now_ns();
-      const sim::JointCommand* apply = &command_;
-      if (got) {
-        consecutive = 0;
-        const std::int64_t published = publish_ns_[k % publish_ns_.size()];
-        figures_.latency.add(static_cast<double>(arrival - published) * 1e-3);
-        figures_.loop_wait.add(static_cast<double>(node::now_ns() - published) * 1e-3);
-      } else {
-        if (!node_.running()) break;
-        ++figures_.command_timeouts;
-        ++figures_.damping_ticks;
-        node_.deadline_miss();
-        node_.error("tick %llu: no joint command within %d ms: damping",
-                    static_cast<unsigned long long>(k),
-                    i == 0 ? settings_.startup_timeout_ms : settings_.command_timeout_ms);
-        apply = &damping_;
-        if (++consecutive >= settings_.max_consecutive_timeouts) {
-          node_.error("%d ticks in a row without a command: giving up", consecutive);
-          figures_.aborted = true;
-          break;
-        }
-      }
-      step_and_observe(*apply);
-      node_.poll();
     }
-    figures_.wall_s = static_cast<double>(node::now_ns() - wall0) * 1e-9;
+    step(*apply);
+    if (++ls.i >= ls.steps || !node_.running()) {
+      observe();
+      end_lockstep();
+      return;
+    }
+    // Sensors k+1 first: the others compute while this thread observes the step.
+    ls.k = static_cast<std::uint64_t>(sensors_.tick);
+    const std::int64_t sensors_ns = publish_sensors();
+    ls.t_pub = node::now_ns();
+    ls.active = true;
+    observe();
+    publish_truth(sensors_ns);
+  }
+
+  bool run_lockstep(std::int64_t steps) {
+    std::unique_lock lock(lockstep_mutex_);
+    lockstep_ = Lockstep{};
+    lockstep_.steps = steps;
+    if (steps <= 0) lockstep_.done = true;
+    if (!lockstep_.done) {
+      start_tick();
+      take_lockstep_commands();  // any that came before
+    }
+    std::int64_t next_repeat = lockstep_.t_pub + 100'000'000;
+    while (!lockstep_.done) {
+      if (!node_.running()) {
+        lockstep_.active = false;
+        break;
+      }
+      const std::int64_t now = node::now_ns();
+      const std::int64_t timeout_ns =
+          std::int64_t{lockstep_.i == 0 ? settings_.startup_timeout_ms
+                                        : settings_.command_timeout_ms} *
+          1'000'000;
+      if (now >= lockstep_.t_pub + timeout_ns) {
+        finish_tick(false, 0);
+        continue;
+      }
+      if (lockstep_.i == 0 && now >= next_repeat) {
+        publish_tick();  // start-up: the loop may not be connected yet
+        next_repeat += 100'000'000;
+      }
+      std::int64_t until = std::min(lockstep_.t_pub + timeout_ns, node_.poll());
+      if (lockstep_.i == 0) until = std::min(until, next_repeat);
+      lockstep_wake_.wait_until(
+          lock, std::chrono::steady_clock::time_point(std::chrono::nanoseconds(until)));
+    }
+    node_.poll();
+    const std::int64_t end = node::now_ns();
+    figures_.wall_s = static_cast<double>(end - (lockstep_.wall0 ? lockstep_.wall0 : end)) * 1e-9;
     if (!node_.running() && figures_.ticks < static_cast<std::uint64_t>(steps))
       figures_.aborted = true;
     return !figures_.aborted;
@@ -346,7 +449,9 @@ class SimNode {
   sim::Push push_;
   node::Mailbox<msg::JointCommand> command_box_;
   std::uint64_t command_seen_ = 0;
-  dds::Subscriber<msg::JointCommand> commands_in_;
+  std::mutex lockstep_mutex_;
+  std::condition_variable lockstep_wake_;  ///< the lockstep run ended
+  Lockstep lockstep_;
   dds::Subscriber<msg::Disturbance> disturbances_;
   dds::Publisher<msg::RobotDescription> description_pub_;
   dds::Publisher<msg::Sensors> sensors_pub_;
@@ -357,6 +462,8 @@ class SimNode {
   msg::Disturbance disturbance_;
   std::vector<std::int64_t> publish_ns_;  ///< publication time of sensors k, ring by k
   Figures figures_;
+  // Last: its callback uses the members above, and it goes first.
+  dds::Subscriber<msg::JointCommand> commands_in_;
 };
 
 int run(int argc, char** argv) {
