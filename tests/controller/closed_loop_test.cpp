@@ -330,6 +330,17 @@ PlatformRun ride_platforms(sim::Scenario s, contact::Method method, const char* 
   return run;
 }
 
+/// Survived, carried along (> 1.5 m), CoM within 3 cm of its target, feet stuck to their
+/// platforms (< 5 mm), never a lost foot contact or a non-foot contact.
+void expect_rode_the_platforms(const PlatformRun& r) {
+  EXPECT_TRUE(r.survived);
+  EXPECT_GT(r.com_travel, 1.5) << "the supports carried the robot";
+  EXPECT_LT(r.com_err, 0.03);
+  EXPECT_LT(r.slip, 0.005);
+  EXPECT_EQ(r.lost, 0);
+  EXPECT_EQ(r.non_foot, 0);
+}
+
 // Paper Sec. 4.2 on level supports: both feet on platforms moving in sync (1 m at 0.12 Hz, as
 // platforms_in_phase but not inclined), controller on ground truth. The resting-foot rule makes
 // the feet's desired motion follow the supports and the CoM target ride above their mid-point
@@ -345,12 +356,7 @@ TEST(ClosedLoop, RidesLevelPlatformsMovingInSync) {
         s.sim.initial.joint_names[j] == "r_ankle_pitch")
       s.sim.initial.joint_positions[j] = -0.3;  // soles flat, as robot.yaml's nominal posture
   const PlatformRun r = ride_platforms(s, contact::Method::kSequential, "level platforms in sync");
-  EXPECT_TRUE(r.survived);
-  EXPECT_GT(r.com_travel, 1.5) << "the supports carried the robot";
-  EXPECT_LT(r.com_err, 0.03);
-  EXPECT_LT(r.slip, 0.005);
-  EXPECT_EQ(r.lost, 0);
-  EXPECT_EQ(r.non_foot, 0);
+  expect_rode_the_platforms(r);
 }
 
 // The paper's Fig. 10 top as shipped (+10 / -10 deg supports in sync, 1 m at 0.12 Hz) with the QP
@@ -360,12 +366,7 @@ TEST(ClosedLoop, RidesLevelPlatformsMovingInSync) {
 TEST(ClosedLoop, RidesInclinedPlatformsInSyncWithQpContacts) {
   const PlatformRun r = ride_platforms(scenario("platforms_in_phase"), contact::Method::kQp,
                                        "inclined platforms in sync, qp");
-  EXPECT_TRUE(r.survived);
-  EXPECT_GT(r.com_travel, 1.5) << "the supports carried the robot";
-  EXPECT_LT(r.com_err, 0.03);
-  EXPECT_LT(r.slip, 0.005);
-  EXPECT_EQ(r.lost, 0);
-  EXPECT_EQ(r.non_foot, 0);
+  expect_rode_the_platforms(r);
 }
 
 class ClosedLoopPush : public ::testing::TestWithParam<StateSource> {};

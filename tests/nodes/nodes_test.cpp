@@ -193,6 +193,15 @@ INSTANTIATE_TEST_SUITE_P(Vendors, ContactNode, ::testing::Values("cyclone", "fas
 // Estimator node: a standing robot's sensor samples in, one state per sample out, joints mapped
 // through a permuted robot description.
 
+/// The project humanoid's robot description with the joints in `wire` order, 1 kHz.
+msg::RobotDescription humanoid_description(const std::vector<std::string>& wire) {
+  msg::RobotDescription d;
+  d.robot_name("poise_humanoid");
+  d.joint_names(wire);
+  d.control_period_s(0.001);
+  return d;
+}
+
 TEST(Nodes, EstimatorNodeAnswersEverySensorSampleWithItsState) {
   const auto robot =
       poise::model::load_robot_config(kSource + "/deploy/robots/poise_humanoid/robot.yaml");
@@ -202,11 +211,7 @@ TEST(Nodes, EstimatorNodeAnswersEverySensorSampleWithItsState) {
 
   dds::Participant participant(options("cyclone"));
   dds::Publisher<msg::RobotDescription> description(participant);
-  msg::RobotDescription d;
-  d.robot_name("poise_humanoid");
-  d.joint_names(wire);
-  d.control_period_s(0.001);
-  ASSERT_TRUE(description.publish(d));
+  ASSERT_TRUE(description.publish(humanoid_description(wire)));
   ChildProcess node(node_args("poise-estimator", "cyclone"), {}, false, true);
   dds::Publisher<msg::Sensors> sensors(participant);
   dds::Subscriber<msg::State> states(participant);
@@ -324,11 +329,7 @@ TEST(Nodes, ControllerNodeAnswersEachStateOnceAndFallsBackAtTheDeadline) {
   fs::remove(summary);
   dds::Participant participant(options("cyclone"));
   dds::Publisher<msg::RobotDescription> description(participant);
-  msg::RobotDescription d;
-  d.robot_name("poise_humanoid");
-  d.joint_names(wire);
-  d.control_period_s(0.001);
-  ASSERT_TRUE(description.publish(d));
+  ASSERT_TRUE(description.publish(humanoid_description(wire)));
   constexpr int kDeadlineMs = 1000;
   ChildProcess node(node_args("poise-controller", "cyclone",
                               {"--contact-deadline-us", std::to_string(kDeadlineMs * 1000),
@@ -347,23 +348,21 @@ TEST(Nodes, ControllerNodeAnswersEachStateOnceAndFallsBackAtTheDeadline) {
   std::this_thread::sleep_for(300ms);
   EXPECT_TRUE(take_all(problems).empty()) << "problem sent before the optimiser was there";
   dds::Publisher<msg::ContactSolution> solutions(participant);
-  auto next_problem = [&](std::uint64_t k, msg::ContactProblem& p) {
+  // Takes samples from `reader` until one of tick k arrives (10 s at most).
+  auto next_of_tick = [](auto& reader, std::uint64_t k, auto& sample) {
     return dds::test::eventually(
         [&] {
-          while (problems.take(p))
-            if (p.header().tick() == k) return true;
+          while (reader.take(sample))
+            if (sample.header().tick() == k) return true;
           return false;
         },
         10000ms);
   };
+  auto next_problem = [&](std::uint64_t k, msg::ContactProblem& p) {
+    return next_of_tick(problems, k, p);
+  };
   auto next_command = [&](std::uint64_t k, msg::JointCommand& c) {
-    return dds::test::eventually(
-        [&] {
-          while (commands.take(c))
-            if (c.header().tick() == k) return true;
-          return false;
-        },
-        10000ms);
+    return next_of_tick(commands, k, c);
   };
   msg::ContactProblem p;
   ASSERT_TRUE(next_problem(0, p)) << node.output();
