@@ -1,7 +1,5 @@
 // `poise run SCENARIO` in its distributed form: four processes over loopback DDS.
-#include <fcntl.h>
 #include <signal.h>
-#include <sys/file.h>
 #include <unistd.h>
 #include <CLI/CLI.hpp>
 
@@ -17,6 +15,7 @@
 #include <thread>
 
 #include "child.hpp"
+#include "poise/dds/domain_claim.hpp"
 #include "poise/dds/vendor.hpp"
 #include "poise/launch/launch.hpp"
 #include "poise/sim/scenario.hpp"
@@ -30,22 +29,6 @@ using Json = nlohmann::json;
 std::atomic<bool> g_interrupted{false};
 extern "C" void on_interrupt(int) {
   g_interrupted.store(true);
-}
-
-/// Claims a DDS domain no other `poise run` or test on this machine holds: an exclusive lock on
-/// /tmp/poise-dds-domain-<id>.lock (held until the process ends), ids 100..231 from a pid-derived
-/// start (the same scheme as tests/dds).
-int claim_domain() {
-  const int first = 100 + static_cast<int>(::getpid() % 132);
-  for (int k = 0; k < 132; ++k) {
-    const int id = 100 + (first - 100 + k) % 132;
-    const std::string path = "/tmp/poise-dds-domain-" + std::to_string(id) + ".lock";
-    const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0666);
-    if (fd < 0) continue;
-    if (::flock(fd, LOCK_EX | LOCK_NB) == 0) return id;  // fd stays open: lock held
-    ::close(fd);
-  }
-  throw std::runtime_error("no free DDS domain in 100..231 (use --domain)");
 }
 
 /// "cyclonedds" (scenario files) -> "cyclone"; validates.
@@ -158,7 +141,7 @@ int run_distributed(int argc, char** argv) {
     if (!s.dds_contact.empty()) vendor["contact"] = vendor_name(s.dds_contact);
     if (!s.dds_controller.empty()) vendor["controller"] = vendor_name(s.dds_controller);
 
-    const int domain = s.domain >= 0 ? s.domain : claim_domain();
+    const int domain = s.domain >= 0 ? s.domain : dds::claim_free_domain();
     const fs::path output =
         s.output.empty() ? fs::path("results") / (scenario.name + ".json") : fs::path(s.output);
     const fs::path logs =
