@@ -63,9 +63,7 @@ TEST(SimGroundTruthMsg, OtherContactLinksAreUrdfLinkIndices) {
   Simulator sim(cfg);
   SensorFrame s = sim.make_sensor_frame();
   GroundTruth g = sim.make_ground_truth();
-  JointCommand cmd = sim.make_command();
-  cmd.mode = CommandMode::kDamping;
-  cmd.kd.setConstant(2.0);
+  const JointCommand cmd = test::damping_command(sim, 2.0);
   for (int k = 0; k < 600; ++k)
     sim.step(cmd, s, g);
   ASSERT_GT(g.num_non_foot_contacts, 0) << "the robot lies on the ground";

@@ -67,9 +67,7 @@ TEST(SimPhysics, PassiveRobotLyingOnGroundCarriesItsWeight) {
   Simulator sim(biped_lying_on_back_config());
   SensorFrame s = sim.make_sensor_frame();
   GroundTruth g = sim.make_ground_truth();
-  JointCommand cmd = sim.make_command();
-  cmd.mode = CommandMode::kDamping;
-  cmd.kd.setConstant(2.0);
+  const JointCommand cmd = test::damping_command(sim, 2.0);
   for (int k = 0; k < 2500; ++k)
     sim.step(cmd, s, g);
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
@@ -96,9 +94,7 @@ TEST(SimPhysics, GroundBroadphaseBandKeepsNonFootContacts) {
     Simulator sim(cfg);
     SensorFrame s = sim.make_sensor_frame();
     GroundTruth g = sim.make_ground_truth();
-    JointCommand cmd = sim.make_command();
-    cmd.mode = CommandMode::kDamping;
-    cmd.kd.setConstant(2.0);
+    const JointCommand cmd = test::damping_command(sim, 2.0);
     for (int k = 0; k < 600; ++k) {
       sim.step(cmd, s, g);
       touching[run].push_back(g.non_foot_contact);

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "poise/sim/sim_config.hpp"
+#include "poise/sim/simulator.hpp"
 
 namespace poise::sim::test {
 
@@ -53,6 +54,14 @@ inline SimulatorConfig biped_lying_on_back_config() {
   cfg.initial.auto_base_height = false;
   cfg.initial.base_position = Eigen::Vector3d(0, 0, 0.25);
   return cfg;
+}
+
+/// Damping mode on every joint (tau = -kd qd): a passive robot.
+inline JointCommand damping_command(const Simulator& sim, double kd) {
+  JointCommand c = sim.make_command();
+  c.mode = CommandMode::kDamping;
+  c.kd.setConstant(kd);
+  return c;
 }
 
 }  // namespace poise::sim::test
