@@ -77,8 +77,9 @@ Setup& setup() {
   return s;
 }
 
-// Which eq (33) path the ticks took (bounds active: the dual QP; fallback wrenches): the two tick
-// loops must do the same work for their difference to be the optimiser's time.
+// Which eq (33) path the ticks took (bounds active: the primal active set, or DualQp; fallback
+// wrenches): the two tick loops must do the same work for their difference to be the optimiser's
+// time.
 void count_paths(const Setup& s, std::int64_t& active, std::int64_t& fallback) {
   active += s.ctrl.diagnostics().active_bounds > 0;
   fallback += s.ctrl.diagnostics().contact_source != controller::ContactSource::kSolution;
