@@ -178,6 +178,7 @@ int run_distributed(int argc, char** argv) {
     if (s.duration > 0) sim_args.insert(sim_args.end(), {"--duration", std::to_string(s.duration)});
     std::vector<std::string> est_args = common("estimator");
     if (s.ground_truth_state) est_args.push_back("--ground-truth-state");
+    est_args.insert(est_args.end(), {"--supports", scenario.estimator.supports});
     std::vector<std::string> contact_args = common("contact");
     contact_args.insert(contact_args.end(), {"--method", s.method});
     std::vector<std::string> ctrl_args = common("controller");

@@ -86,6 +86,7 @@ InProcessLoop::InProcessLoop(const sim::Scenario& scenario, const LoopOptions& o
     ecfg.init_base_x = scenario_.sim.initial.base_position.x();
     ecfg.init_base_y = scenario_.sim.initial.base_position.y();
     ecfg.ground_height = scenario_.sim.world.ground.height;
+    ecfg.supports = estimator::parse_support_model(scenario_.estimator.supports);
     estimator_ = std::make_unique<EstimatorParts>(model_, robot_, ecfg);
 #else
     throw std::runtime_error(

@@ -31,6 +31,16 @@ bool finite(const SE3& X) {
 
 }  // namespace
 
+const char* to_string(SupportModel s) noexcept {
+  return s == SupportModel::kMoving ? "moving" : "fixed";
+}
+
+SupportModel parse_support_model(const std::string& text) {
+  if (text == "fixed") return SupportModel::kFixed;
+  if (text == "moving") return SupportModel::kMoving;
+  throw EstimatorError("unknown support model '" + text + "' (accepted: fixed, moving)");
+}
+
 Estimator::Estimator(const model::Model& model, const model::RobotConfig& robot,
                      const EstimatorConfig& config)
     : model_(model), data_(model_), config_(config) {
@@ -77,8 +87,14 @@ Estimator::Estimator(const model::Model& model, const model::RobotConfig& robot,
     contact_[f] = ContactDetector(ContactThresholds{config.contact_on_fraction * weight_,
                                                     config.contact_off_fraction * weight_});
   }
+  require(config.supports == SupportModel::kFixed || config.supports == SupportModel::kMoving,
+          "supports must be fixed or moving");
+  require(positive_finite(config.moving_support_noise),
+          "moving_support_noise must be finite and > 0");
+  ImuNoise noise = config.noise;
+  if (config.supports == SupportModel::kMoving) noise.foot_slip = config.moving_support_noise;
   try {
-    ekf_ = InvariantEkf(config.noise, model_.gravity);
+    ekf_ = InvariantEkf(noise, model_.gravity);
   } catch (const std::invalid_argument& e) {
     throw EstimatorError(std::string("Estimator configuration: ") + e.what());
   }

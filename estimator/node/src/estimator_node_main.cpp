@@ -22,6 +22,7 @@
 #include <exception>
 #include <memory>
 #include <mutex>
+#include <string>
 
 #include "poise/estimator/estimator.hpp"
 #include "poise/estimator_node/estimator_messages.hpp"
@@ -39,6 +40,7 @@ int run(int argc, char** argv) {
   bool ground_truth_state = false;
   int description_timeout_ms = 30000;
   int truth_timeout_ms = 200;
+  std::string supports = "fixed";
   CLI::App app{"State estimator node: sensors k in, state k out."};
   node::add_node_options(app, options, "estimator");
   app.add_flag("--ground-truth-state", ground_truth_state,
@@ -48,6 +50,12 @@ int run(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--truth-timeout-ms", truth_timeout_ms,
                  "with --ground-truth-state: how long to wait for the ground truth of a tick")
+      ->capture_default_str();
+  app.add_option("--supports", supports,
+                 "what the feet stand on: 'fixed' (static ground: the leg kinematics correct "
+                 "velocity and tilt) or 'moving' (supports that move in W by unknown amounts: "
+                 "velocity and attitude from the IMU alone); see estimator.hpp")
+      ->check(CLI::IsMember({"fixed", "moving"}))
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
@@ -59,7 +67,12 @@ int run(int argc, char** argv) {
   const std::vector<int> model_to_wire =
       node::model_to_wire_map(description.joint_names(), model.joint_names);
 
-  estimator::Estimator estimator(model, robot);
+  estimator::EstimatorConfig config;
+  config.supports = estimator::parse_support_model(supports);
+  estimator::Estimator estimator(model, robot, config);
+  if (config.supports == estimator::SupportModel::kMoving)
+    dds::log(dds::LogLevel::info,
+             "supports: moving (stance contact points free; velocity and attitude from the IMU)");
   estimator::SensorFrame frame = estimator.make_sensor_frame();
   estimator::EstimatorState state = estimator.make_state();
 

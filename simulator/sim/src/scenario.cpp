@@ -251,7 +251,7 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
   if (!root.IsMap()) throw std::runtime_error(what + ": the top level must be a mapping");
   c.allow(root, "",
           {"name", "description", "robot", "world", "initial", "disturbances", "duration",
-           "success", "sensors", "solver", "dds"});
+           "success", "sensors", "solver", "dds", "estimator"});
   Scenario sc;
   if (!root["name"]) c.fail("name", "is required");
   sc.name = c.str(root["name"], "name");
@@ -429,6 +429,16 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
         check(v, "dds.components." + comp);
         sc.dds.per_component.emplace_back(comp, v);
       }
+    }
+  }
+
+  // estimator setting
+  if (const YAML::Node e = root["estimator"]) {
+    c.allow(e, "estimator", {"supports"});
+    if (e["supports"]) {
+      sc.estimator.supports = c.str(e["supports"], "estimator.supports");
+      if (sc.estimator.supports != "fixed" && sc.estimator.supports != "moving")
+        c.fail("estimator.supports", "must be 'fixed' or 'moving'");
     }
   }
 

@@ -28,6 +28,13 @@ struct DdsHints {
   std::vector<std::pair<std::string, std::string>> per_component;  ///< component -> vendor
 };
 
+/// Optional setting of the state estimator for this world (`estimator:` in the file): whether the
+/// feet stand on supports that move in W (the estimator's SupportModel; see estimator.hpp).
+/// A property of the deployment the user knows, not information from the simulation.
+struct EstimatorHints {
+  std::string supports = "fixed";  ///< "fixed" | "moving"
+};
+
 struct Scenario {
   std::string name;
   std::string description;
@@ -38,6 +45,7 @@ struct Scenario {
   SimulatorConfig sim;                 ///< robot, world, initial state, pushes, noise, solver
   SuccessCriteria success;
   DdsHints dds;
+  EstimatorHints estimator;
 };
 
 /// Loads and validates a scenario file. Relative paths inside it are resolved against the
