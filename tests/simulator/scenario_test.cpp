@@ -79,6 +79,17 @@ TEST(SimScenario, SchemaErrorsNameTheKey) {
   EXPECT_NE(e.find("success.com_error_max_m: must be a number"), std::string::npos) << e;
   e = error_of(base + "dds: {vendor: zeromq}\n");
   EXPECT_NE(e.find("dds.vendor"), std::string::npos) << e;
+  e = error_of(base + "estimator: {supports: ship}\n");
+  EXPECT_NE(e.find("estimator.supports: must be 'fixed' or 'moving'"), std::string::npos) << e;
+  e = error_of(base + "estimator: {suports: moving}\n");
+  EXPECT_NE(e.find("estimator.suports: unknown key"), std::string::npos) << e;
+  e = error_of(base + "contact: {method: lcp}\n");
+  EXPECT_NE(e.find("contact.method: must be 'sequential' or 'qp'"), std::string::npos) << e;
+  const Scenario hinted = parse_scenario(
+      base + "estimator: {supports: moving}\ncontact: {method: qp}\n",
+      fs::path(POISE_SOURCE_DIR) / "tests/simulator", "test.yaml");
+  EXPECT_EQ(hinted.estimator.supports, "moving");
+  EXPECT_EQ(hinted.contact_method, "qp");
   e = error_of(std::string(kInline).replace(std::string(kInline).find("urdf/biped.urdf"), 15,
                                             "urdf/none.urdf"));
   EXPECT_NE(e.find("robot.urdf: file 'urdf/none.urdf' not found"), std::string::npos) << e;

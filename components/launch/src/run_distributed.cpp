@@ -62,7 +62,7 @@ struct Settings {
   std::string output, log_dir;
   double duration = -1.0;
   bool ground_truth_state = false;
-  std::string method = "sequential";
+  std::string method;  ///< "" = the scenario's contact.method, else sequential
   double contact_deadline_us = -1.0;
   int command_timeout_ms = 2000;
   double timeout_s = -1.0;
@@ -104,9 +104,9 @@ int run_distributed(int argc, char** argv) {
   app.add_flag("--ground-truth-state", s.ground_truth_state,
                "DEBUG: the estimator sends the simulator's ground truth as the state");
   app.add_option("--method,--contact-method", s.method,
-                 "contact optimiser: sequential (paper) or qp")
-      ->check(CLI::IsMember({"sequential", "qp"}))
-      ->capture_default_str();
+                 "contact optimiser: sequential (paper) or qp (default: the scenario's "
+                 "contact.method, else sequential)")
+      ->check(CLI::IsMember({"sequential", "qp"}));
   app.add_option("--contact-deadline-us", s.contact_deadline_us,
                  "controller's wait for a contact solution (default 400 real time, 1e6 lockstep)");
   app.add_option("--command-timeout-ms", s.command_timeout_ms,
@@ -128,6 +128,8 @@ int run_distributed(int argc, char** argv) {
     }
     const sim::Scenario scenario = sim::load_scenario(s.scenario);
     const double duration = s.duration > 0 ? s.duration : scenario.duration;
+    if (s.method.empty())
+      s.method = scenario.contact_method.empty() ? "sequential" : scenario.contact_method;
     // Vendors: scenario hints, then --dds, then per component.
     std::string all = scenario.dds.vendor.empty() ? "cyclone" : vendor_name(scenario.dds.vendor);
     if (!s.dds_all.empty()) all = vendor_name(s.dds_all);

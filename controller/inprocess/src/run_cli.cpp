@@ -72,7 +72,7 @@ int cli_main(int argc, char** argv) {
     return rc;
   }
   CLI::App app{"Run a scenario (paper Sec. 4 experiments in deploy/scenarios/)", "poise run"};
-  std::string scenario_arg, output, method = "sequential", controller_config;
+  std::string scenario_arg, output, method, controller_config;
   bool in_process = false, ground_truth = false, quiet = false;
   double duration = 0.0;
   app.add_option("scenario", scenario_arg, "Scenario YAML file, or a name in deploy/scenarios/")
@@ -83,7 +83,9 @@ int cli_main(int argc, char** argv) {
   app.add_flag("--ground-truth-state", ground_truth,
                "DEBUG: feed the controller the simulator's ground truth instead of the estimator");
   app.add_option("--output,-o", output, "Write the result as JSON to this file");
-  app.add_option("--contact-method", method, "Contact optimiser: sequential (paper) or qp")
+  app.add_option("--contact-method", method,
+                 "Contact optimiser: sequential (paper) or qp (default: the scenario's "
+                 "contact.method, else sequential)")
       ->check(CLI::IsMember({"sequential", "qp"}));
   app.add_option("--controller-config", controller_config,
                  "Controller YAML (default: built-in paper values, "
@@ -104,6 +106,8 @@ int cli_main(int argc, char** argv) {
                    "state (debug)\n";
       opt.state_source = StateSource::kGroundTruth;
     }
+    if (method.empty())
+      method = scenario.contact_method.empty() ? "sequential" : scenario.contact_method;
     opt.contact_method = *contact::parse_method(method);
     opt.controller_config_file = controller_config;
     opt.duration = duration;

@@ -251,7 +251,7 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
   if (!root.IsMap()) throw std::runtime_error(what + ": the top level must be a mapping");
   c.allow(root, "",
           {"name", "description", "robot", "world", "initial", "disturbances", "duration",
-           "success", "sensors", "solver", "dds", "estimator"});
+           "success", "sensors", "solver", "dds", "estimator", "contact"});
   Scenario sc;
   if (!root["name"]) c.fail("name", "is required");
   sc.name = c.str(root["name"], "name");
@@ -439,6 +439,16 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
       sc.estimator.supports = c.str(e["supports"], "estimator.supports");
       if (sc.estimator.supports != "fixed" && sc.estimator.supports != "moving")
         c.fail("estimator.supports", "must be 'fixed' or 'moving'");
+    }
+  }
+
+  // contact optimiser hint for poise run
+  if (const YAML::Node cn = root["contact"]) {
+    c.allow(cn, "contact", {"method"});
+    if (cn["method"]) {
+      sc.contact_method = c.str(cn["method"], "contact.method");
+      if (sc.contact_method != "sequential" && sc.contact_method != "qp")
+        c.fail("contact.method", "must be 'sequential' or 'qp'");
     }
   }
 

@@ -46,6 +46,9 @@ struct Scenario {
   SuccessCriteria success;
   DdsHints dds;
   EstimatorHints estimator;
+  /// `contact: {method: ...}`: the contact optimiser `poise run` uses for this scenario unless
+  /// --contact-method says otherwise ("" = the launcher's default, sequential).
+  std::string contact_method;
 };
 
 /// Loads and validates a scenario file. Relative paths inside it are resolved against the
