@@ -312,6 +312,7 @@ int run_distributed(int argc, char** argv) {
     r["domain"] = domain;
     r["mode"] = s.realtime ? "realtime" : "lockstep";
     r["contact_method"] = s.method;
+    r["estimator_supports"] = scenario.estimator.supports;
     r["pids"] = Json::object();
     for (auto& c : children)
       r["pids"][c->name()] = c->pid();

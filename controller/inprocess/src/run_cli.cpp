@@ -135,7 +135,10 @@ int cli_main(int argc, char** argv) {
         std::cerr << "poise run: cannot write " << output << "\n";
         return 2;
       }
-      out << to_json(r).dump(2) << "\n";
+      nlohmann::json j = to_json(r);
+      j["contact_method"] = method;
+      j["estimator_supports"] = scenario.estimator.supports;
+      out << j.dump(2) << "\n";
     }
     return r.survived ? 0 : 1;
   } catch (const std::exception& e) {
