@@ -91,8 +91,14 @@ Estimator::Estimator(const model::Model& model, const model::RobotConfig& robot,
           "supports must be fixed or moving");
   require(positive_finite(config.moving_support_noise),
           "moving_support_noise must be finite and > 0");
+  require(std::isfinite(config.moving_support_calibration) &&
+              config.moving_support_calibration >= 0.0,
+          "moving_support_calibration must be finite and >= 0");
   ImuNoise noise = config.noise;
-  if (config.supports == SupportModel::kMoving) noise.foot_slip = config.moving_support_noise;
+  if (config.supports == SupportModel::kMoving && config.moving_support_calibration == 0.0) {
+    noise.foot_slip = config.moving_support_noise;
+    contacts_free_ = true;
+  }
   try {
     ekf_ = InvariantEkf(noise, model_.gravity);
   } catch (const std::invalid_argument& e) {
@@ -249,6 +255,31 @@ void Estimator::initialize(const SensorFrame& frame) noexcept {
   ++diag_.resets;
 }
 
+void Estimator::calibrate_on_still_supports(const SensorFrame& frame, StatusFlags flags) noexcept {
+  int stance = -1;
+  for (int f = 0; f < kNumFeet; ++f)
+    if (legs_.contact[f] && (stance < 0 || legs_.normal_force[f] > legs_.normal_force[stance]))
+      stance = f;
+  if (stance >= 0 && !(flags & (kImuFrozen | kInitializing))) {
+    // The stance foot does not rotate: the base turns at -omega_F0_B.
+    calib_gyro_sum_ += frame.imu_omega_I - X_IB_.R * (-omega_F0_B_[stance]);
+    ++calib_samples_;
+  }
+  if (time_since_start_ < config_.moving_support_calibration) return;
+  if (calib_samples_ >= 50) {
+    const double n = static_cast<double>(calib_samples_);
+    const InvariantEkf::Mean& m = ekf_.mean();
+    ekf_.set_biases(calib_gyro_sum_ / n, m.b_a, config_.noise.gyro / std::sqrt(n * config_.dt),
+                    std::sqrt(ekf_.covariance().block<3, 3>(InvariantEkf::kBa, InvariantEkf::kBa)
+                                  .diagonal()
+                                  .maxCoeff()));
+  } else {
+    diag_.last_error = "moving supports: too few still samples to calibrate the gyro bias";
+  }
+  ekf_.set_foot_slip(config_.moving_support_noise);  // from here on the contacts are free
+  contacts_free_ = true;
+}
+
 StatusFlags Estimator::update(const SensorFrame& frame, EstimatorState& out) noexcept {
   ++diag_.ticks;
   const Eigen::Index n = model_.njoints;
@@ -371,6 +402,9 @@ StatusFlags Estimator::update(const SensorFrame& frame, EstimatorState& out) noe
 
   time_since_init_ += dt;
   if (time_since_init_ < config_.initializing_time) flags |= kInitializing;
+  time_since_start_ += dt;
+  if (!contacts_free_ && config_.supports == SupportModel::kMoving)
+    calibrate_on_still_supports(frame, flags);
   if (!legs_.contact[0] && !legs_.contact[1]) {
     flags |= kNoContact;
     ++diag_.no_contact_ticks;

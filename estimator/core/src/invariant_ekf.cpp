@@ -252,6 +252,16 @@ void InvariantEkf::set_pose_velocity(const Matrix3& R_WI, const Vector3& v_WI,
   mean_.p_WI = p_WI;
 }
 
+void InvariantEkf::set_biases(const Vector3& b_g, const Vector3& b_a, double std_g,
+                              double std_a) noexcept {
+  mean_.b_g = b_g;
+  mean_.b_a = b_a;
+  P_.middleRows<6>(kBg).setZero();
+  P_.middleCols<6>(kBg).setZero();
+  P_.block<3, 3>(kBg, kBg).diagonal().setConstant(std_g * std_g);
+  P_.block<3, 3>(kBa, kBa).diagonal().setConstant(std_a * std_a);
+}
+
 void InvariantEkf::apply_correction(const ErrorVector& dx, Mean& m) noexcept {
   // X+ = exp(-dx) X: exp(xi) = (Exp(phi), J_l(phi) xi_x).
   const Vector3 phi = -dx.segment<3>(kR);

@@ -101,6 +101,12 @@ class InvariantEkf {
   const Mean& mean() const noexcept { return mean_; }
   const Covariance& covariance() const noexcept { return P_; }
   const ImuNoise& noise() const noexcept { return noise_; }
+  /// Replaces the bias estimates with calibrated values of the given standard deviations (the
+  /// bias block of the covariance becomes diagonal, its cross-covariances zero).
+  void set_biases(const Vector3& b_g, const Vector3& b_a, double std_g, double std_a) noexcept;
+  /// Changes the velocity noise density of the stance contact points (noise().foot_slip), from
+  /// the next propagation on (the estimator's switch to free contact points on moving supports).
+  void set_foot_slip(double density) noexcept { noise_.foot_slip = density; }
   const Vector3& gravity() const noexcept { return g_; }
 
   /// Linearised error transition Phi (kDim x kDim) for a step of dt from the mean `m` with the
