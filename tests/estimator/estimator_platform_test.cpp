@@ -1,10 +1,11 @@
 // Estimator accuracy on moving supports (issue 7, section 4, "on moving platforms"), against the
 // Bullet simulator's ground truth. The balance controller runs on ground truth (in process) so the
 // robot rides the platforms; on the same sensor stream, open loop, run the estimator with
-// SupportModel::kFixed (stance contact points fixed in W), the estimator with kMoving (contact
-// points free, velocity and attitude from the IMU) and the plain leg-odometry baseline. All three
-// are compared with the truth in the same run and printed. kMoving calibrates the gyro bias during
-// the supports' first 2 s at rest (the scenarios' motion_start), then frees the contacts.
+// SupportModel::kFixed (stance contact points fixed in W), with kMoving (contact points free,
+// velocity and attitude from the IMU), with kTranslating (as kMoving, plus the stance feet keep
+// their orientation in W) and the plain leg-odometry baseline. All are compared with the truth in
+// the same run and printed. kMoving and kTranslating calibrate the gyro bias during the supports'
+// first 2 s at rest (the scenarios' motion_start), then free the contacts.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -36,7 +37,7 @@ struct Errors {
 };
 
 struct PlatformResult {
-  Errors fixed, moving, odometry;
+  Errors fixed, moving, translating, odometry;
   double true_v_rms = 0.0;  ///< RMS of the true base velocity (what "velocity 0" would score)
   double com_travel = 0.0;  ///< how far the platforms carried the CoM [m]
   bool survived = false;
@@ -58,12 +59,15 @@ PlatformResult run(sim::Scenario s, contact::Method method, const char* label,
   inprocess::InProcessLoop loop(s, opt);
   const model::Model& model = loop.controller().model();
   const model::RobotConfig& rc = loop.controller().robot();
-  EstimatorConfig fixed_cfg, moving_cfg;
+  EstimatorConfig fixed_cfg, moving_cfg, translating_cfg;
   fixed_cfg.supports = SupportModel::kFixed;
   moving_cfg.supports = SupportModel::kMoving;
-  Estimator fixed(model, rc, fixed_cfg), moving(model, rc, moving_cfg);
+  translating_cfg.supports = SupportModel::kTranslating;
+  Estimator fixed(model, rc, fixed_cfg), moving(model, rc, moving_cfg),
+      translating(model, rc, translating_cfg);
   SensorFrame frame = fixed.make_sensor_frame();
-  EstimatorState out_fixed = fixed.make_state(), out_moving = moving.make_state();
+  EstimatorState out_fixed = fixed.make_state(), out_moving = moving.make_state(),
+                 out_translating = translating.make_state();
 
   sim::Simulator& sim = loop.simulator();
   const std::vector<int> s2m = sim::joint_index_map(sim.joint_names(), model.joint_names);
@@ -98,11 +102,13 @@ PlatformResult run(sim::Scenario s, contact::Method method, const char* label,
     }
     const StatusFlags ff = fixed.update(frame, out_fixed);
     const StatusFlags fm = moving.update(frame, out_moving);
+    const StatusFlags ft = translating.update(frame, out_translating);
     com_min = std::min(com_min, truth.com_W.x());
     com_max = std::max(com_max, truth.com_W.x());
-    if ((ff | fm) & kInitializing) continue;
+    if ((ff | fm | ft) & kInitializing) continue;
     r.fixed.add(out_fixed.X_WB.R, out_fixed.v_WB, truth);
     r.moving.add(out_moving.X_WB.R, out_moving.v_WB, truth);
+    r.translating.add(out_translating.X_WB.R, out_translating.v_WB, truth);
     r.odometry.add(fixed.leg_odometry().X_WB().R, fixed.leg_odometry().v_WB(), truth);
     sq_true += truth.v_WB.squaredNorm();
     ++n;
@@ -112,30 +118,36 @@ PlatformResult run(sim::Scenario s, contact::Method method, const char* label,
   r.survived = loop.result().survived;
   std::printf(
       "[%s] %.1f s, survived %d, CoM carried %.2f m, true base velocity RMS %.3f m/s\n"
+      "  supports=translating: v RMS %.4f m/s, angle max %.3f deg\n"
       "  supports=moving: v RMS %.4f m/s, angle max %.3f deg\n"
       "  supports=fixed : v RMS %.4f m/s, angle max %.3f deg\n"
       "  leg odometry   : v RMS %.4f m/s, angle max %.3f deg\n",
-      label, loop.time(), r.survived, r.com_travel, r.true_v_rms, r.moving.v_rms,
+      label, loop.time(), r.survived, r.com_travel, r.true_v_rms, r.translating.v_rms,
+      r.translating.angle_max_deg, r.moving.v_rms,
       r.moving.angle_max_deg, r.fixed.v_rms, r.fixed.angle_max_deg, r.odometry.v_rms,
       r.odometry.angle_max_deg);
   return r;
 }
 
-// The moving model's velocity error is set by the IMU's noise: the gyro bias calibrated over the
-// supports' 1.5 s at rest (after the 0.5 s start-up) is off by about 1.3e-5 rad/s (gyro noise
-// 5e-4 rad/s per sample), which tilts the attitude and leaks gravity into the velocity for the
-// 12 s the supports move. Over IMU noise seeds 1..8 on the level supports the RMS error was
-// 0.0036 to 0.0203 m/s (median 0.0045; the shipped seed 3 is the 0.0203): a single run is held
-// to 0.025 m/s, the mean over seeds to the issue's 0.02 m/s.
-constexpr double kSingleRunVelocityRms = 0.025;
+// kMoving's velocity error is set by the IMU's noise: the gyro bias calibrated over the supports'
+// 1.5 s at rest (after the 0.5 s start-up) is off by about 1.3e-5 rad/s (gyro noise 5e-4 rad/s per
+// sample), which tilts the attitude and leaks gravity into the velocity for the 12 s the supports
+// move. Over IMU noise seeds 1..8 on the level supports its RMS error was 0.0036 to 0.0203 m/s
+// (median 0.0045; the shipped seed 3 is the 0.0203): a single run is held to 0.025 m/s, the mean
+// over seeds to the issue's 0.02 m/s. kTranslating has no attitude drift (0.0026 to 0.0099 m/s
+// over the same seeds) and is held to the issue's 0.02 m/s in every run.
+constexpr double kMovingSingleRunVelocityRms = 0.025;
 
-void expect_moving_model_meets_the_targets(const PlatformResult& r) {
+void expect_moving_models_meet_the_targets(const PlatformResult& r) {
   ASSERT_TRUE(r.survived) << "the robot fell: the run says nothing about the estimator";
   EXPECT_GT(r.com_travel, 1.5) << "the platforms carried the robot";
   EXPECT_TRUE(r.moving.finite);
+  EXPECT_TRUE(r.translating.finite);
   EXPECT_TRUE(r.fixed.finite);
-  // Issue 7's targets, with the moving-support model (see kSingleRunVelocityRms).
-  EXPECT_LT(r.moving.v_rms, kSingleRunVelocityRms);
+  // Issue 7's targets: base velocity RMS <= 0.02 m/s, orientation <= 0.5 deg.
+  EXPECT_LT(r.translating.v_rms, 0.02);
+  EXPECT_LT(r.translating.angle_max_deg, 0.5);
+  EXPECT_LT(r.moving.v_rms, kMovingSingleRunVelocityRms);
   EXPECT_LT(r.moving.angle_max_deg, 0.5);
   // The fixed-contact model and leg odometry measure the velocity relative to the supports:
   // their error is of the order of the supports' velocity itself.
@@ -164,19 +176,19 @@ TEST(EstimatorPlatforms, LevelSupportsMovingInSync) {
     s.sim.imu.seed = seed;
     const std::string label = "level supports in sync, IMU seed " + std::to_string(seed);
     const PlatformResult r = run(s, contact::Method::kSequential, label.c_str());
-    expect_moving_model_meets_the_targets(r);
+    expect_moving_models_meet_the_targets(r);
     sum += r.moving.v_rms;
   }
   const double mean = sum / std::size(seeds);
-  std::printf("mean velocity RMS error of the moving-support model over %zu seeds: %.4f m/s\n",
+  std::printf("mean velocity RMS error of supports=moving over %zu seeds: %.4f m/s\n",
               std::size(seeds), mean);
   EXPECT_LT(mean, 0.02);
 }
 
 // The same with constant gyro and accelerometer biases: the calibration on the still supports
-// takes them out (without it the moving model integrates them: 0.89 m/s RMS, measured).
+// takes them out (without it kMoving integrates them: 0.89 m/s RMS, measured).
 TEST(EstimatorPlatforms, LevelSupportsMovingInSyncWithImuBiases) {
-  expect_moving_model_meets_the_targets(run(level_platforms_in_sync(), contact::Method::kSequential,
+  expect_moving_models_meet_the_targets(run(level_platforms_in_sync(), contact::Method::kSequential,
                                             "level supports in sync, IMU biases", true));
 }
 
@@ -184,20 +196,24 @@ TEST(EstimatorPlatforms, LevelSupportsMovingInSyncWithImuBiases) {
 // one that rides them; see tests/controller/closed_loop_test.cpp).
 TEST(EstimatorPlatforms, InclinedSupportsMovingInSync) {
   const sim::Scenario s = scenario("platforms_in_phase");
-  EXPECT_EQ(s.estimator.supports, "moving") << "the shipped scenario configures the estimator";
-  expect_moving_model_meets_the_targets(
+  EXPECT_EQ(s.estimator.supports, "translating")
+      << "the shipped scenario configures the estimator";
+  expect_moving_models_meet_the_targets(
       run(s, contact::Method::kQp, "inclined supports in sync, qp"));
 }
 
 TEST(EstimatorPlatforms, SupportModelNamesAndBadConfig) {
   EXPECT_EQ(parse_support_model("fixed"), SupportModel::kFixed);
   EXPECT_EQ(parse_support_model("moving"), SupportModel::kMoving);
+  EXPECT_EQ(parse_support_model("translating"), SupportModel::kTranslating);
   EXPECT_STREQ(to_string(SupportModel::kMoving), "moving");
+  EXPECT_STREQ(to_string(SupportModel::kTranslating), "translating");
   try {
     parse_support_model("ship");
     FAIL() << "no exception";
   } catch (const EstimatorError& e) {
     EXPECT_NE(std::string(e.what()).find("'ship'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("fixed, moving, translating"), std::string::npos);
   }
   const sim::Scenario s = scenario("forward_push_double_support");
   const model::RobotConfig rc = model::load_robot_config(

@@ -80,7 +80,7 @@ TEST(SimScenario, SchemaErrorsNameTheKey) {
   e = error_of(base + "dds: {vendor: zeromq}\n");
   EXPECT_NE(e.find("dds.vendor"), std::string::npos) << e;
   e = error_of(base + "estimator: {supports: ship}\n");
-  EXPECT_NE(e.find("estimator.supports: must be 'fixed' or 'moving'"), std::string::npos) << e;
+  EXPECT_NE(e.find("estimator.supports: must be 'fixed', 'moving' or 'translating'"), std::string::npos) << e;
   e = error_of(base + "estimator: {suports: moving}\n");
   EXPECT_NE(e.find("estimator.suports: unknown key"), std::string::npos) << e;
   e = error_of(base + "contact: {method: lcp}\n");

@@ -18,10 +18,18 @@ struct Setup {
   model::RobotConfig config = model::load_robot_config(std::string(POISE_SOURCE_DIR) +
                                                        "/deploy/robots/poise_humanoid/robot.yaml");
   model::Model model = model::load_robot_model(config);
-  estimator::Estimator est{model, config};
+  estimator::Estimator est;
   std::vector<estimator::SensorFrame> frames;
 
-  Setup() {
+  static estimator::EstimatorConfig with_supports(estimator::SupportModel supports) {
+    estimator::EstimatorConfig c;
+    c.supports = supports;
+    c.moving_support_calibration = 0.1;  // the free-contact path from tick 100 on
+    return c;
+  }
+
+  explicit Setup(estimator::SupportModel supports = estimator::SupportModel::kFixed)
+      : est(model, config, with_supports(supports)) {
     model::Data data(model);
     model::forward_kinematics(model, data, config.q_nominal);
     const model::SE3 X_WI = model::frame_placement(model, data, config.imu_frame_id);
@@ -43,8 +51,9 @@ struct Setup {
   }
 };
 
+// Argument: support model (0 fixed = the default, 1 moving, 2 translating).
 void BM_EstimatorTick(benchmark::State& st) {
-  Setup s;
+  Setup s(static_cast<estimator::SupportModel>(st.range(0)));
   estimator::EstimatorState out = s.est.make_state();
   std::int64_t k = 0;
   for (auto _ : st) {
@@ -54,7 +63,7 @@ void BM_EstimatorTick(benchmark::State& st) {
   }
   st.counters["joints"] = s.model.njoints;
 }
-BENCHMARK(BM_EstimatorTick)->Repetitions(5)->ReportAggregatesOnly(true);
+BENCHMARK(BM_EstimatorTick)->Arg(0)->Arg(1)->Arg(2)->Repetitions(5)->ReportAggregatesOnly(true);
 
 void BM_FilterPropagate(benchmark::State& st) {
   estimator::InvariantEkf ekf(estimator::ImuNoise{}, Vector3(0, 0, -9.81));

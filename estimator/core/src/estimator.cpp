@@ -32,13 +32,23 @@ bool finite(const SE3& X) {
 }  // namespace
 
 const char* to_string(SupportModel s) noexcept {
-  return s == SupportModel::kMoving ? "moving" : "fixed";
+  switch (s) {
+    case SupportModel::kMoving:
+      return "moving";
+    case SupportModel::kTranslating:
+      return "translating";
+    case SupportModel::kFixed:
+      break;
+  }
+  return "fixed";
 }
 
 SupportModel parse_support_model(const std::string& text) {
   if (text == "fixed") return SupportModel::kFixed;
   if (text == "moving") return SupportModel::kMoving;
-  throw EstimatorError("unknown support model '" + text + "' (accepted: fixed, moving)");
+  if (text == "translating") return SupportModel::kTranslating;
+  throw EstimatorError("unknown support model '" + text +
+                       "' (accepted: fixed, moving, translating)");
 }
 
 Estimator::Estimator(const model::Model& model, const model::RobotConfig& robot,
@@ -87,15 +97,18 @@ Estimator::Estimator(const model::Model& model, const model::RobotConfig& robot,
     contact_[f] = ContactDetector(ContactThresholds{config.contact_on_fraction * weight_,
                                                     config.contact_off_fraction * weight_});
   }
-  require(config.supports == SupportModel::kFixed || config.supports == SupportModel::kMoving,
-          "supports must be fixed or moving");
+  require(config.supports == SupportModel::kFixed || config.supports == SupportModel::kMoving ||
+              config.supports == SupportModel::kTranslating,
+          "supports must be fixed, moving or translating");
+  require(positive_finite(config.translating_orientation_std),
+          "translating_orientation_std must be finite and > 0");
   require(positive_finite(config.moving_support_noise),
           "moving_support_noise must be finite and > 0");
   require(std::isfinite(config.moving_support_calibration) &&
               config.moving_support_calibration >= 0.0,
           "moving_support_calibration must be finite and >= 0");
   ImuNoise noise = config.noise;
-  if (config.supports == SupportModel::kMoving && config.moving_support_calibration == 0.0) {
+  if (config.supports != SupportModel::kFixed && config.moving_support_calibration == 0.0) {
     noise.foot_slip = config.moving_support_noise;
     contacts_free_ = true;
   }
@@ -255,6 +268,29 @@ void Estimator::initialize(const SensorFrame& frame) noexcept {
   ++diag_.resets;
 }
 
+void Estimator::correct_with_kept_foot_orientations() noexcept {
+  // Keep each stance foot's orientation from its touch-down (or from the moment the contacts
+  // became free); correct with the most loaded one (the other says the same, one update is
+  // cheaper).
+  int best = -1;
+  for (int f = 0; f < kNumFeet; ++f) {
+    if (!legs_.contact[f]) {
+      have_R_WF_[f] = false;
+      continue;
+    }
+    if (!have_R_WF_[f]) {
+      R_WF_kept_[f] = ekf_.mean().R_WI * X_IB_.R * legs_.X_BF[f].R;
+      have_R_WF_[f] = true;
+      continue;
+    }
+    if (best < 0 || legs_.normal_force[f] > legs_.normal_force[best]) best = f;
+  }
+  if (best < 0) return;
+  const Matrix3 R_IF = X_IB_.R * legs_.X_BF[best].R;
+  ekf_.correct_orientation(R_WF_kept_[best] * R_IF.transpose(),
+                           config_.translating_orientation_std);
+}
+
 void Estimator::calibrate_on_still_supports(const SensorFrame& frame, StatusFlags flags) noexcept {
   int stance = -1;
   for (int f = 0; f < kNumFeet; ++f)
@@ -362,6 +398,8 @@ StatusFlags Estimator::update(const SensorFrame& frame, EstimatorState& out) noe
       ekf_.set_contact(f, legs_.contact[f], s_I);
       if (legs_.contact[f]) ekf_.correct(f, s_I);
     }
+    if (contacts_free_ && config_.supports == SupportModel::kTranslating)
+      correct_with_kept_foot_orientations();
   }
   if (frozen) {
     flags |= kImuFrozen;
@@ -403,7 +441,7 @@ StatusFlags Estimator::update(const SensorFrame& frame, EstimatorState& out) noe
   time_since_init_ += dt;
   if (time_since_init_ < config_.initializing_time) flags |= kInitializing;
   time_since_start_ += dt;
-  if (!contacts_free_ && config_.supports == SupportModel::kMoving)
+  if (!contacts_free_ && config_.supports != SupportModel::kFixed)
     calibrate_on_still_supports(frame, flags);
   if (!legs_.contact[0] && !legs_.contact[1]) {
     flags |= kNoContact;

@@ -223,10 +223,24 @@ double InvariantEkf::correct(int foot, const Vector3& s_I) noexcept {
   const Eigen::Matrix<double, kDim, 3> PHt = P_.block<kDim, 3>(0, kP) - P_.block<kDim, 3>(0, d);
   Matrix3 S = PHt.block<3, 3>(kP, 0) - PHt.block<3, 3>(d, 0);
   S += noise_.kinematics * noise_.kinematics * Matrix3::Identity();
+  const Vector3 z = mean_.R_WI * s_I - mean_.d_W[foot] + mean_.p_WI;
+  return update(PHt, S, z);
+}
+
+double InvariantEkf::correct_orientation(const Matrix3& R_WI_measured, double std_rad) noexcept {
+  if (!(std_rad > 0.0) || !R_WI_measured.allFinite()) return 0.0;
+  // eta_R = R_hat R^T = Exp(xi_R): z = Log(R_hat R_measured^T) = xi_R, H = [I 0 ...].
+  const Eigen::Matrix<double, kDim, 3> PHt = P_.block<kDim, 3>(0, kR);
+  Matrix3 S = PHt.block<3, 3>(kR, 0);
+  S += std_rad * std_rad * Matrix3::Identity();
+  return update(PHt, S, so3_log(mean_.R_WI * R_WI_measured.transpose()));
+}
+
+double InvariantEkf::update(const Eigen::Matrix<double, kDim, 3>& PHt, Matrix3 S,
+                            const Vector3& z) noexcept {
   S = 0.5 * (S + S.transpose()).eval();
   const Eigen::LLT<Matrix3> llt(S);
   if (llt.info() != Eigen::Success) return 0.0;
-  const Vector3 z = mean_.R_WI * s_I - mean_.d_W[foot] + mean_.p_WI;
   // With S = L L^T and W = P H^T L^-T (forward substitution, column by column):
   //   K = P H^T S^-1 = W L^-1,  K H P = W W^T,  dx = K z = W (L^-1 z),  chi2 = |L^-1 z|^2.
   const Matrix3& L = llt.matrixLLT();  // lower triangle

@@ -53,9 +53,11 @@ int run(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--supports", supports,
                  "what the feet stand on: 'fixed' (static ground: the leg kinematics correct "
-                 "velocity and tilt) or 'moving' (supports that move in W by unknown amounts: "
-                 "velocity and attitude from the IMU alone); see estimator.hpp")
-      ->check(CLI::IsMember({"fixed", "moving"}))
+                 "velocity and tilt), 'moving' (supports that move in W by unknown amounts: "
+                 "velocity and attitude from the IMU alone) or 'translating' (as moving, the "
+                 "supports do not rotate: attitude from the stance feet); the supports must be "
+                 "still for the first 2 s (IMU calibration); see estimator.hpp")
+      ->check(CLI::IsMember({"fixed", "moving", "translating"}))
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
@@ -70,9 +72,11 @@ int run(int argc, char** argv) {
   estimator::EstimatorConfig config;
   config.supports = estimator::parse_support_model(supports);
   estimator::Estimator estimator(model, robot, config);
-  if (config.supports == estimator::SupportModel::kMoving)
+  if (config.supports != estimator::SupportModel::kFixed)
     dds::log(dds::LogLevel::info,
-             "supports: moving (stance contact points free; velocity and attitude from the IMU)");
+             "supports: %s (stance contact points free after %.1f s of IMU calibration on still "
+             "supports)",
+             estimator::to_string(config.supports), config.moving_support_calibration);
   estimator::SensorFrame frame = estimator.make_sensor_frame();
   estimator::EstimatorState state = estimator.make_state();
 

@@ -437,8 +437,9 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
     c.allow(e, "estimator", {"supports"});
     if (e["supports"]) {
       sc.estimator.supports = c.str(e["supports"], "estimator.supports");
-      if (sc.estimator.supports != "fixed" && sc.estimator.supports != "moving")
-        c.fail("estimator.supports", "must be 'fixed' or 'moving'");
+      if (sc.estimator.supports != "fixed" && sc.estimator.supports != "moving" &&
+          sc.estimator.supports != "translating")
+        c.fail("estimator.supports", "must be 'fixed', 'moving' or 'translating'");
     }
   }
 

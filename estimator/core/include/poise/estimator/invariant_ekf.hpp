@@ -93,6 +93,10 @@ class InvariantEkf {
   /// the foot is not in contact. Returns the squared Mahalanobis norm of the innovation (chi2,
   /// 3 dof) for monitoring.
   double correct(int foot, const Vector3& s_I) noexcept;
+  /// Orientation correction with a measured IMU orientation R_WI (isotropic std, rad): used on
+  /// supports that translate without rotating (a stance foot keeps its orientation in W). Returns
+  /// chi2 (3 dof); no-op for std <= 0 or a non-finite measurement.
+  double correct_orientation(const Matrix3& R_WI_measured, double std_rad) noexcept;
 
   /// Replaces R, v, p of the mean (keeps biases, covariance, contact points relative to the IMU):
   /// used by the kinematics-only fallback.
@@ -119,6 +123,9 @@ class InvariantEkf {
                              const Vector3& gravity_W, Mean& m) noexcept;
 
  private:
+  /// Kalman update with a 3-dim measurement: P H^T, S = H P H^T + R, innovation z.
+  double update(const Eigen::Matrix<double, kDim, 3>& PHt, Matrix3 S, const Vector3& z) noexcept;
+
   ImuNoise noise_{};
   Vector3 g_{0.0, 0.0, -9.81};
   Mean mean_{};

@@ -32,7 +32,7 @@ struct DdsHints {
 /// feet stand on supports that move in W (the estimator's SupportModel; see estimator.hpp).
 /// A property of the deployment the user knows, not information from the simulation.
 struct EstimatorHints {
-  std::string supports = "fixed";  ///< "fixed" | "moving"
+  std::string supports = "fixed";  ///< "fixed" | "moving" | "translating"
 };
 
 struct Scenario {
