@@ -287,8 +287,14 @@ void Estimator::correct_with_kept_foot_orientations() noexcept {
   }
   if (best < 0) return;
   const Matrix3 R_IF = X_IB_.R * legs_.X_BF[best].R;
-  ekf_.correct_orientation(R_WF_kept_[best] * R_IF.transpose(),
-                           config_.translating_orientation_std);
+  const double chi2 = ekf_.correct_orientation(
+      R_WF_kept_[best] * R_IF.transpose(), config_.translating_orientation_std,
+      config_.translating_orientation_max_chi2);
+  if (!(chi2 <= config_.translating_orientation_max_chi2)) {
+    // The foot turned on its support (it tips over an edge): keep its new orientation instead.
+    have_R_WF_[best] = false;
+    ++diag_.orientation_rejections;
+  }
 }
 
 void Estimator::calibrate_on_still_supports(const SensorFrame& frame, StatusFlags flags) noexcept {

@@ -227,17 +227,18 @@ double InvariantEkf::correct(int foot, const Vector3& s_I) noexcept {
   return update(PHt, S, z);
 }
 
-double InvariantEkf::correct_orientation(const Matrix3& R_WI_measured, double std_rad) noexcept {
+double InvariantEkf::correct_orientation(const Matrix3& R_WI_measured, double std_rad,
+                                         double max_chi2) noexcept {
   if (!(std_rad > 0.0) || !R_WI_measured.allFinite()) return 0.0;
   // eta_R = R_hat R^T = Exp(xi_R): z = Log(R_hat R_measured^T) = xi_R, H = [I 0 ...].
   const Eigen::Matrix<double, kDim, 3> PHt = P_.block<kDim, 3>(0, kR);
   Matrix3 S = PHt.block<3, 3>(kR, 0);
   S += std_rad * std_rad * Matrix3::Identity();
-  return update(PHt, S, so3_log(mean_.R_WI * R_WI_measured.transpose()));
+  return update(PHt, S, so3_log(mean_.R_WI * R_WI_measured.transpose()), max_chi2);
 }
 
 double InvariantEkf::update(const Eigen::Matrix<double, kDim, 3>& PHt, Matrix3 S,
-                            const Vector3& z) noexcept {
+                            const Vector3& z, double max_chi2) noexcept {
   S = 0.5 * (S + S.transpose()).eval();
   const Eigen::LLT<Matrix3> llt(S);
   if (llt.info() != Eigen::Success) return 0.0;
@@ -252,6 +253,7 @@ double InvariantEkf::update(const Eigen::Matrix<double, kDim, 3>& PHt, Matrix3 S
   y[0] = z[0] / L(0, 0);
   y[1] = (z[1] - L(1, 0) * y[0]) / L(1, 1);
   y[2] = (z[2] - L(2, 0) * y[0] - L(2, 1) * y[1]) / L(2, 2);
+  if (!(y.squaredNorm() <= max_chi2)) return y.squaredNorm();  // gated out: no update
   const ErrorVector dx = W.col(0) * y[0] + W.col(1) * y[1] + W.col(2) * y[2];
   subtract_upper_outer(P_, W);
   mirror_upper(P_);

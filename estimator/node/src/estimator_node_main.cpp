@@ -155,8 +155,19 @@ int run(int argc, char** argv) {
     }
   }
   std::lock_guard lock(state_mutex);
-  node.write_summary(ground_truth_state ? R"({"state_source": "ground_truth"})"
-                                        : R"({"state_source": "estimator"})");
+  const estimator::EstimatorDiagnostics& d = estimator.diagnostics();
+  char extra[512];
+  std::snprintf(extra, sizeof(extra),
+                "{\"state_source\": \"%s\", \"supports\": \"%s\", \"filter_resets\": %llu, "
+                "\"rejected_frames\": %llu, \"dropped_frames\": %llu, \"frozen_imu_ticks\": %llu, "
+                "\"orientation_rejections\": %llu}",
+                ground_truth_state ? "ground_truth" : "estimator",
+                estimator::to_string(config.supports), static_cast<unsigned long long>(d.resets),
+                static_cast<unsigned long long>(d.rejected_frames),
+                static_cast<unsigned long long>(d.dropped_frames),
+                static_cast<unsigned long long>(d.frozen_imu_ticks),
+                static_cast<unsigned long long>(d.orientation_rejections));
+  node.write_summary(extra);
   return 0;
 }
 

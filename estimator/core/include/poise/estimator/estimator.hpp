@@ -108,6 +108,9 @@ struct EstimatorConfig {
   /// With kTranslating: std of the base orientation from a stance foot's kept orientation and
   /// the leg kinematics [rad].
   double translating_orientation_std = 2e-3;
+  /// With kTranslating: an orientation measurement whose innovation chi2 (3 dof) exceeds this is
+  /// not used and the foot's kept orientation is taken again (the foot turned: it tips).
+  double translating_orientation_max_chi2 = 16.3;  // 99.9 % of chi2(3)
   /// Contact hysteresis as fractions of the robot's weight m |g| on the foot normal force.
   double contact_on_fraction = 0.15;
   double contact_off_fraction = 0.05;

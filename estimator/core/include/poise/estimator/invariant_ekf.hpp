@@ -39,6 +39,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <limits>
 
 #include "poise/estimator/types.hpp"
 
@@ -95,8 +96,10 @@ class InvariantEkf {
   double correct(int foot, const Vector3& s_I) noexcept;
   /// Orientation correction with a measured IMU orientation R_WI (isotropic std, rad): used on
   /// supports that translate without rotating (a stance foot keeps its orientation in W). Returns
-  /// chi2 (3 dof); no-op for std <= 0 or a non-finite measurement.
-  double correct_orientation(const Matrix3& R_WI_measured, double std_rad) noexcept;
+  /// chi2 (3 dof); applied only when chi2 <= max_chi2; no-op for std <= 0 or a non-finite
+  /// measurement.
+  double correct_orientation(const Matrix3& R_WI_measured, double std_rad,
+                             double max_chi2 = std::numeric_limits<double>::infinity()) noexcept;
 
   /// Replaces R, v, p of the mean (keeps biases, covariance, contact points relative to the IMU):
   /// used by the kinematics-only fallback.
@@ -124,7 +127,8 @@ class InvariantEkf {
 
  private:
   /// Kalman update with a 3-dim measurement: P H^T, S = H P H^T + R, innovation z.
-  double update(const Eigen::Matrix<double, kDim, 3>& PHt, Matrix3 S, const Vector3& z) noexcept;
+  double update(const Eigen::Matrix<double, kDim, 3>& PHt, Matrix3 S, const Vector3& z,
+                double max_chi2 = std::numeric_limits<double>::infinity()) noexcept;
 
   ImuNoise noise_{};
   Vector3 g_{0.0, 0.0, -9.81};

@@ -95,6 +95,8 @@ struct EstimatorDiagnostics {
   std::uint64_t frozen_imu_ticks = 0;  ///< ticks run in the IMU-frozen fallback
   std::uint64_t no_contact_ticks = 0;  ///< ticks with no foot in contact
   std::uint64_t resets = 0;            ///< filter (re)initialisations
+  /// kTranslating: foot-orientation measurements refused by the chi2 gate (the foot turned)
+  std::uint64_t orientation_rejections = 0;
   /// Static text naming the newest problem ("" when none): which field was bad, etc.
   const char* last_error = "";
 };
