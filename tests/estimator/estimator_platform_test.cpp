@@ -13,6 +13,7 @@
 #include <string>
 
 #include "poise/estimator/estimator.hpp"
+#include "poise/inprocess/estimator_frame.hpp"
 #include "poise/inprocess/in_process_loop.hpp"
 #include "poise/model/spatial.hpp"
 #include "poise/sim/scenario.hpp"
@@ -92,18 +93,7 @@ PlatformResult run(sim::Scenario s, contact::Method method, const char* label,
   for (long k = 0; k < steps; ++k) {
     loop.step();
     sim.read(sensors, truth);
-    frame.tick = sensors.tick;
-    frame.stamp_ns = static_cast<std::int64_t>(std::llround(sensors.time * 1e9));
-    sim::remap_joint_vector(s2m, sensors.q, frame.q);
-    sim::remap_joint_vector(s2m, sensors.qd, frame.qd);
-    sim::remap_joint_vector(s2m, sensors.tau_measured, frame.tau_measured);
-    frame.imu_q_WI = sensors.imu_q_WI;
-    frame.imu_omega_I = sensors.imu_omega_I;
-    frame.imu_specific_force_I = sensors.imu_specific_force_I;
-    for (int f = 0; f < 2; ++f) {
-      const auto& w = sensors.foot_wrench_Fo_F[sim_foot[f]];  // simulator: [torque; force]
-      frame.foot_wrench_Fo_F[f] << w.tail<3>(), w.head<3>();
-    }
+    inprocess::to_estimator_frame(sensors, s2m, sim_foot, frame);
     const StatusFlags ff = fixed.update(frame, out_fixed);
     const StatusFlags fm = moving.update(frame, out_moving);
     const StatusFlags ft = translating.update(frame, out_translating);
@@ -148,13 +138,12 @@ PlatformResult run(sim::Scenario s, contact::Method method, const char* label,
 // over the same seeds) and is held to the issue's 0.02 m/s in every run.
 constexpr double kMovingSingleRunVelocityRms = 0.025;
 
-void expect_moving_models_meet_the_targets(const PlatformResult& r) {
-  ASSERT_TRUE(r.survived) << "the robot fell: the run says nothing about the estimator";
-  EXPECT_GT(r.com_travel, 1.5) << "the platforms carried the robot";
+/// The estimates' errors against issue 7's targets (base velocity RMS <= 0.02 m/s, orientation
+/// <= 0.5 deg), and the fixed-contact model's failure they replace.
+void expect_estimates_meet_the_targets(const PlatformResult& r) {
   EXPECT_TRUE(r.moving.finite);
   EXPECT_TRUE(r.translating.finite);
   EXPECT_TRUE(r.fixed.finite);
-  // Issue 7's targets: base velocity RMS <= 0.02 m/s, orientation <= 0.5 deg.
   EXPECT_LT(r.translating.v_rms, 0.02);
   EXPECT_LT(r.translating.angle_max_deg, 0.5);
   EXPECT_LT(r.moving.v_rms, kMovingSingleRunVelocityRms);
@@ -163,6 +152,13 @@ void expect_moving_models_meet_the_targets(const PlatformResult& r) {
   // their error is of the order of the supports' velocity itself.
   EXPECT_GT(r.fixed.v_rms, 0.3 * r.true_v_rms);
   EXPECT_GT(r.odometry.v_rms, 0.3 * r.true_v_rms);
+}
+
+/// A whole ride: the robot stayed up and was carried, and the estimates meet the targets.
+void expect_moving_models_meet_the_targets(const PlatformResult& r) {
+  ASSERT_TRUE(r.survived) << "the robot fell: the run says nothing about the estimator";
+  EXPECT_GT(r.com_travel, 1.5) << "the platforms carried the robot";
+  expect_estimates_meet_the_targets(r);
 }
 
 // Level supports moving in sync (platforms_in_phase with the pitch taken out), 1 m at 0.12 Hz.
@@ -223,13 +219,8 @@ TEST(EstimatorPlatforms, OutOfPhaseSupportsUntilTheRobotFalls) {
   const PlatformResult r = run(s, contact::Method::kQp, "out of phase, qp, until the fall", false,
                                /*until_fall=*/true);
   EXPECT_GT(r.evaluated_until, motion_start + 1.0) << "too little motion to judge";
-  EXPECT_TRUE(r.translating.finite);
-  EXPECT_TRUE(r.moving.finite);
-  EXPECT_LT(r.translating.v_rms, 0.02);
-  EXPECT_LT(r.translating.angle_max_deg, 0.5);
-  EXPECT_LT(r.moving.v_rms, kMovingSingleRunVelocityRms);
-  EXPECT_LT(r.moving.angle_max_deg, 0.5);
-  EXPECT_GT(r.fixed.v_rms, 0.3 * r.true_v_rms);
+  EXPECT_GT(r.orientation_rejections, 0u) << "the feet tip before the fall: the gate must act";
+  expect_estimates_meet_the_targets(r);
 }
 
 TEST(EstimatorPlatforms, SupportModelNamesAndBadConfig) {

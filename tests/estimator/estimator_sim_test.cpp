@@ -10,6 +10,7 @@
 #include <cstdio>
 
 #include "poise/estimator/estimator.hpp"
+#include "poise/inprocess/estimator_frame.hpp"
 #include "poise/model/centroidal.hpp"
 #include "poise/model/dynamics.hpp"
 #include "poise/model/kinematics.hpp"
@@ -132,20 +133,6 @@ RunResult run(const std::string& scenario_name, double duration, bool add_biases
   Estimator est(model, rc);
   SensorFrame frame = est.make_sensor_frame();
   EstimatorState state = est.make_state();
-  const auto convert = [&](const sim::SensorFrame& s) {
-    frame.tick = s.tick;
-    frame.stamp_ns = static_cast<std::int64_t>(std::llround(s.time * 1e9));
-    sim::remap_joint_vector(sim_to_model, s.q, frame.q);
-    sim::remap_joint_vector(sim_to_model, s.qd, frame.qd);
-    sim::remap_joint_vector(sim_to_model, s.tau_measured, frame.tau_measured);
-    frame.imu_q_WI = s.imu_q_WI;
-    frame.imu_omega_I = s.imu_omega_I;
-    frame.imu_specific_force_I = s.imu_specific_force_I;
-    for (int f = 0; f < 2; ++f) {
-      const auto& w = s.foot_wrench_Fo_F[sim_foot[f]];  // [torque; force]
-      frame.foot_wrench_Fo_F[f] << w.tail<3>(), w.head<3>();
-    }
-  };
 
   RunResult r;
   Accumulator acc_f, acc_b;
@@ -154,7 +141,7 @@ RunResult run(const std::string& scenario_name, double duration, bool add_biases
   for (int k = 0; k < steps; ++k) {
     cmd.tick = sensors.tick;
     sim.step(cmd, sensors, truth);
-    convert(sensors);
+    inprocess::to_estimator_frame(sensors, sim_to_model, sim_foot, frame);
     const StatusFlags flags = est.update(frame, state);
     r.flags_seen |= flags;
     const bool finite_now = state.X_WB.p.allFinite() && state.v_WB.allFinite() &&

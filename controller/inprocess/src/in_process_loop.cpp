@@ -7,6 +7,7 @@
 #include "poise/model/kinematics.hpp"
 #if POISE_INPROCESS_HAVE_ESTIMATOR
 #include "poise/estimator/estimator.hpp"
+#include "poise/inprocess/estimator_frame.hpp"
 #endif
 
 namespace poise::inprocess {
@@ -125,26 +126,9 @@ void InProcessLoop::read_state() {
   state_.time = sensors_.time;
 #if POISE_INPROCESS_HAVE_ESTIMATOR
   if (estimator_) {
-    auto& fr = estimator_->frame;
-    fr.tick = sensors_.tick;
-    fr.stamp_ns = static_cast<std::int64_t>(std::llround(sensors_.time * 1e9));
-    for (int i = 0; i < n; ++i) {
-      const int j = sim_to_model_[i];
-      fr.q[j] = sensors_.q[i];
-      fr.qd[j] = sensors_.qd[i];
-      fr.tau_measured[j] = sensors_.tau_measured[i];
-    }
-    fr.imu_q_WI = sensors_.imu_q_WI;
-    fr.imu_omega_I = sensors_.imu_omega_I;
-    fr.imu_specific_force_I = sensors_.imu_specific_force_I;
-    for (int side = 0; side < 2; ++side) {
-      // Simulator: [torque; force]; estimator: [force; torque] (both at Fo, F axes).
-      const auto& w = sensors_.foot_wrench_Fo_F[sim_foot_of_side_[side]];
-      fr.foot_wrench_Fo_F[side].head<3>() = w.tail<3>();
-      fr.foot_wrench_Fo_F[side].tail<3>() = w.head<3>();
-    }
+    to_estimator_frame(sensors_, sim_to_model_, sim_foot_of_side_, estimator_->frame);
     auto& e = estimator_->out;
-    estimator_->est.update(fr, e);
+    estimator_->est.update(estimator_->frame, e);
     state_.X_WB = e.X_WB;
     state_.v_WB = e.v_WB;
     state_.omega_WB = e.omega_WB;
