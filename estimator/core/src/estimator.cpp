@@ -268,6 +268,14 @@ void Estimator::initialize(const SensorFrame& frame) noexcept {
   ++diag_.resets;
 }
 
+int Estimator::loaded_stance_foot() const noexcept {
+  int stance = -1;
+  for (int f = 0; f < kNumFeet; ++f)
+    if (legs_.contact[f] && (stance < 0 || legs_.normal_force[f] > legs_.normal_force[stance]))
+      stance = f;
+  return stance;
+}
+
 void Estimator::correct_with_kept_foot_orientations() noexcept {
   // Keep each stance foot's orientation from its touch-down (or from the moment the contacts
   // became free); correct with the most loaded one (the other says the same, one update is
@@ -298,10 +306,7 @@ void Estimator::correct_with_kept_foot_orientations() noexcept {
 }
 
 void Estimator::calibrate_on_still_supports(const SensorFrame& frame, StatusFlags flags) noexcept {
-  int stance = -1;
-  for (int f = 0; f < kNumFeet; ++f)
-    if (legs_.contact[f] && (stance < 0 || legs_.normal_force[f] > legs_.normal_force[stance]))
-      stance = f;
+  const int stance = loaded_stance_foot();
   if (stance >= 0 && !(flags & (kImuFrozen | kInitializing))) {
     // The stance foot does not rotate: the base turns at -omega_F0_B.
     calib_gyro_sum_ += frame.imu_omega_I - X_IB_.R * (-omega_F0_B_[stance]);
@@ -418,10 +423,7 @@ StatusFlags Estimator::update(const SensorFrame& frame, EstimatorState& out) noe
     }
     imu_frozen_ = true;
     // Angular velocity from the stance foot that carries most load (it does not rotate).
-    int stance = -1;
-    for (int f = 0; f < kNumFeet; ++f)
-      if (legs_.contact[f] && (stance < 0 || legs_.normal_force[f] > legs_.normal_force[stance]))
-        stance = f;
+    const int stance = loaded_stance_foot();
     omega_B_ = stance >= 0 ? Vector3(-omega_F0_B_[stance]) : Vector3::Zero();
     for (int f = 0; f < kNumFeet; ++f)
       legs_.v_BF_B[f] = omega_B_.cross(legs_.X_BF[f].p) + v_F0_B_[f];

@@ -170,6 +170,8 @@ class Estimator {
 
  private:
   bool frame_is_valid(const SensorFrame& frame) noexcept;
+  /// The foot in contact carrying the largest normal force, -1 when none is in contact.
+  int loaded_stance_foot() const noexcept;
   void correct_with_kept_foot_orientations() noexcept;
   void calibrate_on_still_supports(const SensorFrame& frame, StatusFlags flags) noexcept;
   void compute_leg_kinematics(const SensorFrame& frame) noexcept;
