@@ -51,6 +51,7 @@ TEST(ControllerConfig, ShippedFileLoadsWithTheDefaults) {
   EXPECT_EQ(c.momentum.gamma21, d.momentum.gamma21);
   EXPECT_EQ(c.acceleration.w_b, d.acceleration.w_b);
   EXPECT_EQ(c.foot.kp, d.foot.kp);
+  EXPECT_EQ(c.foot.support_acceleration_tau, d.foot.support_acceleration_tau);
   EXPECT_EQ(c.feedback.max_position_error, d.feedback.max_position_error);
 }
 
@@ -74,6 +75,7 @@ TEST(ControllerConfig, BadFilesNameTheProblem) {
   expect_error("momentum: {gamma21: [1, 2]}\n", "gamma21");
   expect_error("momentum: {gamma22: [1, -2, 3]}\n", "gamma22");
   expect_error("foot: {kp: abc}\n", "foot.kp");
+  expect_error("foot: {support_acceleration_tau: -0.01}\n", "foot.support_acceleration_tau");
   expect_error("fot: {kp: 1}\n", "fot");
   expect_error("foot: {kq: 1}\n", "foot.kq");
   expect_error("dt: -1\n", "dt");

@@ -125,6 +125,10 @@ BalanceController::BalanceController(const model::Model& model, const model::Rob
   qd_ref_.setZero(n);
   for (auto& V : V_WF_)
     V.setZero();
+  for (auto& V : V_WF_previous_)
+    V.setZero();
+  for (auto& A : A_WF_filtered_)
+    A.setZero();
 
   problem_.gravity = model_.gravity;
   for (int side = 0; side < kFeet; ++side) {
@@ -167,6 +171,7 @@ JointCommand BalanceController::make_command() const {
 void BalanceController::reset() noexcept {
   have_references_ = false;
   have_hold_ = {false, false};
+  have_foot_velocity_ = false;
   have_previous_solution_ = false;
   reuse_count_ = 0;
 }
@@ -226,6 +231,14 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
       X_WF_hold_[i] = X_WF_[i];
       have_hold_[i] = true;
     }
+    // Measured foot acceleration: velocity differenced over the tick, first-order low-pass.
+    if (have_foot_velocity_ && config_.foot.support_acceleration_tau > 0.0) {
+      const double alpha = config_.dt / (config_.foot.support_acceleration_tau + config_.dt);
+      A_WF_filtered_[i] += alpha * ((V_WF_[i] - V_WF_previous_[i]) / config_.dt - A_WF_filtered_[i]);
+    } else {
+      A_WF_filtered_[i].setZero();
+    }
+    V_WF_previous_[i] = V_WF_[i];
 
     bool support = false;
     switch (ref.mode) {
@@ -258,7 +271,9 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
       V_d = V_WF_[i];
       X_WF_hold_[i] = X_WF_[i];
     }
-    const model::Motion a_d = foot_acceleration(config_.foot, X_WF_[i], V_WF_[i], X_d, V_d);
+    model::Motion a_d = foot_acceleration(config_.foot, X_WF_[i], V_WF_[i], X_d, V_d);
+    if (resting && !ref.has_target && config_.foot.support_acceleration_tau > 0.0)
+      a_d += A_WF_filtered_[i];  // the support's acceleration, which the resting foot shares
     diag_.foot_acceleration_desired[i] = a_d;
     d_.segment<6>(6 * i) = a_d - jdot_v_.segment<6>(6 * i);
 
@@ -273,6 +288,7 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
     pf.R_WF = X_WF_[i].R;
     pf.p_WF = X_WF_[i].p;
   }
+  have_foot_velocity_ = true;
 
   // ---- desired CoM (reference, or Sec. 4.2: above the mid-point of the supports) ---------------
   if (reference.has_com_target) {

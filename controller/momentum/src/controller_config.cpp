@@ -86,6 +86,8 @@ void ControllerConfig::validate() const {
   require(contact.w_k >= 0.0 && contact.eps_f >= 0.0 && contact.eps_cop >= 0.0, "contact",
           "weights must be >= 0");
   require(foot.kp >= 0.0 && foot.kd >= 0.0, "foot", "gains must be >= 0");
+  require(foot.support_acceleration_tau >= 0.0, "foot.support_acceleration_tau",
+          "must be >= 0 (0: no support acceleration feed-forward)");
   const auto& a = acceleration;
   require(a.w_b > 0.0 && a.w_b < 1.0, "acceleration.w_b",
           "must be inside (0, 1) (paper Sec. 3.5: w_b = 1 makes eq (33) indeterminate)");
@@ -136,9 +138,10 @@ ControllerConfig load_controller_config(const std::filesystem::path& path) {
     r.number(m, "eps_cop", "contact.", c.contact.eps_cop);
   }
   if (const auto m = root["foot"]) {
-    r.keys(m, "foot", {"kp", "kd"});
+    r.keys(m, "foot", {"kp", "kd", "support_acceleration_tau"});
     r.number(m, "kp", "foot.", c.foot.kp);
     r.number(m, "kd", "foot.", c.foot.kd);
+    r.number(m, "support_acceleration_tau", "foot.", c.foot.support_acceleration_tau);
   }
   if (const auto m = root["acceleration"]) {
     r.keys(m, "acceleration",

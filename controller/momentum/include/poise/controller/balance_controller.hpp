@@ -149,6 +149,9 @@ class BalanceController {
   Eigen::VectorXd q_ref_, qd_ref_;  // n: theta*, theta_dot*
   std::array<bool, 2> have_hold_{false, false};
   std::array<model::SE3, 2> X_WF_hold_;  // desired pose of each foot when not resting
+  bool have_foot_velocity_ = false;
+  std::array<model::Motion, 2> V_WF_previous_;  // foot velocity of the previous tick
+  std::array<model::Motion, 2> A_WF_filtered_;  // low-pass filtered measured foot acceleration
   bool have_previous_solution_ = false;
   std::array<bool, 2> previous_support_{false, false};
   int reuse_count_ = 0;

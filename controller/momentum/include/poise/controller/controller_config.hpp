@@ -43,6 +43,14 @@ struct ContactWeights {
 struct FootGains {
   double kp = 100.0;  ///< [1/s^2]
   double kd = 20.0;   ///< [1/s]
+  /// Sec. 4.2 moving supports: a resting foot follows its support, v_d = v and T_d = T, so eq
+  /// (36) alone asks it zero acceleration while the support may accelerate (16 m/s^2 on the
+  /// out-of-phase platforms). > 0: the foot's measured acceleration (its velocity differenced
+  /// over one tick, low-pass filtered with this time constant [s]) is added to a_d of a resting
+  /// foot as the support's acceleration. 0 (default): eq (36) as written. Measured
+  /// (controller/momentum/README.md): 0.01 lets the robot ride out-of-phase supports of 0.1 m at
+  /// 1 Hz that it falls from without, but makes the in-phase platforms fail on the estimator.
+  double support_acceleration_tau = 0.0;
 };
 
 /// Eq (33) and its companions.
