@@ -234,7 +234,8 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
     // Measured foot acceleration: velocity differenced over the tick, first-order low-pass.
     if (have_foot_velocity_ && config_.foot.support_acceleration_tau > 0.0) {
       const double alpha = config_.dt / (config_.foot.support_acceleration_tau + config_.dt);
-      A_WF_filtered_[i] += alpha * ((V_WF_[i] - V_WF_previous_[i]) / config_.dt - A_WF_filtered_[i]);
+      A_WF_filtered_[i] +=
+          alpha * ((V_WF_[i] - V_WF_previous_[i]) / config_.dt - A_WF_filtered_[i]);
     } else {
       A_WF_filtered_[i].setZero();
     }
