@@ -28,9 +28,15 @@ void operator delete(void* p, std::size_t) noexcept {
 namespace poise::controller {
 namespace {
 
-TEST(NoMalloc, ControllerTickPhasesAndFallbacks) {
+// Parameter: foot.support_acceleration_tau (0: off, the default; > 0: the foot acceleration
+// filter and its feed-forward run too).
+class NoMallocTick : public ::testing::TestWithParam<double> {};
+
+TEST_P(NoMallocTick, ControllerTickPhasesAndFallbacks) {
   const auto& h = test::humanoid();
-  BalanceController c(h.model, h.robot, ControllerConfig{});
+  ControllerConfig config;
+  config.foot.support_acceleration_tau = GetParam();
+  BalanceController c(h.model, h.robot, config);
   std::mt19937 rng(7);
   std::vector<RobotState> states;
   for (int k = 0; k < 20; ++k)
@@ -66,6 +72,9 @@ TEST(NoMalloc, ControllerTickPhasesAndFallbacks) {
   EXPECT_EQ(c.diagnostics().ticks, 40u);
   EXPECT_EQ(cmd.mode, CommandMode::kTorque);
 }
+
+INSTANTIATE_TEST_SUITE_P(SupportAccelerationFeedForward, NoMallocTick,
+                         ::testing::Values(0.0, 0.01));
 
 // Eq (33) with active joint bounds: the primal active set (and DualQp, its fallback) allocate
 // nothing either. Seeded random problems with tight bounds, sizes of the humanoid.

@@ -262,6 +262,7 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
 
     model::SE3 X_d = X_WF_hold_[i];
     model::Motion V_d = model::Motion::Zero();
+    model::Motion a_support = model::Motion::Zero();
     if (ref.has_target) {
       X_d = ref.X_WF_target;
       V_d = ref.V_WF_target;
@@ -271,10 +272,10 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
       X_d = X_WF_[i];
       V_d = V_WF_[i];
       X_WF_hold_[i] = X_WF_[i];
+      a_support = A_WF_filtered_[i];  // shared with its support; zero when the filter is off
     }
-    model::Motion a_d = foot_acceleration(config_.foot, X_WF_[i], V_WF_[i], X_d, V_d);
-    if (resting && !ref.has_target && config_.foot.support_acceleration_tau > 0.0)
-      a_d += A_WF_filtered_[i];  // the support's acceleration, which the resting foot shares
+    const model::Motion a_d =
+        foot_acceleration(config_.foot, X_WF_[i], V_WF_[i], X_d, V_d) + a_support;
     diag_.foot_acceleration_desired[i] = a_d;
     d_.segment<6>(6 * i) = a_d - jdot_v_.segment<6>(6 * i);
 
