@@ -11,11 +11,6 @@
 
 #include "estimator_test_util.hpp"
 
-// The counting operator new below pairs malloc with free; GCC's -Wmismatched-new-delete sees
-// gtest's parameterised-test registration inline through it and warns about a mismatch that is
-// not one (both are this file's).
-#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
-
 static std::atomic<long> g_news{0};
 void* operator new(std::size_t n) {
   ++g_news;
