@@ -13,7 +13,8 @@ build=${POISE_BUILD_DIR:-$here/build}
 jobs=${POISE_JOBS:-$(nproc)}
 
 # Every Debian package the project needs: build tools, the five named dependencies and the
-# well-kept libraries it uses (JSON, YAML, CLI parsing, tests, benchmarks, network namespaces).
+# well-kept libraries it uses (JSON, YAML, CLI parsing, tests, benchmarks, network namespaces,
+# MCAP chunk compression, plots) and Node.js, which runs the independent MCAP reader of the tests.
 packages=(
   build-essential cmake pkg-config git python3 iproute2 procps
   libeigen3-dev liburdfdom-dev
@@ -22,6 +23,7 @@ packages=(
   libbullet-dev libbullet-extras-dev
   nlohmann-json3-dev libyaml-cpp-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  libzstd-dev liblz4-dev zlib1g-dev gnuplot-nox nodejs
 )
 
 step() { printf '\n== %s\n' "$*"; }
@@ -33,6 +35,8 @@ if [[ "${POISE_SKIP_APT:-0}" != 1 ]]; then
   export DEBIAN_FRONTEND=noninteractive
   $sudo apt-get update -q
   $sudo apt-get install -y -q --no-install-recommends "${packages[@]}"
+  # Debian's nodejs comes without npm (package npm); other Node.js builds bundle it.
+  command -v npm >/dev/null || $sudo apt-get install -y -q --no-install-recommends npm
 fi
 
 step "Configuring ($build, Release)"

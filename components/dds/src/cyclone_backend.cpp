@@ -187,6 +187,15 @@ class CycloneReader final : public ReaderBackend {
     if (dds_get_subscription_matched_status(reader_, &st) != DDS_RETCODE_OK) return 0;
     return static_cast<int>(st.current_count);
   }
+  ReaderLosses losses() const noexcept override {
+    ReaderLosses out;
+    dds_sample_lost_status_t lost{};
+    if (dds_get_sample_lost_status(reader_, &lost) == DDS_RETCODE_OK) out.lost = lost.total_count;
+    dds_sample_rejected_status_t rejected{};
+    if (dds_get_sample_rejected_status(reader_, &rejected) == DDS_RETCODE_OK)
+      out.rejected = rejected.total_count;
+    return out;
+  }
   void set_on_data_available(std::function<void()> callback) override {
     std::lock_guard lock(callback_mutex_);
     callback_ = std::move(callback);

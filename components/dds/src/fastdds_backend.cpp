@@ -181,6 +181,16 @@ class FastddsReader final : public ReaderBackend, public fdds::DataReaderListene
     reader_->get_subscription_matched_status(st);
     return st.current_count;
   }
+  ReaderLosses losses() const noexcept override {
+    ReaderLosses out;
+    fdds::SampleLostStatus lost;
+    if (reader_->get_sample_lost_status(lost) == ReturnCode_t::RETCODE_OK)
+      out.lost = static_cast<std::uint64_t>(lost.total_count);
+    fdds::SampleRejectedStatus rejected;
+    if (reader_->get_sample_rejected_status(rejected) == ReturnCode_t::RETCODE_OK)
+      out.rejected = rejected.total_count;
+    return out;
+  }
   void set_on_data_available(std::function<void()> callback) override {
     std::lock_guard lock(callback_mutex_);
     callback_ = std::move(callback);

@@ -97,11 +97,14 @@ class RawSubscriber {
     return wait_until_matched([this] { return matched(); }, count, timeout);
   }
   const SubscriberCounters& counters() const noexcept { return core_.counters(); }
+  /// Samples the vendor reports lost or rejected for this reader (DDS statuses, polled).
+  detail::ReaderLosses losses() const noexcept { return core_.losses(); }
 
  private:
   detail::ReaderCore core_;
 };
 
 using SampleMeta = detail::SampleMeta;
+using ReaderLosses = detail::ReaderLosses;
 
 }  // namespace poise::dds

@@ -32,6 +32,14 @@ class WriterBackend {
   virtual int matched() const noexcept = 0;
 };
 
+/// What the vendor says a reader lost or refused since it was created (DDS SAMPLE_LOST and
+/// SAMPLE_REJECTED statuses: gaps the reliability protocol could not fill, samples refused for
+/// resource limits).
+struct ReaderLosses {
+  std::uint64_t lost = 0;
+  std::uint64_t rejected = 0;
+};
+
 class ReaderBackend {
  public:
   virtual ~ReaderBackend() = default;
@@ -40,6 +48,8 @@ class ReaderBackend {
   virtual bool take(std::vector<std::uint8_t>& bytes, SampleMeta& meta) noexcept = 0;
   /// Number of matched writers.
   virtual int matched() const noexcept = 0;
+  /// The vendor's loss counters of this reader (polled; cheap, not for the 1 kHz path).
+  virtual ReaderLosses losses() const noexcept = 0;
   /// Called on a vendor thread whenever data arrived. Set once, right after creation.
   virtual void set_on_data_available(std::function<void()> callback) = 0;
 };

@@ -57,6 +57,7 @@ class ReaderCore {
       std::function<void(const std::vector<std::uint8_t>&, const SampleMeta&)> cb);
 
   int matched() const noexcept { return reader_->matched(); }
+  ReaderLosses losses() const noexcept { return reader_->losses(); }
   const SubscriberCounters& counters() const noexcept { return counters_; }
   const std::string& topic_name() const noexcept { return topic_name_; }
   /// The newest rejection or error message (names topic and field), "" if none.

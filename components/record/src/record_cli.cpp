@@ -1,0 +1,162 @@
+// `poise record`: records Poise DDS topics to MCAP until Ctrl-C, SIGTERM or --duration.
+#include <signal.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <thread>
+
+#include <CLI/CLI.hpp>
+#include <poise/dds/cli.hpp>
+#include <poise/dds/dds.hpp>
+
+#include "poise/record/cli.hpp"
+#include "poise/record/recorder.hpp"
+
+namespace poise::record {
+namespace {
+
+std::atomic<int> g_signal{0};
+extern "C" void record_on_signal(int sig) {
+  g_signal.store(sig);
+}
+
+std::string default_output() {
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  localtime_r(&now, &tm);
+  char name[64];
+  std::strftime(name, sizeof(name), "poise_%Y%m%d-%H%M%S.mcap", &tm);
+  return name;
+}
+
+void print_progress(const RecorderStatus& s, double elapsed, bool tty) {
+  std::fprintf(stderr,
+               "%srecording %.1f s: %zu topics, %llu messages, %.1f MB, %llu dropped, "
+               "%llu lost by DDS%s",
+               tty ? "\r" : "", elapsed, s.topics.size(),
+               static_cast<unsigned long long>(s.messages), s.bytes / 1e6,
+               static_cast<unsigned long long>(s.dropped),
+               static_cast<unsigned long long>(s.vendor_lost), tty ? "   " : "\n");
+  std::fflush(stderr);
+}
+
+}  // namespace
+
+void print_recording_summary(const RecorderStatus& s, std::FILE* out) {
+  std::fprintf(out, "%-26s %-30s %10s %10s %8s %8s\n", "TOPIC", "TYPE", "RECEIVED", "WRITTEN",
+               "DROPPED", "DDS-LOST");
+  for (const auto& t : s.topics) {
+    std::fprintf(out, "%-26s %-30s %10llu %10llu %8llu %8llu\n", t.topic.c_str(),
+                 t.type_name.c_str(), static_cast<unsigned long long>(t.received),
+                 static_cast<unsigned long long>(t.written),
+                 static_cast<unsigned long long>(t.dropped),
+                 static_cast<unsigned long long>(t.vendor_lost + t.vendor_rejected));
+  }
+  std::string files;
+  for (const auto& f : s.files)
+    files += (files.empty() ? "" : ", ") + f;
+  std::fprintf(
+      out, "%llu messages, %.2f MB in %s; %llu dropped by the recorder, %llu lost by DDS\n",
+      static_cast<unsigned long long>(s.messages), s.bytes / 1e6, files.c_str(),
+      static_cast<unsigned long long>(s.dropped), static_cast<unsigned long long>(s.vendor_lost));
+}
+
+int record_main(int argc, char** argv) {
+  dds::DdsOptions dds_options = dds::dds_options_from_env();
+  dds_options.participant_name = "poise-record";
+  RecorderOptions options;
+  std::string compression = "zstd";
+  double duration_s = 0;
+  double progress_s = -1;
+  bool all = false;
+  CLI::App app{
+      "Record Poise DDS topics to an MCAP file (schema encoding omgidl, message encoding cdr), "
+      "from writers of either vendor, until Ctrl-C, SIGTERM or --duration.\n"
+      "Read it with `poise info`, `poise replay`, `poise export`, `poise plot` or any MCAP tool."};
+  app.name("poise record");
+  dds::add_dds_options(app, dds_options);
+  app.add_option("topics", options.topics, "topics to record (default: every Poise topic)");
+  app.add_flag("-a,--all", all, "record every Poise topic (the default when none is named)");
+  app.add_option("-o,--output", options.output,
+                 "output file (default: poise_<date>-<time>.mcap); with splitting, "
+                 "<stem>_<k>.mcap");
+  app.add_option("--duration", duration_s, "stop after this many seconds (0: until Ctrl-C)")
+      ->check(CLI::Range(0.0, 1e7));
+  app.add_option("--split-size", options.split_size_mb, "start a new file past this many MB")
+      ->check(CLI::Range(0.0, 1e7));
+  app.add_option("--split-duration", options.split_duration_s,
+                 "start a new file every this many seconds")
+      ->check(CLI::Range(0.0, 1e7));
+  app.add_option("--compression", compression, "chunk compression")
+      ->check(CLI::IsMember({"zstd", "lz4", "none"}))
+      ->capture_default_str();
+  app.add_option("--chunk-size", options.writer.chunk_size,
+                 "bytes of messages per chunk (the most a crash can cost, with --flush-interval)")
+      ->check(CLI::Range(std::size_t{1024}, std::size_t{1} << 30))
+      ->capture_default_str();
+  app.add_option("--flush-interval", options.flush_interval_s,
+                 "write the open chunk at least this often [s]")
+      ->check(CLI::Range(0.001, 60.0))
+      ->capture_default_str();
+  app.add_flag("!--no-sync", options.writer.sync_chunks,
+               "do not fdatasync after each chunk (faster; a power loss may cost more)");
+  app.add_option("--progress", progress_s,
+                 "seconds between progress lines (default: 0.5 on a terminal, 5 otherwise; "
+                 "0: none)");
+  CLI11_PARSE(app, argc, argv);
+  if (all && !options.topics.empty()) {
+    std::fprintf(stderr, "poise record: name topics or give --all, not both\n");
+    return 2;
+  }
+  options.writer.compression = parse_compression(compression);
+  if (options.output.empty()) options.output = default_output();
+  const bool tty = ::isatty(2) != 0;
+  if (progress_s < 0) progress_s = tty ? 0.5 : 5.0;
+
+  struct sigaction sa {};
+  sa.sa_handler = record_on_signal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+
+  dds::set_log_name("poise-record");
+  dds::Participant participant(dds_options);
+  Recorder recorder(participant, options);
+  std::fprintf(stderr, "poise record: %s, domain %d, %s -> %s\n",
+               std::string(dds::to_string(participant.vendor())).c_str(), participant.domain_id(),
+               options.topics.empty() ? "every Poise topic" : "the topics named",
+               options.output.c_str());
+  const auto start = std::chrono::steady_clock::now();
+  auto next_progress = start + std::chrono::duration<double>(progress_s);
+  std::string error;
+  while (g_signal.load() == 0) {
+    const auto now = std::chrono::steady_clock::now();
+    const double elapsed = std::chrono::duration<double>(now - start).count();
+    if (duration_s > 0 && elapsed >= duration_s) break;
+    if (progress_s > 0 && now >= next_progress) {
+      print_progress(recorder.status(), elapsed, tty);
+      next_progress += std::chrono::duration<double>(progress_s);
+    }
+    if (const auto s = recorder.status(); !s.error.empty()) {
+      error = s.error;
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  if (tty && progress_s > 0) std::fprintf(stderr, "\n");
+  const RecorderStatus final_status = recorder.finish();
+  print_recording_summary(final_status, stderr);
+  if (!final_status.error.empty()) {
+    std::fprintf(stderr,
+                 "poise record: error: %s\nEverything written before the failure is in the "
+                 "file, which a streaming reader (poise info) reads as incomplete.\n",
+                 final_status.error.c_str());
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace poise::record

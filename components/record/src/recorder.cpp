@@ -1,0 +1,296 @@
+#include "poise/record/recorder.hpp"
+
+#include <time.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+#include <stdexcept>
+
+#include <poise/dds/log.hpp>
+#include <poise/dds/topics.hpp>
+#include <poise/msg/idl_schemas_gen.hpp>
+
+namespace poise::record {
+namespace {
+
+std::int64_t monotonic_ns() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
+}
+
+std::string_view schema_of(std::string_view type_name) {
+  for (const auto& s : msg::kIdlSchemas)
+    if (s.type_name == type_name) return s.idl;
+  return {};
+}
+
+/// Reliable or best effort as the topic is, keep-last deep enough for bursts.
+dds::Qos recorder_qos(const dds::Qos& topic_qos) {
+  dds::Qos q = topic_qos;
+  q.history_depth = 1000;
+  q.deadline = dds::Qos::infinite;
+  return q;
+}
+
+constexpr std::uint16_t kNoChannel = 0xFFFF;
+
+}  // namespace
+
+struct Recorder::Topic {
+  std::size_t index;
+  std::string name;
+  std::string type_name;
+  std::string_view schema;
+  std::atomic<std::uint64_t> received{0};
+  std::atomic<std::uint64_t> dropped{0};
+  std::atomic<std::uint64_t> written{0};
+  std::unique_ptr<dds::RawSubscriber> subscriber;
+};
+
+Recorder::Recorder(dds::Participant& participant, RecorderOptions options)
+    : participant_(participant), options_(std::move(options)) {
+  std::vector<const dds::TopicDescription*> chosen;
+  if (options_.topics.empty()) {
+    for (const auto& t : dds::topic_table())
+      chosen.push_back(&t);
+  } else {
+    for (const auto& name : options_.topics) {
+      const auto* t = dds::find_topic(name);
+      if (!t) {
+        std::string known;
+        for (const auto& k : dds::topic_table())
+          known += (known.empty() ? "" : ", ") + std::string(k.topic_name);
+        throw std::invalid_argument("unknown topic '" + name + "'; Poise topics: " + known);
+      }
+      if (std::find(chosen.begin(), chosen.end(), t) == chosen.end()) chosen.push_back(t);
+    }
+  }
+  if (options_.output.empty()) throw std::invalid_argument("no output file given");
+  // The file first: a bad path fails before anything subscribes.
+  if (!open_file()) throw std::runtime_error(error_);
+  for (const auto* t : chosen) {
+    auto topic = std::make_unique<Topic>();
+    topic->index = topics_.size();
+    topic->name = std::string(t->topic_name);
+    topic->type_name = std::string(t->type_name);
+    topic->schema = schema_of(t->type_name);
+    if (topic->schema.empty())
+      throw std::logic_error("no IDL schema generated for " + topic->type_name);
+    topics_.push_back(std::move(topic));
+  }
+  channel_of_.assign(topics_.size(), kNoChannel);
+  thread_ = std::thread([this] { writer_loop(); });
+  for (auto& topic : topics_) {
+    Topic* tp = topic.get();
+    tp->subscriber = std::make_unique<dds::RawSubscriber>(
+        participant_, tp->name, tp->type_name, recorder_qos(dds::find_topic(tp->name)->qos),
+        [this, tp](const std::vector<std::uint8_t>& bytes, const dds::SampleMeta& meta) {
+          on_sample(*tp, bytes, meta);
+        });
+  }
+}
+
+Recorder::~Recorder() {
+  finish();
+}
+
+void Recorder::on_sample(Topic& topic, const std::vector<std::uint8_t>& bytes,
+                         const dds::SampleMeta& meta) {
+  if (!accepting_.load(std::memory_order_relaxed)) return;  // after the end of the recording
+  const std::uint64_t sequence = topic.received.fetch_add(1, std::memory_order_relaxed) + 1;
+  const auto log_time = static_cast<std::uint64_t>(meta.reception_timestamp_ns);
+  const auto publish_time = meta.source_timestamp_ns > 0
+                                ? static_cast<std::uint64_t>(meta.source_timestamp_ns)
+                                : log_time;
+  {
+    std::lock_guard lock(queue_mutex_);
+    if (queue_bytes_ + bytes.size() > options_.max_queue_bytes) {
+      topic.dropped.fetch_add(1, std::memory_order_relaxed);
+      return;
+    }
+    queue_.push_back(
+        Item{&topic, static_cast<std::uint32_t>(sequence), log_time, publish_time, bytes});
+    queue_bytes_ += bytes.size();
+  }
+  queue_cv_.notify_one();
+}
+
+std::string Recorder::next_path() {
+  const bool splitting = options_.split_size_mb > 0 || options_.split_duration_s > 0;
+  if (!splitting) return options_.output;
+  const std::filesystem::path p(options_.output);
+  const std::string ext = p.has_extension() ? p.extension().string() : ".mcap";
+  return (p.parent_path() / (p.stem().string() + "_" + std::to_string(file_index_) + ext)).string();
+}
+
+bool Recorder::open_file() {
+  const std::string path = next_path();
+  try {
+    writer_ = std::make_unique<McapWriter>(path, options_.writer);
+  } catch (const std::exception& e) {
+    std::lock_guard lock(status_mutex_);
+    error_ = e.what();
+    return false;
+  }
+  file_opened_ns_ = monotonic_ns();
+  char host[256] = {};
+  ::gethostname(host, sizeof(host) - 1);
+  writer_->write_metadata("poise_recording",
+                          {{"dds_vendor", std::string(dds::to_string(participant_.vendor()))},
+                           {"domain", std::to_string(participant_.domain_id())},
+                           {"host", host},
+                           {"file_index", std::to_string(file_index_)},
+                           {"compression", std::string(to_string(options_.writer.compression))}});
+  std::fill(channel_of_.begin(), channel_of_.end(), kNoChannel);
+  std::lock_guard lock(status_mutex_);
+  files_.push_back(path);
+  return true;
+}
+
+std::map<std::string, std::string> Recorder::loss_metadata() const {
+  std::map<std::string, std::string> m;
+  std::uint64_t dropped = 0, lost = 0;
+  for (const auto& t : topics_) {
+    const auto losses = t->subscriber ? t->subscriber->losses() : dds::ReaderLosses{};
+    if (t->received.load() == 0 && losses.lost == 0 && losses.rejected == 0) continue;
+    m[t->name + ".received"] = std::to_string(t->received.load());
+    m[t->name + ".written"] = std::to_string(t->written.load());
+    m[t->name + ".dropped"] = std::to_string(t->dropped.load());
+    m[t->name + ".vendor_lost"] = std::to_string(losses.lost);
+    m[t->name + ".vendor_rejected"] = std::to_string(losses.rejected);
+    dropped += t->dropped.load();
+    lost += losses.lost + losses.rejected;
+  }
+  m["total.dropped"] = std::to_string(dropped);
+  m["total.vendor_lost"] = std::to_string(lost);
+  return m;
+}
+
+bool Recorder::close_file() {
+  if (!writer_) return true;
+  writer_->write_metadata("poise_recorder", loss_metadata());
+  const bool ok = writer_->close();
+  std::lock_guard lock(status_mutex_);
+  if (!ok && error_.empty()) error_ = writer_->error();
+  bytes_closed_files_ += writer_->stats().bytes_written;
+  bytes_ = bytes_closed_files_;
+  writer_.reset();
+  return ok;
+}
+
+void Recorder::write_item(Item& item) {
+  Topic& t = *item.topic;
+  if (!writer_ || writer_->failed()) {
+    t.dropped.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  std::uint16_t& channel = channel_of_[t.index];
+  if (channel == kNoChannel) {
+    const std::uint16_t schema = writer_->add_schema(t.type_name, "omgidl", t.schema);
+    channel = writer_->add_channel(schema, t.name, "cdr");
+  }
+  if (writer_->write_message(channel, item.sequence, item.log_time, item.publish_time,
+                             item.bytes.data(), item.bytes.size())) {
+    t.written.fetch_add(1, std::memory_order_relaxed);
+  } else {
+    t.dropped.fetch_add(1, std::memory_order_relaxed);
+  }
+}
+
+void Recorder::writer_loop() {
+  std::vector<Item> batch;
+  const auto flush_ns = static_cast<std::int64_t>(options_.flush_interval_s * 1e9);
+  std::int64_t last_flush = monotonic_ns();
+  for (;;) {
+    bool stopping;
+    {
+      std::unique_lock lock(queue_mutex_);
+      queue_cv_.wait_for(lock,
+                         std::chrono::nanoseconds(std::max<std::int64_t>(flush_ns / 2, 1000000)),
+                         [this] { return stopping_ || !queue_.empty(); });
+      batch.swap(queue_);
+      queue_bytes_ = 0;
+      stopping = stopping_;
+    }
+    for (auto& item : batch)
+      write_item(item);
+    batch.clear();
+    const std::int64_t now = monotonic_ns();
+    if (writer_ && !writer_->failed()) {
+      if (now - last_flush >= flush_ns) {
+        writer_->flush();
+        last_flush = now;
+      }
+      const bool too_big = options_.split_size_mb > 0 &&
+                           writer_->stats().bytes_written >= options_.split_size_mb * 1e6;
+      const bool too_long =
+          options_.split_duration_s > 0 && now - file_opened_ns_ >= options_.split_duration_s * 1e9;
+      if (!stopping && (too_big || too_long)) {
+        close_file();
+        ++file_index_;
+        open_file();
+      }
+    }
+    if (writer_) {
+      std::lock_guard lock(status_mutex_);
+      bytes_ = bytes_closed_files_ + writer_->stats().bytes_written;
+      if (writer_->failed() && error_.empty()) error_ = writer_->error();
+    }
+    if (stopping) {
+      // Samples that arrived while this batch was written.
+      std::unique_lock lock(queue_mutex_);
+      if (queue_.empty()) break;
+    }
+  }
+}
+
+RecorderStatus Recorder::status() const {
+  RecorderStatus s;
+  for (const auto& t : topics_) {
+    TopicCounts c;
+    c.writers = t->subscriber ? t->subscriber->matched() : 0;
+    c.received = t->received.load();
+    if (c.writers == 0 && c.received == 0) continue;
+    c.topic = t->name;
+    c.type_name = t->type_name;
+    c.written = t->written.load();
+    c.dropped = t->dropped.load();
+    if (t->subscriber) {
+      const auto l = t->subscriber->losses();
+      c.vendor_lost = l.lost;
+      c.vendor_rejected = l.rejected;
+    }
+    s.messages += c.written;
+    s.dropped += c.dropped;
+    s.vendor_lost += c.vendor_lost + c.vendor_rejected;
+    s.topics.push_back(std::move(c));
+  }
+  std::lock_guard lock(status_mutex_);
+  s.bytes = bytes_;
+  s.files = files_;
+  s.error = error_;
+  return s;
+}
+
+RecorderStatus Recorder::finish() {
+  if (finished_) return status();
+  finished_ = true;
+  // Stop taking new samples, but keep the subscribers (their loss counters) until the end.
+  accepting_.store(false);
+  {
+    std::lock_guard lock(queue_mutex_);
+    stopping_ = true;
+  }
+  queue_cv_.notify_one();
+  if (thread_.joinable()) thread_.join();
+  close_file();
+  RecorderStatus s = status();
+  for (auto& t : topics_)
+    t->subscriber.reset();
+  return s;
+}
+
+}  // namespace poise::record

@@ -1,0 +1,357 @@
+// `poise record`, `poise info`, `poise replay` and `poise run --record` as users run them: real
+// processes on a DDS domain of this test's own (loopback only), real files, and every file read
+// by the independent MCAP reader (npm @mcap/core + @foxglove/omgidl-*, mcap_reader_js/).
+#include <gtest/gtest.h>
+#include <signal.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <random>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <tuple>
+
+#include <poise/msg/balance_reference.h>
+#include <poise/msg/contact_problem.h>
+#include <poise/msg/contact_solution.h>
+#include <poise/msg/diagnostics.h>
+#include <poise/msg/disturbance.h>
+#include <poise/msg/ground_truth.h>
+#include <poise/msg/joint_command.h>
+#include <poise/msg/robot_description.h>
+#include <poise/msg/sensors.h>
+#include <poise/msg/state.h>
+#include <nlohmann/json.hpp>
+#include <poise/dds/dds.hpp>
+#include <poise/dds/domain_claim.hpp>
+#include <poise/record/mcap_reader.hpp>
+#include <poise/reflect/fill.hpp>
+
+#include "child_process.hpp"
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+using namespace std::chrono_literals;
+using poise::testing::bin;
+using poise::testing::ChildProcess;
+
+namespace {
+
+using AllTypes =
+    std::tuple<poise::msg::RobotDescription, poise::msg::Sensors, poise::msg::GroundTruth,
+               poise::msg::State, poise::msg::BalanceReference, poise::msg::ContactProblem,
+               poise::msg::ContactSolution, poise::msg::JointCommand, poise::msg::Disturbance,
+               poise::msg::Diagnostics>;
+
+template <class F>
+void for_each_type(F&& f) {
+  [&]<std::size_t... I>(std::index_sequence<I...>) {
+    (f(std::integral_constant<std::size_t, I>{}), ...);
+  }
+  (std::make_index_sequence<std::tuple_size_v<AllTypes>>{});
+}
+
+fs::path work_dir(const std::string& name) {
+  const fs::path d =
+      fs::temp_directory_path() / ("poise_record_test_" + std::to_string(::getpid())) / name;
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+/// Runs a command to completion (bounded); returns {exit code, stdout (+stderr if merged)}.
+std::pair<int, std::string> run(std::vector<std::string> argv, std::chrono::seconds limit = 120s,
+                                bool merge_stderr = true) {
+  ChildProcess p(std::move(argv), {}, false, merge_stderr);
+  const auto code = p.wait_for(limit);
+  return {code.value_or(-1), p.output()};
+}
+
+/// The independent reader's report of a file ({exit code, report}).
+std::pair<int, Json> check_independently(const fs::path& file, bool streaming,
+                                         const fs::path& dump = {}) {
+  std::vector<std::string> argv{POISE_NODE, POISE_MCAP_CHECK_JS};
+  if (streaming) argv.push_back("--streaming");
+  if (!dump.empty()) {
+    argv.push_back("--dump");
+    argv.push_back(dump.string());
+  }
+  argv.push_back(file.string());
+  const auto [code, out] = run(argv, 300s, false);
+  Json report;
+  try {
+    report = Json::parse(out);
+  } catch (...) {
+    ADD_FAILURE() << "the MCAP checker printed no JSON report: " << out;
+  }
+  return {code, report};
+}
+
+Json info_json(const fs::path& file, int* code = nullptr) {
+  const auto [rc, out] = run({bin("poise"), "info", "--json", file.string()}, 120s, false);
+  if (code) *code = rc;
+  try {
+    return Json::parse(out);
+  } catch (...) {
+    ADD_FAILURE() << "poise info --json printed no JSON: " << out;
+    return Json();
+  }
+}
+
+const Json* find_topic(const Json& info, const std::string& topic) {
+  for (const auto& t : info["topics"])
+    if (t["topic"] == topic) return &t;
+  return nullptr;
+}
+
+// ---- comparing what the independent decoder returned with what was published --------------
+
+std::optional<std::string> diff(const auto& v, const Json& j, const std::string& path);
+
+template <class T>
+std::optional<std::string> diff_value(const T& v, const Json& j, const std::string& path) {
+  using namespace poise::reflect;
+  if constexpr (is_struct_v<T>) {
+    if (!j.is_object()) return path + ": not an object";
+    std::optional<std::string> d;
+    poise::msg::visit_fields(v, [&](const FieldInfo& info, const auto& m) {
+      if (d) return;
+      const auto it = j.find(std::string(info.name));
+      const std::string p =
+          path.empty() ? std::string(info.name) : path + "." + std::string(info.name);
+      if (it == j.end()) {
+        d = p + ": missing";
+        return;
+      }
+      d = diff_value(m, *it, p);
+    });
+    return d;
+  } else if constexpr (is_array_v<T> || is_vector_v<T>) {
+    if (!j.is_array() || j.size() != v.size())
+      return path + ": expected " + std::to_string(v.size()) + " entries, got " + j.dump();
+    for (std::size_t i = 0; i < v.size(); ++i)
+      if (auto d = diff_value(v[i], j[i], path + "[" + std::to_string(i) + "]")) return d;
+    return std::nullopt;
+  } else if constexpr (is_fixed_string_v<T>) {
+    if (j != v.to_string()) return path + ": " + j.dump() + " vs \"" + v.to_string() + "\"";
+    return std::nullopt;
+  } else if constexpr (std::is_same_v<T, std::string>) {
+    if (j != v) return path + ": " + j.dump() + " vs \"" + v + "\"";
+    return std::nullopt;
+  } else if constexpr (is_enum_v<T>) {
+    if (!j.is_number_integer() || j.get<long long>() != static_cast<long long>(v))
+      return path + ": " + j.dump() + " vs enumerator " + std::to_string(static_cast<int>(v));
+    return std::nullopt;
+  } else if constexpr (is_bool_v<T>) {
+    if (j != v) return path + ": " + j.dump();
+    return std::nullopt;
+  } else if constexpr (std::is_floating_point_v<T>) {
+    if (!j.is_number() || static_cast<T>(j.get<double>()) != v)
+      return path + ": " + j.dump() + " vs " + std::to_string(v);
+    return std::nullopt;
+  } else {
+    static_assert(std::is_integral_v<T>);
+    // 64-bit integers come as decimal strings (JavaScript BigInt).
+    std::string text = j.is_string() ? j.get<std::string>() : j.dump();
+    const std::string want = std::to_string(v);
+    if (text != want) return path + ": " + text + " vs " + want;
+    return std::nullopt;
+  }
+}
+
+template <class T>
+T sample_of(std::size_t type_index, std::uint64_t k, std::uint64_t seed) {
+  std::mt19937_64 rng(seed * 7919u + type_index * 1000003u + k);
+  T s;
+  poise::reflect::fill_random(s, rng);
+  s.header().tick(k);
+  return s;
+}
+
+struct RecorderProcess {
+  ChildProcess process;
+  RecorderProcess(const std::vector<std::string>& args) : process(args, {}, false, true) {
+    EXPECT_TRUE(process.wait_for_output("poise record: ", 20s)) << process.output();
+  }
+};
+
+std::vector<std::string> record_args(const std::string& vendor, int domain, const fs::path& out,
+                                     std::vector<std::string> extra = {}) {
+  std::vector<std::string> a{
+      bin("poise"),           "record", "--dds",      vendor,       "--domain",
+      std::to_string(domain), "-o",     out.string(), "--progress", "0"};
+  a.insert(a.end(), extra.begin(), extra.end());
+  return a;
+}
+
+class RecordVendors : public ::testing::TestWithParam<std::tuple<std::string, std::string>> {};
+
+}  // namespace
+
+// Writers of one vendor, the recorder on the other (both directions): every message of every
+// topic type is in the file exactly once, and the independent decoder gives back the very field
+// values that were published.
+TEST_P(RecordVendors, EveryTopicDecodesIndependentlyWithTheValuesPublished) {
+  const auto [recorder_vendor, writer_vendor] = GetParam();
+  const int domain = poise::testing::unique_domain_id();
+  const fs::path dir = work_dir("vendors_" + recorder_vendor + "_" + writer_vendor);
+  const fs::path file = dir / "all_types.mcap";
+  constexpr std::uint64_t kSamples = 40;
+  constexpr std::uint64_t kSeed = 2026;
+
+  RecorderProcess recorder(record_args(recorder_vendor, domain, file, {"--compression", "lz4"}));
+  {
+    poise::dds::DdsOptions o = poise::dds::dds_options_from_env();
+    o.vendor = poise::dds::parse_vendor(writer_vendor);
+    o.domain_id = domain;
+    poise::dds::Participant participant(o);
+    std::vector<std::function<void(std::uint64_t)>> publish;
+    std::vector<std::shared_ptr<void>> keep;
+    for_each_type([&](auto index) {
+      using T = std::tuple_element_t<decltype(index)::value, AllTypes>;
+      auto pub = std::make_shared<poise::dds::Publisher<T>>(participant);
+      ASSERT_TRUE(pub->wait_for_matches(1, 20s)) << pub->topic_name();
+      keep.push_back(pub);
+      publish.push_back([pub, i = decltype(index)::value](std::uint64_t k) {
+        pub->publish(sample_of<T>(i, k, kSeed));
+      });
+    });
+    std::this_thread::sleep_for(200ms);  // both sides matched (writer side seen above)
+    for (std::uint64_t k = 1; k <= kSamples; ++k) {
+      for (auto& p : publish)
+        p(k);
+      std::this_thread::sleep_for(5ms);
+    }
+    std::this_thread::sleep_for(1s);  // reliable delivery of the last samples
+  }
+  const auto code = recorder.process.interrupt(20s);
+  ASSERT_EQ(code, 0) << recorder.process.output();
+
+  // The independent reader: indexed (summary, chunk indexes, statistics, CRCs) and streaming.
+  const fs::path dump = dir / "decoded.jsonl";
+  auto [indexed_code, indexed] = check_independently(file, false, dump);
+  ASSERT_EQ(indexed_code, 0) << indexed.dump(2);
+  EXPECT_TRUE(indexed["complete"].get<bool>());
+  auto [stream_code, streamed] = check_independently(file, true);
+  ASSERT_EQ(stream_code, 0) << streamed.dump(2);
+  EXPECT_EQ(streamed["decoded"], kSamples * std::tuple_size_v<AllTypes>);
+
+  // Values: each decoded message equals the sample published with its tick.
+  std::map<std::string, std::map<std::uint64_t, Json>> decoded;  // topic -> tick -> data
+  std::map<std::string, int> duplicates;
+  std::ifstream in(dump);
+  for (std::string line; std::getline(in, line);) {
+    const Json m = Json::parse(line);
+    const std::string topic = m["topic"];
+    const std::uint64_t tick = std::stoull(m["data"]["header"]["tick"].get<std::string>());
+    if (!decoded[topic].emplace(tick, m["data"]).second) ++duplicates[topic];
+  }
+  for_each_type([&](auto index) {
+    using T = std::tuple_element_t<decltype(index)::value, AllTypes>;
+    const std::string topic(poise::dds::TopicTraits<T>::topic_name);
+    EXPECT_EQ(duplicates[topic], 0) << topic;
+    ASSERT_EQ(decoded[topic].size(), kSamples)
+        << topic << " (recorder " << recorder_vendor << ", writer " << writer_vendor << ")";
+    for (std::uint64_t k = 1; k <= kSamples; ++k) {
+      const auto d =
+          diff_value(sample_of<T>(decltype(index)::value, k, kSeed), decoded[topic][k], "");
+      ASSERT_FALSE(d) << topic << " tick " << k << ": " << *d;
+    }
+  });
+
+  // poise info agrees, and the recorder's loss counters are in the file.
+  int info_code = -1;
+  const Json info = info_json(file, &info_code);
+  EXPECT_EQ(info_code, 0);
+  EXPECT_TRUE(info["complete"].get<bool>());
+  EXPECT_EQ(info["topics"].size(), std::tuple_size_v<AllTypes>);
+  for (const auto& t : info["topics"]) {
+    EXPECT_EQ(t["messages"], kSamples) << t["topic"];
+    EXPECT_EQ(t["schema_encoding"], "omgidl");
+    EXPECT_EQ(t["message_encoding"], "cdr");
+  }
+  EXPECT_EQ(info["metadata"]["poise_recorder"]["total.dropped"], "0");
+  EXPECT_EQ(info["metadata"]["poise_recording"]["dds_vendor"], recorder_vendor);
+}
+
+INSTANTIATE_TEST_SUITE_P(Vendors, RecordVendors,
+                         ::testing::Values(std::make_tuple("cyclone", "fastdds"),
+                                           std::make_tuple("fastdds", "cyclone")),
+                         [](const auto& info) {
+                           return "recorder_" + std::get<0>(info.param) + "_writer_" +
+                                  std::get<1>(info.param);
+                         });
+
+// SIGKILL of the recorder during a 1 kHz stream: the file opens in the independent reader in
+// streaming mode and holds every tick up to the stated tail (the open chunk: at most 1.5 flush
+// intervals = 150 ms at 1 kHz; the test allows 100 ms more for scheduling on a busy machine).
+TEST(Record, SigkillCostsAtMostTheOpenChunk) {
+  const int domain = poise::testing::unique_domain_id();
+  const fs::path dir = work_dir("sigkill");
+  const fs::path file = dir / "killed.mcap";
+  RecorderProcess recorder(record_args("cyclone", domain, file));
+  poise::dds::DdsOptions o = poise::dds::dds_options_from_env();
+  o.domain_id = domain;
+  poise::dds::Participant participant(o);
+  poise::dds::Publisher<poise::msg::Sensors> pub(participant);
+  ASSERT_TRUE(pub.wait_for_matches(1, 20s));
+  std::this_thread::sleep_for(200ms);
+  std::uint64_t tick = 0;
+  auto next = std::chrono::steady_clock::now();
+  const auto kill_at = next + 2500ms;
+  while (std::chrono::steady_clock::now() < kill_at) {
+    poise::msg::Sensors s = sample_of<poise::msg::Sensors>(1, ++tick, 5);
+    pub.publish(s);
+    next += 1ms;
+    std::this_thread::sleep_until(next);
+  }
+  ::kill(recorder.process.pid(), SIGKILL);
+  const std::uint64_t last_published = tick;
+  recorder.process.wait_for(10s);
+
+  auto [code, report] = check_independently(file, true);
+  EXPECT_EQ(code, 0) << report.dump(2);
+  EXPECT_FALSE(report["complete"].get<bool>());
+  int info_code = 0;
+  const Json info = info_json(file, &info_code);
+  EXPECT_EQ(info_code, 1) << "an incomplete file is exit status 1";
+  EXPECT_FALSE(info["complete"].get<bool>());
+  const Json* sensors = find_topic(info, "poise/sensors");
+  ASSERT_NE(sensors, nullptr) << info.dump(2);
+  EXPECT_EQ(report["topics"]["poise/sensors"]["decoded"], (*sensors)["messages"]);
+  EXPECT_EQ((*sensors)["first_tick"], 1);
+  EXPECT_EQ((*sensors)["missing_ticks"], 0);
+  EXPECT_EQ((*sensors)["duplicate_ticks"], 0);
+  const std::uint64_t last_recorded = (*sensors)["last_tick"];
+  EXPECT_GE(last_recorded + 250, last_published)
+      << "lost " << last_published - last_recorded << " ticks at 1 kHz";
+  std::printf("SIGKILL after tick %llu: the file holds ticks 1..%llu (%llu ms lost)\n",
+              static_cast<unsigned long long>(last_published),
+              static_cast<unsigned long long>(last_recorded),
+              static_cast<unsigned long long>(last_published - last_recorded));
+}
+
+// Bad input to the verbs: a clear message and a non-zero exit, nothing written over.
+TEST(Record, BadInputIsRefusedWithAClearMessage) {
+  const fs::path dir = work_dir("bad_input");
+  { std::ofstream(dir / "notes.txt") << "not a recording\n"; }
+  auto [c1, o1] = run({bin("poise"), "info", (dir / "notes.txt").string()});
+  EXPECT_EQ(c1, 2);
+  EXPECT_NE(o1.find("not an MCAP file"), std::string::npos) << o1;
+  auto [c2, o2] = run({bin("poise"), "replay", (dir / "notes.txt").string()});
+  EXPECT_NE(c2, 0);
+  EXPECT_NE(o2.find("not an MCAP file"), std::string::npos) << o2;
+  auto [c3, o3] = run({bin("poise"), "record", "--domain", "5", "-o", (dir / "x.mcap").string(),
+                       "poise/no_such_topic"});
+  EXPECT_NE(c3, 0);
+  EXPECT_NE(o3.find("unknown topic 'poise/no_such_topic'"), std::string::npos) << o3;
+  EXPECT_FALSE(fs::exists(dir / "x.mcap") && fs::file_size(dir / "x.mcap") > 0 && c3 == 0);
+  auto [c4, o4] = run({bin("poise"), "record", "--domain", "5", "-o", "/nonexistent/dir/x.mcap",
+                       "--duration", "1"});
+  EXPECT_NE(c4, 0);
+  EXPECT_NE(o4.find("cannot create '/nonexistent/dir/x.mcap'"), std::string::npos) << o4;
+}
