@@ -67,7 +67,23 @@ struct Settings {
   int command_timeout_ms = 2000;
   double timeout_s = -1.0;
   bool quiet = false;
+  std::string record;  ///< MCAP file of `--record` ("" with the flag alone: the default path)
 };
+
+/// Waits until the recorder child says it is recording (its subscribers exist), it exits, or
+/// `timeout_s` passes. Returns "" when ready, else what went wrong.
+std::string wait_for_recorder(Child& recorder, double timeout_s) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (std::chrono::steady_clock::now() < end) {
+    if (tail_lines(recorder.stderr_path(), 20).find("poise record: ") != std::string::npos)
+      return "";
+    if (auto code = recorder.poll())
+      return "the recorder exited with code " + std::to_string(*code) + ":\n" +
+             recorder.stderr_tail(8);
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return "the recorder did not start within " + std::to_string(timeout_s) + " s";
+}
 
 }  // namespace
 
@@ -116,6 +132,11 @@ int run_distributed(int argc, char** argv) {
                  "wall-clock bound of the whole run [s] "
                  "(default: 60 + 30 x duration lockstep, 60 + duration real time)");
   app.add_flag("-q,--quiet", s.quiet, "only the verdict line");
+  auto* record_opt =
+      app.add_option("--record", s.record,
+                     "record every topic of the run (all processes, whole run) to this MCAP file "
+                     "with `poise record` (default: results/<scenario>.mcap)")
+          ->expected(0, 1);
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -201,6 +222,27 @@ int run_distributed(int argc, char** argv) {
     sigaction(SIGINT, &sa, nullptr);
     sigaction(SIGTERM, &sa, nullptr);
 
+    // The recorder joins first, so that it holds the run from its first sample.
+    std::unique_ptr<Child> recorder;
+    fs::path recording;
+    if (record_opt->count() > 0) {
+      recording =
+          s.record.empty() ? fs::path("results") / (scenario.name + ".mcap") : fs::path(s.record);
+      if (recording.has_parent_path()) fs::create_directories(recording.parent_path());
+      recorder = std::make_unique<Child>(
+          "recorder",
+          std::vector<std::string>{(bin / "poise").string(), "record", "--dds", vendor["sim"],
+                                   "--domain", std::to_string(domain), "-o", recording.string(),
+                                   "--progress", "0"},
+          logs);
+      if (const std::string why = wait_for_recorder(*recorder, 10.0); !why.empty()) {
+        std::fprintf(stderr, "poise run %s: FAILED: cannot record to %s: %s\n",
+                     scenario.name.c_str(), recording.c_str(), why.c_str());
+        return 2;
+      }
+      if (!s.quiet) std::printf("  recording every topic to %s\n", recording.c_str());
+    }
+
     std::vector<std::unique_ptr<Child>> children;
     children.push_back(std::make_unique<Child>("sim", sim_args, logs));
     children.push_back(std::make_unique<Child>("contact", contact_args, logs));
@@ -242,6 +284,12 @@ int run_distributed(int argc, char** argv) {
         }
       }
       if (!failure.empty()) break;
+      if (recorder) {
+        if (auto code = recorder->poll()) {
+          failure = "recorder exited early with code " + std::to_string(*code);
+          break;
+        }
+      }
       if (g_interrupted.load()) {
         failure = "interrupted";
         break;
@@ -255,6 +303,20 @@ int run_distributed(int argc, char** argv) {
     if (!failure.empty()) sim_code = sim.stop(3000);
     for (auto& c : children)
       c->stop(3000);
+    // Last the recorder: SIGTERM makes it write what it holds, the loss counters and the summary.
+    std::string record_problem;
+    if (recorder) {
+      const int code = recorder->stop(30000);
+      const std::string summary = recorder->stderr_tail(1);
+      if (code != 0) {
+        record_problem = "the recorder exited with code " + std::to_string(code);
+        std::fprintf(stderr, "poise run %s: %s (%s):\n%s", scenario.name.c_str(),
+                     record_problem.c_str(), recorder->stderr_path().c_str(),
+                     recorder->stderr_tail(8).c_str());
+      } else if (!s.quiet) {
+        std::printf("  recorded: %s", summary.c_str());
+      }
+    }
 
     if (!failure.empty() || (sim_code != 0 && sim_code != 3)) {
       if (failure.empty()) failure = "sim exited with code " + std::to_string(sim_code);
@@ -313,9 +375,14 @@ int run_distributed(int argc, char** argv) {
     r["mode"] = s.realtime ? "realtime" : "lockstep";
     r["contact_method"] = s.method;
     r["estimator_supports"] = scenario.estimator.supports;
+    if (recorder) {
+      r["recording"] = recording.string();
+      r["recording_ok"] = record_problem.empty();
+    }
     r["pids"] = Json::object();
     for (auto& c : children)
       r["pids"][c->name()] = c->pid();
+    if (recorder) r["pids"]["recorder"] = recorder->pid();
     {
       std::ofstream out(output);
       out << r.dump(2) << "\n";
@@ -339,6 +406,7 @@ int run_distributed(int argc, char** argv) {
         static_cast<unsigned long long>(misses_sim + misses_ctrl), r.value("realtime_factor", 0.0),
         output.c_str());
     std::fflush(stdout);
+    if (!record_problem.empty()) return 2;
     return r["survived"].get<bool>() ? 0 : 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "poise run: %s\n", e.what());
