@@ -183,6 +183,7 @@ void to_msg(const sim::GroundTruth& in, const FootOrder& feet, const SlipTracker
           b < urdf_link_of_body.size() ? urdf_link_of_body[b] : std::int32_t{-1};
   out.other_contact_count(count);
   out.total_other_contacts(total_other_contacts);
+  put3(in.push_force_W, out.push_force_W());
 }
 
 bool from_msg(const msg::JointCommand& in, sim::JointCommand& out) noexcept {

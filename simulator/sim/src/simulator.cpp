@@ -226,6 +226,7 @@ struct Simulator::Impl {
 
   // Pushes.
   std::vector<ResolvedPush> pushes;
+  Eigen::Vector3d push_force_W = Eigen::Vector3d::Zero();  // applied in the last step
 
   // Workspace (allocated once).
   btAlignedObjectArray<btQuaternion> scratch_q;
@@ -746,6 +747,7 @@ void Simulator::Impl::fill(SensorFrame& s, GroundTruth& g, bool measure_imu) {
   s.time = t;
   g.tick = tick;
   g.time = t;
+  g.push_force_W = push_force_W;
   for (int i = 0; i < n; ++i) {
     s.q[i] = mb->getJointPos(i);
     s.qd[i] = mb->getJointVel(i);
@@ -970,6 +972,7 @@ StepStatus Simulator::step(const JointCommand& cmd, SensorFrame& sensors, Ground
 
   // Pushes active during [k dt, (k+1) dt).
   const std::int64_t k = s.tick;
+  s.push_force_W.setZero();
   for (std::size_t i = 0; i < s.pushes.size();) {
     const ResolvedPush& p = s.pushes[i];
     if (k >= p.end_tick) {  // expired: swap-remove, no allocation
@@ -981,6 +984,7 @@ StepStatus Simulator::step(const JointCommand& cmd, SensorFrame& sensors, Ground
       const Eigen::Isometry3d& X = s.X_WK[static_cast<std::size_t>(p.body)];
       const Eigen::Vector3d r = X.linear() * p.point_K;  // from the body COM to the point
       const btVector3 f = bt(p.force_W), tq = bt(Eigen::Vector3d(r.cross(p.force_W)));
+      s.push_force_W += p.force_W;
       if (p.body == 0) {
         mb.addBaseForce(f);
         mb.addBaseTorque(tq);

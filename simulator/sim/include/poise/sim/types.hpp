@@ -86,6 +86,8 @@ struct GroundTruth {
   Eigen::Vector3d total_contact_force_W = Eigen::Vector3d::Zero();
   /// Pose of each platform's top-face centre (order of WorldConfig::platforms).
   std::vector<Eigen::Isometry3d> platform_X_WP;
+  /// Sum of the pushes applied during the step that led to this tick (0 when none) [N].
+  Eigen::Vector3d push_force_W = Eigen::Vector3d::Zero();
 };
 
 /// Result of one simulation step. A step never throws.
