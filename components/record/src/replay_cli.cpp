@@ -66,7 +66,7 @@ int replay_main(int argc, char** argv) {
   app.add_option("--end", end_s, "stop S seconds after the start of the recording")
       ->check(CLI::Range(0.0, 1e9));
   app.add_option("--wait-readers", wait_readers,
-                 "before publishing, wait until every replayed topic has this many readers")
+                 "before the first sample of each topic, wait until it has this many readers")
       ->check(CLI::Range(0, 1000))
       ->capture_default_str();
   app.add_option("--wait", wait_s, "... for at most this many seconds (then fail)")
@@ -151,16 +151,6 @@ int replay_main(int argc, char** argv) {
     std::fprintf(stderr, "poise replay: nothing to replay in %s\n", file.c_str());
     return 2;
   }
-  if (wait_readers > 0) {
-    for (const auto& [topic, pub] : by_topic) {
-      if (!pub->wait_for_matches(wait_readers, std::chrono::duration_cast<std::chrono::nanoseconds>(
-                                                   std::chrono::duration<double>(wait_s)))) {
-        std::fprintf(stderr, "poise replay: %s: %d of %d readers matched after %g s\n",
-                     topic.c_str(), pub->matched(), wait_readers, wait_s);
-        return 1;
-      }
-    }
-  }
   std::string names;
   for (const auto& [topic, pub] : by_topic)
     names += (names.empty() ? "" : ", ") + topic;
@@ -173,8 +163,13 @@ int replay_main(int argc, char** argv) {
       end_s < 0 ? UINT64_MAX : first_time + static_cast<std::uint64_t>(end_s * 1e9);
   std::uint64_t total = 0;
   int pass = 0;
+  // --wait-readers: each topic waits for its readers before its first sample, not all topics
+  // before the first: a component often subscribes to its inputs only after an earlier one
+  // arrived (the nodes read poise/robot_description before they subscribe to poise/sensors).
+  std::set<const dds::RawPublisher*> ready;
+  std::string wait_failure;
   do {
-    const auto wall_start = std::chrono::steady_clock::now();
+    auto wall_start = std::chrono::steady_clock::now();
     ScanHandlers h;
     h.on_message = [&](const MessageView& m) {
       if (g_replay_signal.load()) return false;
@@ -183,6 +178,19 @@ int replay_main(int argc, char** argv) {
       auto it = channels.find(m.channel_id);
       if (it == channels.end() || !it->second.publisher) return true;
       dds::RawPublisher* pub = it->second.publisher;
+      if (wait_readers > 0 && !ready.count(pub)) {
+        const auto before = std::chrono::steady_clock::now();
+        if (!pub->wait_for_matches(wait_readers,
+                                   std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                       std::chrono::duration<double>(wait_s)))) {
+          wait_failure = it->second.topic + ": " + std::to_string(pub->matched()) + " of " +
+                         std::to_string(wait_readers) + " readers matched after " +
+                         std::to_string(wait_s) + " s";
+          return false;
+        }
+        ready.insert(pub);
+        wall_start += std::chrono::steady_clock::now() - before;  // the timeline waits too
+      }
       if (rate > 0) {
         const auto due = wall_start + std::chrono::nanoseconds(
                                           static_cast<std::int64_t>((m.log_time - from) / rate));
@@ -195,6 +203,10 @@ int replay_main(int argc, char** argv) {
     const ScanResult r = scan(file, h);
     if (!r.ok()) {
       std::fprintf(stderr, "poise replay: %s: %s\n", file.c_str(), r.error.c_str());
+      return 1;
+    }
+    if (!wait_failure.empty()) {
+      std::fprintf(stderr, "poise replay: %s\n", wait_failure.c_str());
       return 1;
     }
     ++pass;
