@@ -404,15 +404,15 @@ PlotResult plot_balance(const PlotOptions& o) {
                                      ? "robot time since the first sample [s] (header.stamp_ns)"
                                      : "robot time [s] (header.stamp_ns)";
 
-  // Push intervals: as the simulator applied them when the recording has its ground truth (which
-  // includes a scenario's own pushes), else as requested on poise/disturbance (a robot).
+  // Push intervals: as the simulator applied them (ground truth; includes a scenario's own pushes)
+  // when the recording shows any, else as requested on poise/disturbance (a robot has no truth).
   std::vector<std::string> push_notes;
   for (const auto& [start, end] : g.truth_pushes)
     result.pushes.push_back(PushInterval{static_cast<double>(start) * 1e-9,
                                          static_cast<double>(end - start) * 1e-9,
                                          std::string(kTruth) + " push_force_W"});
   for (const auto& d : g.disturbances) {
-    if (!d.push || g.has_truth) continue;
+    if (!d.push || !g.truth_pushes.empty()) continue;
     PushInterval p{d.start_s, d.duration_s, std::string(kDisturbance)};
     if (d.start_s < 0) {
       p.start_s = g.robot_time_at(d.log_time);
