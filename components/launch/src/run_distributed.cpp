@@ -199,6 +199,10 @@ int run_distributed(int argc, char** argv) {
                                      s.realtime ? "--realtime" : "--lockstep",
                                      "--command-timeout-ms", std::to_string(s.command_timeout_ms)});
     if (s.duration > 0) sim_args.insert(sim_args.end(), {"--duration", std::to_string(s.duration)});
+    // With a recorder, the simulator waits for its readers too, so that the file holds the run
+    // from its first tick (sensors: estimator + recorder; ground truth: recorder).
+    if (record_opt->count() > 0)
+      sim_args.insert(sim_args.end(), {"--wait-readers", "2", "--wait-truth-readers", "1"});
     std::vector<std::string> est_args = common("estimator");
     if (s.ground_truth_state) est_args.push_back("--ground-truth-state");
     est_args.insert(est_args.end(), {"--supports", scenario.estimator.supports});

@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <thread>
 
@@ -121,6 +122,8 @@ int record_main(int argc, char** argv) {
   sigemptyset(&sa.sa_mask);
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
+  // Past a file size limit, write() should fail (EFBIG, reported like a full disk), not kill us.
+  std::signal(SIGXFSZ, SIG_IGN);
 
   dds::set_log_name("poise-record");
   dds::Participant participant(dds_options);

@@ -58,6 +58,8 @@ struct Settings {
   double watchdog_ms = 5.0;
   bool progress = false;
   int settle_ticks = 10;
+  int wait_readers = 1;        ///< poise/sensors readers to wait for before tick k0
+  int wait_truth_readers = 0;  ///< poise/ground_truth readers to wait for before tick k0
 };
 
 /// Everything one run measures (the node's summary).
@@ -117,7 +119,16 @@ class SimNode {
     const auto steps = static_cast<std::int64_t>(std::llround(duration() / sim_.dt()));
     dds::log(dds::LogLevel::info, "%s: %d joints, %.1f s, %s", scenario_.name.c_str(),
              sim_.num_joints(), duration(), settings_.realtime ? "real time" : "lockstep");
-    sensors_pub_.wait_for_matches(1, std::chrono::milliseconds(settings_.startup_timeout_ms));
+    // Every expected reader first: what a reader (the estimator, a recorder) matches late misses
+    // the first ticks of the run. A timeout is not fatal: the run starts with whoever is there.
+    const auto startup = std::chrono::milliseconds(settings_.startup_timeout_ms);
+    if (!sensors_pub_.wait_for_matches(settings_.wait_readers, startup) ||
+        !truth_pub_.wait_for_matches(settings_.wait_truth_readers, startup))
+      dds::log(dds::LogLevel::warn,
+               "start-up: %d of %d sensors readers and %d of %d ground-truth readers matched "
+               "after %d ms; starting anyway",
+               sensors_pub_.matched(), settings_.wait_readers, truth_pub_.matched(),
+               settings_.wait_truth_readers, settings_.startup_timeout_ms);
     return settings_.realtime ? run_realtime(steps) : run_lockstep(steps);
   }
 
@@ -493,6 +504,15 @@ int run(int argc, char** argv) {
                  "real time: damping after this long without a fresh command")
       ->capture_default_str();
   app.add_flag("--progress", s.progress, "print a progress line every simulated second");
+  app.add_option("--wait-readers", s.wait_readers,
+                 "start-up: poise/sensors readers to wait for (at most --startup-timeout-ms) "
+                 "before the first tick")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 1000));
+  app.add_option("--wait-truth-readers", s.wait_truth_readers,
+                 "start-up: poise/ground_truth readers to wait for (a recorder, a test)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 1000));
   app.add_option("--settle-ticks", s.settle_ticks,
                  "start-up: steps with the joints held by PD before the first sensor frame, so "
                  "that it measures the feet loaded")
