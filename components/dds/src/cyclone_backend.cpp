@@ -130,6 +130,10 @@ class CycloneWriter final : public WriterBackend {
     const CycloneCdrSpan span{data, static_cast<std::uint32_t>(size)};
     return dds_write(writer_, &span) == DDS_RETCODE_OK;
   }
+  bool wait_for_acks(std::chrono::nanoseconds timeout) noexcept override {
+    return dds_wait_for_acks(writer_, static_cast<dds_duration_t>(timeout.count())) ==
+           DDS_RETCODE_OK;
+  }
   int matched() const noexcept override {
     dds_publication_matched_status_t st{};
     if (dds_get_publication_matched_status(writer_, &st) != DDS_RETCODE_OK) return 0;

@@ -138,6 +138,12 @@ class FastddsWriter final : public WriterBackend {
     s.size = static_cast<std::uint32_t>(size);
     return writer_->write(&s);
   }
+  bool wait_for_acks(std::chrono::nanoseconds timeout) noexcept override {
+    const auto ns = timeout.count();
+    return writer_->wait_for_acknowledgments(eprosima::fastrtps::Duration_t(
+               static_cast<std::int32_t>(ns / 1000000000),
+               static_cast<std::uint32_t>(ns % 1000000000))) == ReturnCode_t::RETCODE_OK;
+  }
   int matched() const noexcept override {
     fdds::PublicationMatchedStatus st;
     writer_->get_publication_matched_status(st);

@@ -20,7 +20,10 @@
 //   --realtime  1 kHz on the wall clock with the newest command; the watchdog switches to damping
 //               when no fresh command came for --watchdog-ms (default 5) and resumes when they
 //               come back (both transitions logged).
-//   start-up    --settle-ticks (10) steps with the joints held by PD before tick k0 is published:
+//   start-up    waits for --wait-readers sensors readers (and --wait-truth-readers ground-truth
+//               readers); real time publishes the frame k0 and waits for its acknowledgment by
+//               every matched reader before the wall clock starts.
+//               --settle-ticks (10) steps with the joints held by PD before tick k0 is published:
 //               the frame right after construction has no contact forces yet, and the
 //               estimator would report "no contact" (flight) to the controller.
 //   measures    tick latency: sensors k published -> command k received (this process's clock);
@@ -129,6 +132,16 @@ class SimNode {
                "after %d ms; starting anyway",
                sensors_pub_.matched(), settings_.wait_readers, truth_pub_.matched(),
                settings_.wait_truth_readers, settings_.startup_timeout_ms);
+    if (settings_.realtime) {
+      // The settled frame k0 first, and its acknowledgment by every matched reader: a reader
+      // matched on this side only would miss the first ticks of the wall clock. (Lockstep
+      // repeats k0 until the loop answers, which proves the same for the loop's readers.)
+      publish_tick();
+      if (!sensors_pub_.wait_for_acknowledgments(startup) ||
+          !truth_pub_.wait_for_acknowledgments(startup))
+        dds::log(dds::LogLevel::warn, "start-up: frame %lld not acknowledged by every reader",
+                 static_cast<long long>(sensors_.tick));
+    }
     return settings_.realtime ? run_realtime(steps) : run_lockstep(steps);
   }
 

@@ -35,6 +35,12 @@ class Publisher {
     return wait_until_matched([this] { return matched(); }, count, timeout);
   }
 
+  /// Waits until every matched reliable reader acknowledged every sample published so far (the
+  /// proof that they receive this writer: a writer-side match alone is not). False on timeout.
+  bool wait_for_acknowledgments(std::chrono::nanoseconds timeout) noexcept {
+    return core_.wait_for_acks(timeout);
+  }
+
   const std::string& topic_name() const noexcept { return core_.topic_name(); }
 
  private:

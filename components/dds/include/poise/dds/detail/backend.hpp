@@ -5,6 +5,7 @@
 // serialises with Fast CDR through TypeSupport. Not for node code.
 
 #include <array>
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -30,6 +31,10 @@ class WriterBackend {
   virtual bool write(const std::uint8_t* data, std::size_t size) noexcept = 0;
   /// Number of matched readers.
   virtual int matched() const noexcept = 0;
+  /// Waits until every matched reliable reader acknowledged every sample written so far. False
+  /// on timeout. (A reader that matched the writer on the writer's side may not yet have matched
+  /// it on its own: the acknowledgment proves delivery.)
+  virtual bool wait_for_acks(std::chrono::nanoseconds timeout) noexcept = 0;
 };
 
 /// What the vendor says a reader lost or refused since it was created (DDS SAMPLE_LOST and

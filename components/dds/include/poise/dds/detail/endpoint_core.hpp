@@ -26,6 +26,9 @@ class WriterCore {
   /// Writes bytes (4-byte encapsulation header + CDR) as they are.
   bool publish_raw(const std::uint8_t* data, std::size_t size) noexcept;
   int matched() const noexcept { return writer_->matched(); }
+  bool wait_for_acks(std::chrono::nanoseconds timeout) noexcept {
+    return writer_->wait_for_acks(timeout);
+  }
   const std::string& topic_name() const noexcept { return topic_name_; }
 
  private:
