@@ -235,7 +235,7 @@ int run_distributed(int argc, char** argv) {
       if (recording.has_parent_path()) fs::create_directories(recording.parent_path());
       recorder = std::make_unique<Child>(
           "recorder",
-          std::vector<std::string>{(bin / "poise").string(), "record", "--dds", vendor["sim"],
+          std::vector<std::string>{(bin / "poise").string(), "record", "--dds", "cyclone",
                                    "--domain", std::to_string(domain), "-o", recording.string(),
                                    "--progress", "0"},
           logs);
