@@ -4,10 +4,11 @@ function(poise_target_defaults target)
   target_compile_features(${target} PUBLIC cxx_std_20)
 endfunction()
 
-# poise_add_gtest(NAME SOURCES... [LIBS ...] [LABELS ...] [TIMEOUT s])
-# Builds one GoogleTest executable and registers its tests with ctest.
+# poise_add_gtest(NAME SOURCES... [LIBS ...] [LABELS ...] [TIMEOUT s] [RUN_SERIAL])
+# Builds one GoogleTest executable and registers its tests with ctest. RUN_SERIAL: its tests run
+# alone under ctest -j (real-time tests whose verdict depends on having the cores).
 function(poise_add_gtest name)
-  cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;LIBS;LABELS" ${ARGN})
+  cmake_parse_arguments(ARG "RUN_SERIAL" "TIMEOUT" "SOURCES;LIBS;LABELS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES} ${ARG_UNPARSED_ARGUMENTS})
   poise_target_defaults(${name})
   target_link_libraries(${name} PRIVATE ${ARG_LIBS} GTest::gtest GTest::gtest_main)
@@ -17,8 +18,12 @@ function(poise_add_gtest name)
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 300)
   endif()
+  set(serial FALSE)
+  if(ARG_RUN_SERIAL)
+    set(serial TRUE)
+  endif()
   gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60
-                       PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "${ARG_LABELS}")
+                       PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "${ARG_LABELS}" RUN_SERIAL ${serial})
 endfunction()
 
 # poise_register_cli_command(VERB SUMMARY FUNCTION LIBRARY)
