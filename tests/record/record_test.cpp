@@ -189,6 +189,31 @@ std::vector<std::string> record_args(const std::string& vendor, int domain, cons
   return a;
 }
 
+/// Publishes Sensors with ticks 1, 2, ... at 1 kHz on `domain` once a reader matched, until
+/// `last` ticks were sent or `keep_going()` says stop; returns the last tick published.
+template <class KeepGoing>
+std::uint64_t publish_sensors_1khz(int domain, std::uint64_t last, KeepGoing keep_going) {
+  poise::dds::DdsOptions o = poise::dds::dds_options_from_env();
+  o.domain_id = domain;
+  poise::dds::Participant participant(o);
+  poise::dds::Publisher<poise::msg::Sensors> pub(participant);
+  EXPECT_TRUE(pub.wait_for_matches(1, 20s));
+  std::this_thread::sleep_for(200ms);
+  auto next = std::chrono::steady_clock::now();
+  std::uint64_t tick = 0;
+  while (tick < last && keep_going()) {
+    pub.publish(sample_of<poise::msg::Sensors>(1, ++tick, 9));
+    next += 1ms;
+    std::this_thread::sleep_until(next);
+  }
+  return tick;
+}
+
+void publish_sensors_1khz(int domain, std::uint64_t last) {
+  publish_sensors_1khz(domain, last, [] { return true; });
+  std::this_thread::sleep_for(500ms);  // reliable delivery of the last samples
+}
+
 class RecordVendors : public ::testing::TestWithParam<std::tuple<std::string, std::string>> {};
 
 }  // namespace
@@ -295,23 +320,15 @@ TEST(Record, SigkillCostsAtMostTheOpenChunk) {
   const fs::path dir = work_dir("sigkill");
   const fs::path file = dir / "killed.mcap";
   RecorderProcess recorder(record_args("cyclone", domain, file));
-  poise::dds::DdsOptions o = poise::dds::dds_options_from_env();
-  o.domain_id = domain;
-  poise::dds::Participant participant(o);
-  poise::dds::Publisher<poise::msg::Sensors> pub(participant);
-  ASSERT_TRUE(pub.wait_for_matches(1, 20s));
-  std::this_thread::sleep_for(200ms);
-  std::uint64_t tick = 0;
-  auto next = std::chrono::steady_clock::now();
-  const auto kill_at = next + 2500ms;
-  while (std::chrono::steady_clock::now() < kill_at) {
-    poise::msg::Sensors s = sample_of<poise::msg::Sensors>(1, ++tick, 5);
-    pub.publish(s);
-    next += 1ms;
-    std::this_thread::sleep_until(next);
-  }
-  ::kill(recorder.process.pid(), SIGKILL);
-  const std::uint64_t last_published = tick;
+  // The kill happens inside the stream, at 2.5 s: samples keep flowing until then.
+  std::chrono::steady_clock::time_point kill_at{};
+  const std::uint64_t last_published = publish_sensors_1khz(domain, ~0ULL, [&] {
+    const auto now = std::chrono::steady_clock::now();
+    if (kill_at == std::chrono::steady_clock::time_point{}) kill_at = now + 2500ms;
+    if (now < kill_at) return true;
+    ::kill(recorder.process.pid(), SIGKILL);
+    return false;
+  });
   recorder.process.wait_for(10s);
 
   auto [code, report] = check_independently(file, true);
@@ -446,34 +463,13 @@ TEST(Record, ReplayedSensorsReproduceTheRecordedEstimate) {
   std::printf("replayed %zu ticks: largest CoM / base velocity difference %.3g\n", compared, worst);
 }
 
-namespace {
-
-/// Publishes Sensors with ticks first..last at 1 kHz on `domain` once a reader matched.
-void publish_sensors_1khz(int domain, std::uint64_t first, std::uint64_t last) {
-  poise::dds::DdsOptions o = poise::dds::dds_options_from_env();
-  o.domain_id = domain;
-  poise::dds::Participant participant(o);
-  poise::dds::Publisher<poise::msg::Sensors> pub(participant);
-  ASSERT_TRUE(pub.wait_for_matches(1, 20s));
-  std::this_thread::sleep_for(200ms);
-  auto next = std::chrono::steady_clock::now();
-  for (std::uint64_t tick = first; tick <= last; ++tick) {
-    pub.publish(sample_of<poise::msg::Sensors>(1, tick, 9));
-    next += 1ms;
-    std::this_thread::sleep_until(next);
-  }
-  std::this_thread::sleep_for(500ms);
-}
-
-}  // namespace
-
 // --split-duration: a series of complete files that together hold every tick once.
 TEST(Record, SplitFilesAreEachCompleteAndTogetherHoldEveryTick) {
   const int domain = poise::testing::unique_domain_id();
   const fs::path dir = work_dir("split");
   RecorderProcess recorder(record_args("cyclone", domain, dir / "run.mcap",
                                        {"--split-duration", "1", "--compression", "none"}));
-  publish_sensors_1khz(domain, 1, 2600);
+  publish_sensors_1khz(domain, 2600);
   ASSERT_EQ(recorder.process.interrupt(20s), 0) << recorder.process.output();
   std::vector<fs::path> files;
   for (int k = 0; fs::exists(dir / ("run_" + std::to_string(k) + ".mcap")); ++k)
@@ -504,7 +500,7 @@ TEST(Record, AFullDiskStopsTheRecorderWithAClearErrorAndKeepsTheFile) {
   const auto rec = record_args("cyclone", domain, file, {"--compression", "none"});
   args.insert(args.end(), rec.begin(), rec.end());
   RecorderProcess recorder(args);
-  publish_sensors_1khz(domain, 1, 1500);
+  publish_sensors_1khz(domain, 1500);
   const auto code = recorder.process.wait_for(20s);
   ASSERT_TRUE(code.has_value()) << "the recorder went on past a full disk";
   EXPECT_EQ(*code, 1);

@@ -19,9 +19,10 @@
 //   losses      per topic: samples dropped by the recorder's queue, and the vendor's SAMPLE_LOST
 //               and SAMPLE_REJECTED counts. Written at the end as MCAP metadata "poise_recorder"
 //               and printed.
-//   crash       after SIGKILL or power loss, at most the open chunk is lost: the last
-//               `flush_interval_s` (0.1 s) of traffic or `chunk_size` (1 MiB) of it, whichever is
-//               less, plus what was still queued (the same 0.1 s at most while the disk keeps up).
+//   crash       after SIGKILL or power loss, at most the open chunk is lost: 1.5 x
+//               `flush_interval_s` of traffic (150 ms: the writer thread looks every half
+//               interval and writes a chunk once it is an interval old) or `chunk_size` (1 MiB),
+//               whichever is less, plus what was still queued while the disk lagged.
 // ------------------------------------------------------------------------------------------------
 
 #include <atomic>
