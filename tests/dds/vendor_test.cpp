@@ -139,6 +139,10 @@ TEST(TopicTable, DefaultQosMatchesTheIdlHeaderComments) {
     std::smatch m;
     ASSERT_TRUE(std::regex_search(head, m, std::regex("keep-last (\\d+)"))) << row.topic_name;
     EXPECT_EQ(row.qos.history_depth, std::stoi(m[1])) << row.topic_name;
+    const int writer_depth = std::regex_search(head, m, std::regex("writers keep-last (\\d+)"))
+                                 ? std::stoi(m[1])
+                                 : row.qos.history_depth;
+    EXPECT_EQ(row.qos.writer_depth(), writer_depth) << row.topic_name;
     EXPECT_EQ(find_topic(row.topic_name), &row);
     EXPECT_EQ(find_topic_by_type(row.type_name), &row);
     EXPECT_EQ(std::string_view(row.type->type_name), row.type_name);

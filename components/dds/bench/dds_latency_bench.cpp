@@ -4,6 +4,8 @@
 // through our layer (poise::dds Publisher/Subscriber) and through the raw vendor APIs (Fast DDS
 // DataWriter/DataReader with the fastddsgen type; Cyclone dds_write/dds_take with the idlc C type),
 // plus `ddsperf ping/pong` (1 KB, same loopback config) as the floor. Prints median, p99, max.
+// Api "wd1" is the layer with writers keep-last 1 instead of the control topics' 32: the cost of
+// the deeper writer history that lets a lagging recorder catch up.
 //
 // Both sides wait the same way (vendor listener -> condition variable), so the layer-vs-raw
 // difference is our serialisation, copies and dispatch. The echo side is this program started
@@ -117,13 +119,16 @@ void fill(poise::msg::Sensors& s) {
 // ---------------- our layer ----------------
 class LayerEndpoint final : public Endpoint {
  public:
-  LayerEndpoint(poise::dds::Vendor v, int domain, bool echo, Arrival* arrival) {
+  /// writer_depth 0: the control topics' QoS as shipped (writers keep-last 32).
+  LayerEndpoint(poise::dds::Vendor v, int domain, bool echo, Arrival* arrival,
+                int writer_depth = 0) {
     poise::dds::DdsOptions o;
     o.vendor = v;
     o.domain_id = domain;
     o.participant_name = echo ? "bench-echo" : "bench-ping";
     participant_ = std::make_unique<poise::dds::Participant>(o);
-    const auto qos = poise::dds::Qos::control();
+    auto qos = poise::dds::Qos::control();
+    if (writer_depth > 0) qos.writer_history_depth = writer_depth;
     fill(sample_);
     pub_ = std::make_unique<poise::dds::Publisher<poise::msg::Sensors>>(*participant_, qos,
                                                                         echo ? kPong : kPing);
@@ -297,6 +302,8 @@ class RawCycloneEndpoint final : public Endpoint {
 std::unique_ptr<Endpoint> make_endpoint(const std::string& api, poise::dds::Vendor v, int domain,
                                         bool echo, Arrival* arrival) {
   if (api == "layer") return std::make_unique<LayerEndpoint>(v, domain, echo, arrival);
+  // The layer with writers keep-last 1 (before Qos::control() kept 32 for lagging readers).
+  if (api == "wd1") return std::make_unique<LayerEndpoint>(v, domain, echo, arrival, 1);
   if (v == poise::dds::Vendor::fastdds)
     return std::make_unique<RawFastddsEndpoint>(domain, echo, arrival);
   return std::make_unique<RawCycloneEndpoint>(domain, echo, arrival);
@@ -503,7 +510,7 @@ int main(int argc, char** argv) {
     if (samples < 100) throw std::invalid_argument("--samples must be >= 100");
     const int base =
         dds.domain_id != 0 ? dds.domain_id : 10 + static_cast<int>(::getpid() % 20) * 10;
-    if (base + 6 > 232) throw std::invalid_argument("--domain must be <= 226");
+    if (base + 9 > 232) throw std::invalid_argument("--domain must be <= 223");
 
     using poise::dds::Vendor;
     struct Row {
@@ -514,10 +521,13 @@ int main(int argc, char** argv) {
     const Row rows[] = {
         {"cyclone-cyclone", "layer", Vendor::cyclone, Vendor::cyclone},
         {"cyclone-cyclone", "raw", Vendor::cyclone, Vendor::cyclone},
+        {"cyclone-cyclone", "wd1", Vendor::cyclone, Vendor::cyclone},
         {"fastdds-fastdds", "layer", Vendor::fastdds, Vendor::fastdds},
         {"fastdds-fastdds", "raw", Vendor::fastdds, Vendor::fastdds},
+        {"fastdds-fastdds", "wd1", Vendor::fastdds, Vendor::fastdds},
         {"cyclone-fastdds", "layer", Vendor::cyclone, Vendor::fastdds},
         {"cyclone-fastdds", "raw", Vendor::cyclone, Vendor::fastdds},
+        {"cyclone-fastdds", "wd1", Vendor::cyclone, Vendor::fastdds},
     };
     poise::msg::Sensors probe;
     fill(probe);
@@ -526,7 +536,7 @@ int main(int argc, char** argv) {
         "DDS round trip: Sensors sample of %zu bytes (CDR incl. header), reliable keep-last 1,\n"
         "loopback configs (deploy/dds), separate echo process, %d round trips after %d warm-up,\n"
         "domains %d..%d. Times in microseconds.\n\n",
-        ts.serialized_size(&probe), samples, warmup, base, base + 6);
+        ts.serialized_size(&probe), samples, warmup, base, base + 9);
     {
       // CPU cost of what our layer adds per sample (same process, no DDS).
       std::vector<std::uint8_t> buf(ts.max_serialized_size);
@@ -565,8 +575,11 @@ int main(int argc, char** argv) {
                   s.allocs_per_rt);
       if (std::string(r.api) == "layer") {
         layer_median = s.median;
-      } else {
+      } else if (std::string(r.api) == "raw") {
         std::printf("   layer - raw (median): %+.1f", layer_median - s.median);
+      } else {
+        std::printf("   layer (writers keep-last 32) / writers keep-last 1 (median): %.2f",
+                    layer_median / s.median);
       }
       std::printf("\n");
       std::fflush(stdout);

@@ -51,7 +51,13 @@ class DomainRegistry {
       }
       return;
     }
-    const std::string uri = "file://" + config_path;
+    // Cyclone suspends a reliable writer whose unacknowledged bytes exceed its WHC high-water
+    // mark, which starts at 30 kB. The control topics' writers keep 32 samples of up to 2.6 kB
+    // for a lagging reader (Qos::control()): start the mark at its maximum (500 kB) so that a slow
+    // reader can never suspend the robot's writers. The user's file comes second and wins.
+    const std::string uri =
+        "<Internal><Watermarks><WhcHighInit>500 kB</WhcHighInit></Watermarks></Internal>,file://" +
+        config_path;
     const dds_entity_t d = dds_create_domain(static_cast<dds_domainid_t>(domain_id), uri.c_str());
     if (d < 0) {
       --e.refs;
@@ -79,7 +85,7 @@ class DomainRegistry {
   std::map<int, Entry> domains_;
 };
 
-dds_qos_t* make_qos(const Qos& q) {
+dds_qos_t* make_qos(const Qos& q, bool writer) {
   dds_qos_t* qos = dds_create_qos();
   dds_qset_reliability(qos,
                        q.reliability == Reliability::reliable ? DDS_RELIABILITY_RELIABLE
@@ -89,7 +95,7 @@ dds_qos_t* make_qos(const Qos& q) {
                                ? DDS_DURABILITY_TRANSIENT_LOCAL
                                : DDS_DURABILITY_VOLATILE);
   const int depth = std::max(1, q.history_depth);
-  dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, depth);
+  dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, writer ? q.writer_depth() : depth);
   if (q.durability == Durability::transient_local) {
     // Late joiners get the durability-service history, keep-last 1 by default: match the depth.
     dds_qset_durability_service(qos, 0, DDS_HISTORY_KEEP_LAST, depth, DDS_LENGTH_UNLIMITED,
@@ -150,7 +156,7 @@ class CycloneReader final : public ReaderBackend {
   CycloneReader(dds_entity_t participant, const std::string& topic_name,
                 const std::string& type_name, const Qos& q) {
     topic_ = make_topic(participant, topic_name, type_name);
-    dds_qos_t* qos = make_qos(q);
+    dds_qos_t* qos = make_qos(q, /*writer=*/false);
     dds_listener_t* listener = dds_create_listener(this);
     dds_lset_data_available(listener, &CycloneReader::on_data_available);
     reader_ = dds_create_reader(participant, topic_, qos, listener);
@@ -183,6 +189,7 @@ class CycloneReader final : public ReaderBackend {
       if (!ok) continue;
       meta.source_timestamp_ns = info.source_timestamp;
       meta.reception_timestamp_ns = realtime_ns();
+      meta.writer_id = info.publication_handle;
       return true;
     }
   }
@@ -262,7 +269,7 @@ class CycloneParticipant final : public ParticipantBackend {
                                                const std::string& type_name, std::size_t,
                                                const Qos& q) override {
     const dds_entity_t topic = make_topic(participant_, topic_name, type_name);
-    dds_qos_t* qos = make_qos(q);
+    dds_qos_t* qos = make_qos(q, /*writer=*/true);
     const dds_entity_t w = dds_create_writer(participant_, topic, qos, nullptr);
     dds_delete_qos(qos);
     if (w < 0) {

@@ -80,6 +80,16 @@ class CdrTopicDataType final : public fdds::TopicDataType {
   bool getKey(void*, frtps::InstanceHandle_t*, bool) override { return false; }
 };
 
+/// A 64-bit identifier of an instance handle (a writer's GUID): FNV-1a of its 16 bytes.
+std::uint64_t handle_id(const frtps::InstanceHandle_t& h) {
+  std::uint64_t x = 1469598103934665603ULL;
+  for (std::size_t i = 0; i < 16; ++i) {
+    x ^= static_cast<std::uint8_t>(h.value[i]);
+    x *= 1099511628211ULL;
+  }
+  return x;
+}
+
 Duration_t to_duration(std::chrono::nanoseconds d) {
   if (d == Qos::infinite) return eprosima::fastrtps::c_TimeInfinite;
   const auto ns = d.count();
@@ -88,7 +98,7 @@ Duration_t to_duration(std::chrono::nanoseconds d) {
 }
 
 template <class EndpointQos>
-void apply_common(const Qos& q, EndpointQos& eq) {
+void apply_common(const Qos& q, EndpointQos& eq, bool writer) {
   eq.reliability().kind = q.reliability == Reliability::reliable
                               ? fdds::RELIABLE_RELIABILITY_QOS
                               : fdds::BEST_EFFORT_RELIABILITY_QOS;
@@ -96,7 +106,7 @@ void apply_common(const Qos& q, EndpointQos& eq) {
                              ? fdds::TRANSIENT_LOCAL_DURABILITY_QOS
                              : fdds::VOLATILE_DURABILITY_QOS;
   eq.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
-  eq.history().depth = std::max(1, q.history_depth);
+  eq.history().depth = writer ? q.writer_depth() : std::max(1, q.history_depth);
   eq.deadline().period = to_duration(q.deadline);
   switch (q.liveliness) {
     case Liveliness::automatic:
@@ -178,6 +188,7 @@ class FastddsReader final : public ReaderBackend, public fdds::DataReaderListene
       if (!info.valid_data) continue;
       meta.source_timestamp_ns = info.source_timestamp.to_ns();
       meta.reception_timestamp_ns = info.reception_timestamp.to_ns();
+      meta.writer_id = handle_id(info.publication_handle);
       return true;
     }
     return false;
@@ -258,7 +269,7 @@ class FastddsParticipant final : public ParticipantBackend, public fdds::DomainP
                                                const Qos& qos) override {
     fdds::Topic* topic = acquire_topic(topic_name, type_name, max_size);
     fdds::DataWriterQos wq = publisher_->get_default_datawriter_qos();
-    apply_common(qos, wq);
+    apply_common(qos, wq, /*writer=*/true);
     // Cyclone readers wait for a heartbeat before they acknowledge: the default 3 s period
     // delays reliable delivery to them (dds-notes.md).
     wq.reliable_writer_qos().times.heartbeatPeriod = Duration_t(0, 100000000);
@@ -276,7 +287,7 @@ class FastddsParticipant final : public ParticipantBackend, public fdds::DomainP
                                                const Qos& qos) override {
     fdds::Topic* topic = acquire_topic(topic_name, type_name, max_size);
     fdds::DataReaderQos rq = subscriber_->get_default_datareader_qos();
-    apply_common(qos, rq);
+    apply_common(qos, rq, /*writer=*/false);
     auto reader = std::make_unique<FastddsReader>(
         subscriber_, [this, topic_name] { release_topic(topic_name); });
     fdds::DataReader* r =

@@ -85,6 +85,40 @@ std::string wait_for_recorder(Child& recorder, double timeout_s) {
   return "the recorder did not start within " + std::to_string(timeout_s) + " s";
 }
 
+/// The writers the recorder has matched, per topic, from its "poise record: TOPIC: N writers"
+/// lines (the last line of each topic counts).
+std::map<std::string, int> recorder_writers(const fs::path& stderr_path) {
+  std::map<std::string, int> out;
+  std::ifstream in(stderr_path);
+  std::string line;
+  const std::string prefix = "poise record: poise/";
+  while (std::getline(in, line)) {
+    const auto at = line.find(prefix);
+    if (at == std::string::npos) continue;
+    const auto colon = line.find(": ", at + prefix.size());
+    if (colon == std::string::npos) continue;
+    const std::string topic = line.substr(at + 14, colon - at - 14);
+    const std::string rest = line.substr(colon + 2);
+    if (rest.find(" writer") == std::string::npos) continue;
+    try {
+      out[topic] = std::stoi(rest);
+    } catch (const std::exception&) {
+    }
+  }
+  return out;
+}
+
+/// Topics a recorder must have matched, with the number of writers, before the run starts: what
+/// a writer's reader matches late is missing from the file (mixed-vendor endpoint discovery takes
+/// ~1 s, longer than a lockstep run's first second).
+const std::vector<std::pair<std::string, int>>& stack_writers() {
+  static const std::vector<std::pair<std::string, int>> w{
+      {"poise/robot_description", 1}, {"poise/sensors", 1},          {"poise/ground_truth", 1},
+      {"poise/state", 1},             {"poise/contact_problem", 1},  {"poise/contact_solution", 1},
+      {"poise/joint_command", 1},     {"poise/diagnostics", 4}};
+  return w;
+}
+
 }  // namespace
 
 int run_distributed(int argc, char** argv) {
@@ -201,15 +235,26 @@ int run_distributed(int argc, char** argv) {
     if (s.duration > 0) sim_args.insert(sim_args.end(), {"--duration", std::to_string(s.duration)});
     // With a recorder, the simulator waits for its readers too, so that the file holds the run
     // from its first tick (sensors: estimator + recorder; ground truth: recorder).
-    if (record_opt->count() > 0)
-      sim_args.insert(sim_args.end(), {"--wait-readers", "2", "--wait-truth-readers", "1"});
+    // It also waits for a start file, made once the recorder has matched every writer of the
+    // stack (the nodes create theirs once they have the robot description).
+    const fs::path start_file = logs / "start";
+    std::error_code ignored;
+    fs::remove(start_file, ignored);
+    const bool recording_run = record_opt->count() > 0;
+    if (recording_run)
+      sim_args.insert(sim_args.end(), {"--wait-readers", "2", "--wait-truth-readers", "1",
+                                       "--start-file", start_file.string()});
     std::vector<std::string> est_args = common("estimator");
     if (s.ground_truth_state) est_args.push_back("--ground-truth-state");
     est_args.insert(est_args.end(), {"--supports", scenario.estimator.supports});
+    // Each node's outputs: their consumer and the recorder, matched before its first input.
+    if (recording_run) est_args.insert(est_args.end(), {"--output-readers", "2"});
     std::vector<std::string> contact_args = common("contact");
+    if (recording_run) contact_args.insert(contact_args.end(), {"--output-readers", "2"});
     contact_args.insert(contact_args.end(), {"--method", s.method});
     std::vector<std::string> ctrl_args = common("controller");
     ctrl_args.insert(ctrl_args.end(), {"--contact-deadline-us", std::to_string(deadline_us)});
+    if (recording_run) ctrl_args.insert(ctrl_args.end(), {"--output-readers", "2"});
 
     if (!s.quiet)
       std::printf(
@@ -254,12 +299,56 @@ int run_distributed(int argc, char** argv) {
     children.push_back(std::make_unique<Child>("controller", ctrl_args, logs));
     Child& sim = *children[0];
 
-    const auto t_start = std::chrono::steady_clock::now();
     std::string failure;
+    if (recorder) {
+      const auto t0 = std::chrono::steady_clock::now();
+      std::string missing;
+      for (;;) {
+        const auto have = recorder_writers(recorder->stderr_path());
+        missing.clear();
+        for (const auto& [topic, n] : stack_writers()) {
+          const auto it = have.find(topic);
+          if (it == have.end() || it->second < n)
+            missing += (missing.empty() ? "" : ", ") + topic;
+        }
+        // And the writer side: each node has matched the readers of its outputs.
+        for (auto& c : children) {
+          if (c.get() == &sim) continue;
+          std::ifstream err(c->stderr_path());
+          const std::string text((std::istreambuf_iterator<char>(err)),
+                                 std::istreambuf_iterator<char>());
+          if (text.find("output readers matched") == std::string::npos)
+            missing += (missing.empty() ? "" : ", ") + c->name() + "'s output readers";
+        }
+        const double waited =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        if (missing.empty()) {
+          if (!s.quiet) std::printf("  every writer and reader of the run matched after %.2f s\n", waited);
+          break;
+        }
+        if (waited > 20.0) {
+          std::fprintf(stderr,
+                       "poise run %s: warning: after 20 s still waiting for %s; starting anyway "
+                       "(the recording may miss their first samples)\n",
+                       scenario.name.c_str(), missing.c_str());
+          break;
+        }
+        for (auto& c : children)
+          if (auto code = c->poll(); code && failure.empty())
+            failure = c->name() + " exited early with code " + std::to_string(*code);
+        if (auto code = recorder->poll(); code && failure.empty())
+          failure = "recorder exited early with code " + std::to_string(*code);
+        if (!failure.empty() || g_interrupted.load()) break;
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      }
+      std::ofstream(start_file) << "go\n";
+    }
+
+    const auto t_start = std::chrono::steady_clock::now();
     std::ifstream progress;
     std::string partial;
     int sim_code = -1;
-    for (;;) {
+    while (failure.empty()) {
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
       if (!progress.is_open()) progress.open(sim.stdout_path());
       if (progress.is_open()) {  // relay the simulator's progress lines

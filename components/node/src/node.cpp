@@ -42,6 +42,15 @@ void add_node_options(CLI::App& app, NodeOptions& options, const std::string& ki
   app.add_option("--diagnostics-hz", options.diagnostics_hz, "diagnostics publication rate [Hz]")
       ->check(CLI::Range(0.1, 1000.0))
       ->capture_default_str();
+  app.add_option("--output-readers", options.output_readers,
+                 "before taking its first input, wait until each per-tick output topic has this "
+                 "many matched readers (a launcher that records: consumer + recorder; 0: no wait)")
+      ->check(CLI::Range(0, 1000))
+      ->capture_default_str();
+  app.add_option("--output-readers-timeout-ms", options.output_readers_timeout_ms,
+                 "longest wait for --output-readers")
+      ->check(CLI::Range(0, 600000))
+      ->capture_default_str();
   dds::add_dds_options(app, options.dds);
 }
 

@@ -513,7 +513,7 @@ struct CaseResult {
   double pub_max_late_us = 0;
   std::uint64_t published = 0, recorded = 0, lost = 0;  ///< messages; lost = published - recorded
   std::uint64_t message_bytes = 0, file_bytes = 0;
-  std::uint64_t dropped = 0, vendor_lost = 0, sequence_gaps = 0;
+  std::uint64_t dropped = 0, vendor_lost = 0, sequence_gaps = 0, tick_gaps = 0;
   std::uint64_t missing_ticks = 0;  ///< per-tick topics, as `poise info` sees them
   double cpu_percent = 0;           ///< recorder, publishing window
   double cpu_total_s = 0;           ///< recorder, whole life (wait4)
@@ -633,6 +633,7 @@ CaseResult run_case(const fs::path& poise, const fs::path& self, const fs::path&
   r.file_bytes = info.value("file_size", 0ULL);
   r.dropped = metadata_u64(info, "total.dropped");
   r.vendor_lost = metadata_u64(info, "total.vendor_lost");
+  r.tick_gaps = metadata_u64(info, "total.tick_gaps");
   std::map<std::string, std::uint64_t> in_file;
   for (const auto& t : info["topics"]) {
     in_file[t.value("topic", "")] = t.value("messages", 0ULL);
@@ -755,9 +756,10 @@ double ratio(std::uint64_t a, std::uint64_t b) {
 void print_throughput(const std::vector<CaseResult>& cases, const DiskResult& disk, bool flat_out) {
   std::printf("\n%s\n", flat_out ? "SATURATION: publisher flat out (no sleep)"
                                  : "THROUGHPUT: 1 kHz, 9 per-tick topics + RobotDescription once");
-  std::printf("%-5s %7s %9s %9s %9s %10s %8s %6s %6s %7s %7s %8s %7s %7s %7s %7s\n", "COMPR",
-              "PUB[s]", "PUB[m/s]", "REC[m/s]", "MSG[MB/s]", "FILE[MB/s]", "FILE[MB]", "RATIO",
-              "CPU%", "CPU[s]", "LOST", "MISSING", "DROPPED", "DDSLOST", "SEQGAP", "STOP[s]");
+  std::printf("%-5s %7s %9s %9s %9s %10s %8s %6s %6s %7s %7s %8s %7s %7s %7s %7s %7s\n",
+              "COMPR", "PUB[s]", "PUB[m/s]", "REC[m/s]", "MSG[MB/s]", "FILE[MB/s]", "FILE[MB]",
+              "RATIO", "CPU%", "CPU[s]", "LOST", "MISSING", "DROPPED", "DDSLOST", "SEQGAP",
+              "TICKGAP", "STOP[s]");
   for (const auto& c : cases) {
     if (!c.ok) {
       std::printf("%-5s FAILED: %s\n", c.compression.c_str(), c.problem.c_str());
@@ -766,14 +768,14 @@ void print_throughput(const std::vector<CaseResult>& cases, const DiskResult& di
     const double s = c.pub_seconds > 0 ? c.pub_seconds : 1;
     std::printf(
         "%-5s %7.2f %9.0f %9.0f %9.1f %10.1f %8.1f %6.2f %6.1f %7.2f %7llu %8llu %7llu %7llu "
-        "%7llu %7.2f%s\n",
+        "%7llu %7llu %7.2f%s\n",
         c.compression.c_str(), c.pub_seconds, c.published / s, c.recorded / s,
         c.message_bytes / 1e6 / s, c.file_bytes / 1e6 / s, c.file_bytes / 1e6,
         ratio(c.message_bytes, c.file_bytes), c.cpu_percent, c.cpu_total_s,
         static_cast<unsigned long long>(c.lost), static_cast<unsigned long long>(c.missing_ticks),
         static_cast<unsigned long long>(c.dropped), static_cast<unsigned long long>(c.vendor_lost),
-        static_cast<unsigned long long>(c.sequence_gaps), c.stop_s,
-        c.complete ? "" : "  (file INCOMPLETE)");
+        static_cast<unsigned long long>(c.sequence_gaps),
+        static_cast<unsigned long long>(c.tick_gaps), c.stop_s, c.complete ? "" : "  (file INCOMPLETE)");
   }
   for (const auto& c : cases) {
     if (!c.ok) continue;
@@ -1136,7 +1138,9 @@ int main(int argc, char** argv) {
       std::printf(
           "  PUB/REC[m/s] = messages published / in the file per second of publishing; LOST = "
           "published - in file; DROPPED/DDSLOST = the recorder's own counters (metadata "
-          "poise_recorder); SEQGAP = gaps in the recorder's sequence numbers; CPU%% = recorder, "
+          "poise_recorder); SEQGAP = gaps in the recorder's sequence numbers; TICKGAP = ticks "
+          "skipped within a writer's stream as the recorder saw it live (poise_recorder "
+          "total.tick_gaps: a loss the queue and DDS did not see); CPU%% = recorder, "
           "%% of one core while the publisher published; CPU[s] = recorder's whole life; "
           "MISSING = ticks missing in per-tick topics (poise info); RATIO = message bytes / file "
           "bytes; STOP = SIGTERM to exit.\n");

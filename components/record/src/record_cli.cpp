@@ -7,6 +7,7 @@
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <map>
 #include <thread>
 
 #include <CLI/CLI.hpp>
@@ -47,22 +48,26 @@ void print_progress(const RecorderStatus& s, double elapsed, bool tty) {
 }  // namespace
 
 void print_recording_summary(const RecorderStatus& s, std::FILE* out) {
-  std::fprintf(out, "%-26s %-30s %10s %10s %8s %8s\n", "TOPIC", "TYPE", "RECEIVED", "WRITTEN",
-               "DROPPED", "DDS-LOST");
+  std::fprintf(out, "%-26s %-30s %10s %10s %8s %8s %9s\n", "TOPIC", "TYPE", "RECEIVED",
+               "WRITTEN", "DROPPED", "DDS-LOST", "TICK-GAPS");
   for (const auto& t : s.topics) {
-    std::fprintf(out, "%-26s %-30s %10llu %10llu %8llu %8llu\n", t.topic.c_str(),
+    std::fprintf(out, "%-26s %-30s %10llu %10llu %8llu %8llu %9llu\n", t.topic.c_str(),
                  t.type_name.c_str(), static_cast<unsigned long long>(t.received),
                  static_cast<unsigned long long>(t.written),
                  static_cast<unsigned long long>(t.dropped),
-                 static_cast<unsigned long long>(t.vendor_lost + t.vendor_rejected));
+                 static_cast<unsigned long long>(t.vendor_lost + t.vendor_rejected),
+                 static_cast<unsigned long long>(t.tick_gaps));
   }
   std::string files;
   for (const auto& f : s.files)
     files += (files.empty() ? "" : ", ") + f;
   std::fprintf(
-      out, "%llu messages, %.2f MB in %s; %llu dropped by the recorder, %llu lost by DDS\n",
+      out,
+      "%llu messages, %.2f MB in %s; %llu dropped by the recorder, %llu lost by DDS, %llu ticks "
+      "skipped by writers of per-tick topics\n",
       static_cast<unsigned long long>(s.messages), s.bytes / 1e6, files.c_str(),
-      static_cast<unsigned long long>(s.dropped), static_cast<unsigned long long>(s.vendor_lost));
+      static_cast<unsigned long long>(s.dropped), static_cast<unsigned long long>(s.vendor_lost),
+      static_cast<unsigned long long>(s.tick_gaps));
 }
 
 int record_main(int argc, char** argv) {
@@ -135,16 +140,27 @@ int record_main(int argc, char** argv) {
   const auto start = std::chrono::steady_clock::now();
   auto next_progress = start + std::chrono::duration<double>(progress_s);
   std::string error;
+  // Writers joining and leaving, one line each: "poise record: poise/state: 1 writer" (a
+  // launcher starts its run once every expected writer is matched: `poise run --record`).
+  std::map<std::string, int> writers;
   while (g_signal.load() == 0) {
     const auto now = std::chrono::steady_clock::now();
     const double elapsed = std::chrono::duration<double>(now - start).count();
     if (duration_s > 0 && elapsed >= duration_s) break;
+    const RecorderStatus status = recorder.status();
+    for (const auto& t : status.topics) {
+      int& known = writers[t.topic];
+      if (t.writers == known) continue;
+      known = t.writers;
+      std::fprintf(stderr, "%spoise record: %s: %d writer%s\n", tty ? "\r" : "", t.topic.c_str(),
+                   t.writers, t.writers == 1 ? "" : "s");
+    }
     if (progress_s > 0 && now >= next_progress) {
-      print_progress(recorder.status(), elapsed, tty);
+      print_progress(status, elapsed, tty);
       next_progress += std::chrono::duration<double>(progress_s);
     }
-    if (const auto s = recorder.status(); !s.error.empty()) {
-      error = s.error;
+    if (!status.error.empty()) {
+      error = status.error;
       break;
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(20));

@@ -37,6 +37,21 @@ dds::Qos recorder_qos(const dds::Qos& topic_qos) {
 
 constexpr std::uint16_t kNoChannel = 0xFFFF;
 
+/// The Header.tick of a serialised Poise sample (every type begins with its Header; the tick is
+/// the first 8 bytes after the 4-byte encapsulation header). False if too short or unknown.
+bool tick_of(const std::vector<std::uint8_t>& bytes, std::uint64_t& tick) {
+  if (bytes.size() < 12 || bytes[0] != 0x00 || (bytes[1] != 0x00 && bytes[1] != 0x01))
+    return false;
+  const bool little = bytes[1] == 0x01;
+  std::uint64_t v = 0;
+  for (int i = 0; i < 8; ++i) {
+    const std::uint64_t b = bytes[static_cast<std::size_t>(4 + (little ? i : 7 - i))];
+    v |= b << (8 * i);
+  }
+  tick = v;
+  return true;
+}
+
 }  // namespace
 
 struct Recorder::Topic {
@@ -47,7 +62,24 @@ struct Recorder::Topic {
   std::atomic<std::uint64_t> received{0};
   std::atomic<std::uint64_t> dropped{0};
   std::atomic<std::uint64_t> written{0};
+  std::atomic<std::uint64_t> tick_gaps{0};
+  bool per_tick = false;  ///< one sample per tick per writer (Qos::control() topics)
+  std::mutex ticks_mutex;
+  std::vector<std::pair<std::uint64_t, std::uint64_t>> last_tick;  ///< (writer, tick)
   std::unique_ptr<dds::RawSubscriber> subscriber;
+
+  /// Counts the ticks skipped since this writer's previous sample. A tick at or before the
+  /// previous one (a repeat, a restarted writer) restarts the count from it.
+  void count_tick(std::uint64_t writer, std::uint64_t tick) {
+    std::lock_guard lock(ticks_mutex);
+    for (auto& [w, last] : last_tick) {
+      if (w != writer) continue;
+      if (tick > last + 1) tick_gaps.fetch_add(tick - last - 1, std::memory_order_relaxed);
+      last = tick;
+      return;
+    }
+    last_tick.emplace_back(writer, tick);
+  }
 };
 
 Recorder::Recorder(dds::Participant& participant, RecorderOptions options)
@@ -77,6 +109,7 @@ Recorder::Recorder(dds::Participant& participant, RecorderOptions options)
     topic->name = std::string(t->topic_name);
     topic->type_name = std::string(t->type_name);
     topic->schema = schema_of(t->type_name);
+    topic->per_tick = t->qos == dds::Qos::control();
     if (topic->schema.empty())
       throw std::logic_error("no IDL schema generated for " + topic->type_name);
     topics_.push_back(std::move(topic));
@@ -100,6 +133,8 @@ Recorder::~Recorder() {
 void Recorder::on_sample(Topic& topic, const std::vector<std::uint8_t>& bytes,
                          const dds::SampleMeta& meta) {
   if (!accepting_.load(std::memory_order_relaxed)) return;  // after the end of the recording
+  if (std::uint64_t tick = 0; topic.per_tick && tick_of(bytes, tick))
+    topic.count_tick(meta.writer_id, tick);
   const std::uint64_t sequence = topic.received.fetch_add(1, std::memory_order_relaxed) + 1;
   const auto log_time = static_cast<std::uint64_t>(meta.reception_timestamp_ns);
   const auto publish_time = meta.source_timestamp_ns > 0
@@ -152,7 +187,7 @@ bool Recorder::open_file() {
 
 std::map<std::string, std::string> Recorder::loss_metadata() const {
   std::map<std::string, std::string> m;
-  std::uint64_t dropped = 0, lost = 0;
+  std::uint64_t dropped = 0, lost = 0, gaps = 0;
   for (const auto& t : topics_) {
     const auto losses = t->subscriber ? t->subscriber->losses() : dds::ReaderLosses{};
     if (t->received.load() == 0 && losses.lost == 0 && losses.rejected == 0) continue;
@@ -161,11 +196,14 @@ std::map<std::string, std::string> Recorder::loss_metadata() const {
     m[t->name + ".dropped"] = std::to_string(t->dropped.load());
     m[t->name + ".vendor_lost"] = std::to_string(losses.lost);
     m[t->name + ".vendor_rejected"] = std::to_string(losses.rejected);
+    if (t->per_tick) m[t->name + ".tick_gaps"] = std::to_string(t->tick_gaps.load());
     dropped += t->dropped.load();
     lost += losses.lost + losses.rejected;
+    gaps += t->tick_gaps.load();
   }
   m["total.dropped"] = std::to_string(dropped);
   m["total.vendor_lost"] = std::to_string(lost);
+  m["total.tick_gaps"] = std::to_string(gaps);
   return m;
 }
 
@@ -258,6 +296,7 @@ RecorderStatus Recorder::status() const {
     c.type_name = t->type_name;
     c.written = t->written.load();
     c.dropped = t->dropped.load();
+    c.tick_gaps = t->tick_gaps.load();
     if (t->subscriber) {
       const auto l = t->subscriber->losses();
       c.vendor_lost = l.lost;
@@ -266,6 +305,7 @@ RecorderStatus Recorder::status() const {
     s.messages += c.written;
     s.dropped += c.dropped;
     s.vendor_lost += c.vendor_lost + c.vendor_rejected;
+    s.tick_gaps += c.tick_gaps;
     s.topics.push_back(std::move(c));
   }
   std::lock_guard lock(status_mutex_);

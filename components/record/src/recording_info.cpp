@@ -178,14 +178,18 @@ std::string format_recording_info(const RecordingInfo& info) {
       auto f = m.find(k);
       return f == m.end() ? std::string("?") : f->second;
     };
-    add("\nRecorder losses: %s dropped by the recorder, %s lost or rejected by DDS\n",
-        get("total.dropped").c_str(), get("total.vendor_lost").c_str());
+    add("\nRecorder losses: %s dropped by the recorder, %s lost or rejected by DDS, %s ticks "
+        "skipped within a writer's stream (seen live)\n",
+        get("total.dropped").c_str(), get("total.vendor_lost").c_str(),
+        m.count("total.tick_gaps") ? get("total.tick_gaps").c_str() : "?");
     for (const auto& t : info.topics) {
+      const std::string gaps = m.count(t.topic + ".tick_gaps") ? get(t.topic + ".tick_gaps") : "0";
       if (get(t.topic + ".dropped") != "0" || get(t.topic + ".vendor_lost") != "0" ||
-          get(t.topic + ".vendor_rejected") != "0") {
-        add("  %-24s received %s, dropped %s, DDS lost %s, DDS rejected %s\n", t.topic.c_str(),
-            get(t.topic + ".received").c_str(), get(t.topic + ".dropped").c_str(),
-            get(t.topic + ".vendor_lost").c_str(), get(t.topic + ".vendor_rejected").c_str());
+          get(t.topic + ".vendor_rejected") != "0" || gaps != "0") {
+        add("  %-24s received %s, dropped %s, DDS lost %s, DDS rejected %s, tick gaps %s\n",
+            t.topic.c_str(), get(t.topic + ".received").c_str(), get(t.topic + ".dropped").c_str(),
+            get(t.topic + ".vendor_lost").c_str(), get(t.topic + ".vendor_rejected").c_str(),
+            gaps.c_str());
       }
     }
   } else {

@@ -102,6 +102,7 @@ int run(int argc, char** argv) {
     node.tick_done(in.problem.header().tick(), node::now_ns() - t0);
   };
   std::mutex state_mutex;
+  node.wait_for_output_readers(solutions);
   dds::RawSubscriber problems(node.participant(), dds::TopicTraits<msg::ContactProblem>::topic_name,
                               dds::TopicTraits<msg::ContactProblem>::type_name,
                               dds::TopicTraits<msg::ContactProblem>::default_qos(),

@@ -247,6 +247,7 @@ int run(int argc, char** argv) {
              "no contact optimiser matched after %d ms: starting anyway "
              "(fallback wrenches until one answers)",
              contact_wait_ms);
+  node.wait_for_output_readers(problems, commands);
 
   {
     std::unique_lock lock(mutex);

@@ -131,6 +131,7 @@ int run(int argc, char** argv) {
   std::mutex state_mutex;
   node::Mailbox<msg::Sensors> sensor_box;
   std::unique_ptr<dds::Subscriber<msg::Sensors>> sensors;
+  node.wait_for_output_readers(states);
   if (!ground_truth_state) {
     // Estimate on the DDS listener thread as the sample arrives (no hand-off to a loop thread).
     sensors = std::make_unique<dds::Subscriber<msg::Sensors>>(node.participant(),

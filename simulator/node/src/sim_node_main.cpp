@@ -21,7 +21,7 @@
 //               when no fresh command came for --watchdog-ms (default 5) and resumes when they
 //               come back (both transitions logged).
 //   start-up    waits for --wait-readers sensors readers (and --wait-truth-readers ground-truth
-//               readers); real time publishes the frame k0 and waits for its acknowledgment by
+//               readers) and for --start-file to exist (a launcher's go signal); real time publishes the frame k0 and waits for its acknowledgment by
 //               every matched reader before the wall clock starts.
 //               --settle-ticks (10) steps with the joints held by PD before tick k0 is published:
 //               the frame right after construction has no contact forces yet, and the
@@ -37,11 +37,14 @@
 #include <condition_variable>
 #include <cstdio>
 #include <exception>
+#include <filesystem>
 #include <mutex>
+#include <thread>
 #include <nlohmann/json.hpp>
 
 #include "poise/node/mailbox.hpp"
 #include "poise/node/node.hpp"
+#include "poise/node/shutdown.hpp"
 #include "poise/sim/scenario.hpp"
 #include "poise/sim/simulator.hpp"
 #include "poise/sim/watchdog.hpp"
@@ -63,6 +66,7 @@ struct Settings {
   int settle_ticks = 10;
   int wait_readers = 1;        ///< poise/sensors readers to wait for before tick k0
   int wait_truth_readers = 0;  ///< poise/ground_truth readers to wait for before tick k0
+  std::string start_file;      ///< wait until this file exists before tick k0 ("": no wait)
 };
 
 /// Everything one run measures (the node's summary).
@@ -132,6 +136,15 @@ class SimNode {
                "after %d ms; starting anyway",
                sensors_pub_.matched(), settings_.wait_readers, truth_pub_.matched(),
                settings_.wait_truth_readers, settings_.startup_timeout_ms);
+    if (!settings_.start_file.empty()) {
+      const auto deadline = std::chrono::steady_clock::now() + startup;
+      while (!std::filesystem::exists(settings_.start_file) &&
+             std::chrono::steady_clock::now() < deadline && !node::shutdown_requested())
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+      if (!std::filesystem::exists(settings_.start_file))
+        dds::log(dds::LogLevel::warn, "start-up: no start file %s after %d ms; starting anyway",
+                 settings_.start_file.c_str(), settings_.startup_timeout_ms);
+    }
     if (settings_.realtime) {
       // The settled frame k0 first, and its acknowledgment by every matched reader: a reader
       // matched on this side only would miss the first ticks of the wall clock. (Lockstep
@@ -526,6 +539,9 @@ int run(int argc, char** argv) {
                  "start-up: poise/ground_truth readers to wait for (a recorder, a test)")
       ->capture_default_str()
       ->check(CLI::Range(0, 1000));
+  app.add_option("--start-file", s.start_file,
+                 "start-up: wait (at most --startup-timeout-ms) until this file exists before the "
+                 "first tick: a launcher's go signal, e.g. once a recorder matched every writer");
   app.add_option("--settle-ticks", s.settle_ticks,
                  "start-up: steps with the joints held by PD before the first sensor frame, so "
                  "that it measures the feet loaded")

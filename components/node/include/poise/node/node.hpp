@@ -21,6 +21,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include <chrono>
 #include <cstdarg>
 #include <cstdint>
 #include <memory>
@@ -46,6 +47,12 @@ struct NodeOptions {
   std::string summary;  ///< write a JSON summary (last diagnostics + node figures) at exit
   dds::DdsOptions dds = dds::dds_options_from_env();
   double diagnostics_hz = 10.0;
+  /// Readers each per-tick output topic must have matched before the node takes its first
+  /// input (0: no wait), at most `output_readers_timeout_ms`. A reader that the writer has not
+  /// matched yet misses the samples written before (volatile topics): a launcher that records
+  /// the run asks for the consumer + the recorder.
+  int output_readers = 0;
+  int output_readers_timeout_ms = 20000;
 };
 
 /// deploy/robots/poise_humanoid/robot.yaml, located like the DDS configurations (source tree
@@ -74,6 +81,28 @@ class Node {
   template <class S>
   void watch(const S& subscriber) {
     watched_.push_back(&subscriber.counters());
+  }
+
+  /// --output-readers: waits until each publisher has matched `options().output_readers`
+  /// readers (at most the timeout; a warning names the ones short of it), then logs
+  /// "output readers matched" (launchers wait for that line). Configuration time.
+  template <class... P>
+  void wait_for_output_readers(const P&... publishers) {
+    if (options_.output_readers <= 0) return;
+    const auto timeout = std::chrono::milliseconds(options_.output_readers_timeout_ms);
+    bool all = true;
+    (
+        [&] {
+          if (!publishers.wait_for_matches(options_.output_readers, timeout)) {
+            all = false;
+            dds::log(dds::LogLevel::warn, "%s: %d of %d readers matched after %d ms",
+                     publishers.topic_name().c_str(), publishers.matched(),
+                     options_.output_readers, options_.output_readers_timeout_ms);
+          }
+        }(),
+        ...);
+    dds::log(all ? dds::LogLevel::info : dds::LogLevel::warn, "output readers matched%s",
+             all ? "" : " (some short, see above): starting anyway");
   }
 
   /// False once a shutdown was requested (signal or request_shutdown()).

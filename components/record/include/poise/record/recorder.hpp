@@ -16,9 +16,12 @@
 //               the file and writes the open chunk every `flush_interval_s`. A full queue
 //               (`max_queue_bytes`, a disk slower than the traffic) drops and counts: the
 //               recorder never slows a writer of the robot's topics.
-//   losses      per topic: samples dropped by the recorder's queue, and the vendor's SAMPLE_LOST
-//               and SAMPLE_REJECTED counts. Written at the end as MCAP metadata "poise_recorder"
-//               and printed.
+//   losses      per topic: samples dropped by the recorder's queue, the vendor's SAMPLE_LOST
+//               and SAMPLE_REJECTED counts, and on the per-tick topics (Qos::control()) the tick
+//               gaps: ticks skipped between two consecutive samples of one writer (a tick the
+//               node did not publish, or a sample lost on the way; every Poise type begins with
+//               its Header, so the tick is read from the raw bytes). Written at the end as MCAP
+//               metadata "poise_recorder" and printed.
 //   crash       after SIGKILL or power loss, at most the open chunk is lost: 1.5 x
 //               `flush_interval_s` of traffic (150 ms: the writer thread looks every half
 //               interval and writes a chunk once it is an interval old) or `chunk_size` (1 MiB),
@@ -60,7 +63,8 @@ struct TopicCounts {
   std::uint64_t dropped = 0;   ///< dropped by the recorder (queue full, or the file failed)
   std::uint64_t vendor_lost = 0;
   std::uint64_t vendor_rejected = 0;
-  int writers = 0;  ///< matched writers now
+  std::uint64_t tick_gaps = 0;  ///< per-tick topics: ticks skipped within one writer's stream
+  int writers = 0;              ///< matched writers now
 };
 
 struct RecorderStatus {
@@ -69,6 +73,7 @@ struct RecorderStatus {
   std::uint64_t bytes = 0;          ///< file bytes written (all files)
   std::uint64_t dropped = 0;
   std::uint64_t vendor_lost = 0;
+  std::uint64_t tick_gaps = 0;
   std::vector<std::string> files;
   std::string error;  ///< the file failed (disk full, ...): "" while all is well
 };

@@ -22,6 +22,7 @@ namespace poise::dds::detail {
 struct SampleMeta {
   std::int64_t source_timestamp_ns = 0;     ///< writer's clock (DDS source timestamp)
   std::int64_t reception_timestamp_ns = 0;  ///< reader's CLOCK_REALTIME at take
+  std::uint64_t writer_id = 0;  ///< identifies the writer within this reader (publication handle)
 };
 
 class WriterBackend {
