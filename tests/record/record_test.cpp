@@ -539,6 +539,53 @@ TEST(Record, TicksSkippedByEachWriterAreCountedLive) {
   EXPECT_EQ(m["poise/sensors.received"], std::to_string(ticks_a.size() + ticks_b.size()));
 }
 
+// A recorder that stops taking samples (SIGSTOP: the extreme of a starved recorder) must never
+// suspend the robot's writers, although they now keep 32 unacknowledged samples for it (Cyclone
+// suspends a reliable writer past its WHC high-water mark, and a suspended write fails after the
+// 1 s max_blocking_time): every one of 300 writes at 1 kHz succeeds. Once the recorder runs
+// again it has every sample (buffered by the kernel, or resent from the writer's history), and
+// whatever it had not would be counted as tick gaps.
+TEST(Record, AStoppedRecorderNeverSuspendsAWriter) {
+  const int domain = poise::testing::unique_domain_id();
+  const fs::path file = work_dir("stopped") / "stopped.mcap";
+  RecorderProcess recorder(record_args("cyclone", domain, file, {"poise/sensors"}));
+  std::uint64_t failed = 0;
+  constexpr std::uint64_t kTicks = 300;
+  {
+    poise::dds::DdsOptions o = poise::dds::dds_options_from_env();
+    o.domain_id = domain;
+    o.vendor = poise::dds::Vendor::cyclone;
+    poise::dds::Participant participant(o);
+    poise::dds::Publisher<poise::msg::Sensors> pub(participant);
+    ASSERT_TRUE(pub.wait_for_matches(1, 20s));
+    ASSERT_TRUE(recorder.process.wait_for_output("poise/sensors: 1 writer", 20s))
+        << recorder.process.output();
+    pub.publish(sample_of<poise::msg::Sensors>(1, 1, 9));
+    ASSERT_TRUE(pub.wait_for_acknowledgments(10s));
+    ASSERT_EQ(::kill(recorder.process.pid(), SIGSTOP), 0);
+    for (std::uint64_t k = 2; k <= kTicks; ++k) {
+      if (!pub.publish(sample_of<poise::msg::Sensors>(1, k, 9))) ++failed;
+      std::this_thread::sleep_for(1ms);
+    }
+    ::kill(recorder.process.pid(), SIGCONT);
+    EXPECT_TRUE(pub.wait_for_acknowledgments(10s));
+  }
+  EXPECT_EQ(failed, 0u) << "writes suspended by a stopped reader";
+  ASSERT_EQ(recorder.process.interrupt(20s), 0) << recorder.process.output();
+  const Json info = info_json(file);
+  const Json* sensors = find_topic(info, "poise/sensors");
+  ASSERT_NE(sensors, nullptr);
+  const auto messages = (*sensors)["messages"].get<std::uint64_t>();
+  const auto gaps = std::stoull(info["metadata"]["poise_recorder"]["poise/sensors.tick_gaps"]
+                                    .get<std::string>());
+  // At least tick 1 and the writer's last 32; the rest in the file or counted.
+  EXPECT_GE(messages, 1u + poise::dds::Qos::kControlWriterDepth);
+  EXPECT_EQ(messages + gaps, kTicks) << info.dump(2);
+  std::printf("stopped recorder: %llu of %llu samples in the file, %llu counted as tick gaps\n",
+              static_cast<unsigned long long>(messages), static_cast<unsigned long long>(kTicks),
+              static_cast<unsigned long long>(gaps));
+}
+
 // --split-duration: a series of complete files that together hold every tick once.
 TEST(Record, SplitFilesAreEachCompleteAndTogetherHoldEveryTick) {
   const int domain = poise::testing::unique_domain_id();

@@ -52,9 +52,10 @@ class DomainRegistry {
       return;
     }
     // Cyclone suspends a reliable writer whose unacknowledged bytes exceed its WHC high-water
-    // mark, which starts at 30 kB. The control topics' writers keep 32 samples of up to 2.6 kB
-    // for a lagging reader (Qos::control()): start the mark at its maximum (500 kB) so that a slow
-    // reader can never suspend the robot's writers. The user's file comes second and wins.
+    // mark (adaptive: 30 kB at first, grown towards 500 kB while writers hit it). The control
+    // topics' writers keep 32 samples of up to 2.6 kB for a lagging reader (Qos::control()):
+    // start the mark at its maximum, so that a slow reader never has a writer wait for the mark
+    // to grow. The user's file comes second and wins.
     const std::string uri =
         "<Internal><Watermarks><WhcHighInit>500 kB</WhcHighInit></Watermarks></Internal>,file://" +
         config_path;
