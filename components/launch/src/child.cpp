@@ -2,6 +2,8 @@
 
 #include <fcntl.h>
 #include <signal.h>
+#include <string.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -26,10 +28,16 @@ Child::Child(std::string name, std::vector<std::string> argv, const std::filesys
   for (auto& a : argv_)
     args.push_back(a.data());
   args.push_back(nullptr);
+  const pid_t parent = ::getpid();
   pid_ = ::fork();
   if (pid_ < 0) throw std::runtime_error("fork failed for " + name_);
   if (pid_ == 0) {
     ::setpgid(0, 0);
+    // The launcher owns its children: when it dies, whatever the signal (SIGKILL included),
+    // the kernel sends each child SIGTERM, which every Poise process handles by finishing
+    // cleanly (the recorder closes its file). The launcher may have died before prctl ran.
+    ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+    if (::getppid() != parent) ::_exit(128 + SIGTERM);
     ::dup2(out, STDOUT_FILENO);
     ::dup2(err, STDERR_FILENO);
     const int devnull = ::open("/dev/null", O_RDONLY);
@@ -57,9 +65,28 @@ std::string Child::command_line() const {
 std::optional<int> Child::poll() {
   if (exit_code_ || pid_ <= 0) return exit_code_;
   int status = 0;
-  if (::waitpid(pid_, &status, WNOHANG) == pid_)
+  if (::waitpid(pid_, &status, WNOHANG) == pid_) {
     exit_code_ = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    signal_ = WIFSIGNALED(status) ? WTERMSIG(status) : 0;
+  }
   return exit_code_;
+}
+
+std::string Child::exit_description() const {
+  if (!exit_code_) return "still running";
+  return describe_exit(*exit_code_, signal_);
+}
+
+std::string describe_exit(int code, int signal) {
+  if (signal > 0) {
+    const char* abbrev = ::sigabbrev_np(signal);
+    const char* what = ::strsignal(signal);
+    return std::string("killed by SIG") + (abbrev ? abbrev : std::to_string(signal).c_str()) +
+           " (" + (what ? what : "signal") + ", code " + std::to_string(128 + signal) + ")";
+  }
+  if (code == 0) return "exited normally (code 0)";
+  if (code == 127) return "could not be started (code 127: exec failed)";
+  return "exited with code " + std::to_string(code);
 }
 
 int Child::stop(int grace_ms) {
@@ -73,6 +100,7 @@ int Child::stop(int grace_ms) {
     int status = 0;
     ::waitpid(pid_, &status, 0);
     exit_code_ = 128 + SIGKILL;
+    signal_ = SIGKILL;
   }
   return *exit_code_;
 }

@@ -1,7 +1,8 @@
 #pragma once
 // A child process of the launcher: stdout and stderr go to files, it gets its own process group
-// (so the terminal's Ctrl-C reaches the launcher, which stops the children in order), and it is
-// always ended by its pid.
+// (so the terminal's Ctrl-C reaches the launcher, which stops the children in order), it is
+// always ended by its pid, and it gets SIGTERM from the kernel when the launcher dies
+// (PR_SET_PDEATHSIG): no orphan survives the launcher, whatever signal ends it.
 
 #include <sys/types.h>
 
@@ -25,6 +26,8 @@ class Child {
   std::string command_line() const;
   /// The exit code (128 + signal when killed) once the child ended, else nullopt. Non-blocking.
   std::optional<int> poll();
+  /// The way it ended, in words: "exited with code 2", "killed by SIGKILL (Killed, code 137)".
+  std::string exit_description() const;
   /// SIGTERM, wait up to `grace_ms`, then SIGKILL. Returns the exit code.
   int stop(int grace_ms);
   const std::filesystem::path& stdout_path() const { return out_path_; }
@@ -38,7 +41,11 @@ class Child {
   std::filesystem::path out_path_, err_path_;
   pid_t pid_ = -1;
   std::optional<int> exit_code_;
+  int signal_ = 0;  ///< the signal that ended it, 0 if it exited
 };
+
+/// An exit in words; `signal` > 0 if a signal ended the process (then code = 128 + signal).
+std::string describe_exit(int code, int signal);
 
 /// The last `n` lines of a text file ("" if unreadable).
 std::string tail_lines(const std::filesystem::path& path, int n);

@@ -26,8 +26,8 @@ int push_main(int argc, char** argv) {
       "poise/disturbance. Use the domain that `poise run` printed."};
   app.name(argc > 0 ? argv[0] : "poise push");
   app.add_option("--link", link, "URDF link to push")->capture_default_str();
-  app.add_option("--force", force, "force in world axes FX FY FZ [N]")->required()->expected(3);
-  app.add_option("--point", point, "point of application in the link frame X Y Z [m]")->expected(3);
+  app.add_option("--force", force, "force in world axes FX FY FZ [N]")->required();
+  app.add_option("--point", point, "point of application in the link frame X Y Z [m]");
   app.add_option("--duration", duration, "[s]")->capture_default_str()->check(CLI::PositiveNumber);
   app.add_option("--start", start, "robot time when it starts [s]; < 0: at once")
       ->capture_default_str();

@@ -78,7 +78,7 @@ std::string wait_for_recorder(Child& recorder, double timeout_s) {
     if (tail_lines(recorder.stderr_path(), 20).find("poise record: ") != std::string::npos)
       return "";
     if (auto code = recorder.poll())
-      return "the recorder exited with code " + std::to_string(*code) + ":\n" +
+      return "the recorder " + recorder.exit_description() + ":\n" +
              recorder.stderr_tail(8);
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
@@ -207,6 +207,8 @@ int run_distributed(int argc, char** argv) {
     if (output.has_parent_path()) fs::create_directories(output.parent_path());
     for (const char* n : {"sim", "estimator", "contact", "controller"})
       fs::remove(logs / (std::string(n) + ".summary.json"));
+    // A result from an earlier run must never stand for this one.
+    fs::remove(output);
     const double deadline_us =
         s.contact_deadline_us > 0 ? s.contact_deadline_us : (s.realtime ? 400.0 : 1e6);
     const double timeout_s =
@@ -273,7 +275,38 @@ int run_distributed(int argc, char** argv) {
 
     // The recorder joins first, so that it holds the run from its first sample.
     std::unique_ptr<Child> recorder;
+    std::vector<std::unique_ptr<Child>> children;
     fs::path recording;
+    // A run that fails still writes its result file: failed, with the reason and how each
+    // process ended.
+    auto write_failure = [&](const std::string& reason) {
+      Json r;
+      r["scenario"] = scenario.name;
+      r["survived"] = false;
+      r["completed"] = false;
+      r["failed"] = true;
+      r["failure"] = reason;
+      r["mode"] = s.realtime ? "realtime" : "lockstep";
+      r["dds"] = vendor;
+      r["domain"] = domain;
+      r["logs"] = logs.string();
+      r["exits"] = Json::object();
+      r["pids"] = Json::object();
+      for (auto& c : children) {
+        c->poll();
+        r["exits"][c->name()] = c->exit_description();
+        r["pids"][c->name()] = c->pid();
+      }
+      if (recorder) {
+        recorder->poll();
+        r["exits"]["recorder"] = recorder->exit_description();
+        r["pids"]["recorder"] = recorder->pid();
+        r["recording"] = recording.string();
+      }
+      std::ofstream(output) << r.dump(2) << "\n";
+      std::fprintf(stderr, "poise run %s: result (failed) -> %s\n", scenario.name.c_str(),
+                   output.c_str());
+    };
     if (record_opt->count() > 0) {
       recording =
           s.record.empty() ? fs::path("results") / (scenario.name + ".mcap") : fs::path(s.record);
@@ -287,12 +320,13 @@ int run_distributed(int argc, char** argv) {
       if (const std::string why = wait_for_recorder(*recorder, 10.0); !why.empty()) {
         std::fprintf(stderr, "poise run %s: FAILED: cannot record to %s: %s\n",
                      scenario.name.c_str(), recording.c_str(), why.c_str());
+        recorder->stop(3000);
+        write_failure("cannot record to " + recording.string() + ": " + why);
         return 2;
       }
       if (!s.quiet) std::printf("  recording every topic to %s\n", recording.c_str());
     }
 
-    std::vector<std::unique_ptr<Child>> children;
     children.push_back(std::make_unique<Child>("sim", sim_args, logs));
     children.push_back(std::make_unique<Child>("contact", contact_args, logs));
     children.push_back(std::make_unique<Child>("estimator", est_args, logs));
@@ -335,9 +369,9 @@ int run_distributed(int argc, char** argv) {
         }
         for (auto& c : children)
           if (auto code = c->poll(); code && failure.empty())
-            failure = c->name() + " exited early with code " + std::to_string(*code);
+            failure = c->name() + " " + c->exit_description() + " during start-up";
         if (auto code = recorder->poll(); code && failure.empty())
-          failure = "recorder exited early with code " + std::to_string(*code);
+          failure = "recorder " + recorder->exit_description() + " during start-up";
         if (!failure.empty() || g_interrupted.load()) break;
         std::this_thread::sleep_for(std::chrono::milliseconds(10));
       }
@@ -372,14 +406,14 @@ int run_distributed(int argc, char** argv) {
       for (auto& c : children) {
         if (c.get() == &sim) continue;
         if (auto code = c->poll()) {
-          failure = c->name() + " exited early with code " + std::to_string(*code);
+          failure = c->name() + " " + c->exit_description() + " before the end of the run";
           break;
         }
       }
       if (!failure.empty()) break;
       if (recorder) {
         if (auto code = recorder->poll()) {
-          failure = "recorder exited early with code " + std::to_string(*code);
+          failure = "recorder " + recorder->exit_description() + " before the end of the run";
           break;
         }
       }
@@ -402,7 +436,7 @@ int run_distributed(int argc, char** argv) {
       const int code = recorder->stop(30000);
       const std::string summary = recorder->stderr_tail(1);
       if (code != 0) {
-        record_problem = "the recorder exited with code " + std::to_string(code);
+        record_problem = "the recorder " + recorder->exit_description();
         std::fprintf(stderr, "poise run %s: %s (%s):\n%s", scenario.name.c_str(),
                      record_problem.c_str(), recorder->stderr_path().c_str(),
                      recorder->stderr_tail(8).c_str());
@@ -412,7 +446,7 @@ int run_distributed(int argc, char** argv) {
     }
 
     if (!failure.empty() || (sim_code != 0 && sim_code != 3)) {
-      if (failure.empty()) failure = "sim exited with code " + std::to_string(sim_code);
+      if (failure.empty()) failure = "sim " + sim.exit_description();
       std::fprintf(stderr, "poise run %s: FAILED: %s\n", scenario.name.c_str(), failure.c_str());
       for (auto& c : children) {
         const std::string tail = c->stderr_tail(8);
@@ -421,6 +455,7 @@ int run_distributed(int argc, char** argv) {
           std::fprintf(stderr, "--- last stderr lines of %s (pid %d, %s):\n%s", c->name().c_str(),
                        static_cast<int>(c->pid()), c->stderr_path().c_str(), tail.c_str());
       }
+      write_failure(failure);
       if (failure != "interrupted") return 2;
       return 130;
     }
@@ -432,6 +467,8 @@ int run_distributed(int argc, char** argv) {
     if (sim_r.is_null()) {
       std::fprintf(stderr, "poise run: the simulator wrote no result (%s)\n",
                    (logs / "sim.summary.json").c_str());
+      write_failure("the simulator wrote no result (" + (logs / "sim.summary.json").string() +
+                    ")");
       return 2;
     }
     auto diag = [](const Json& j, const char* key) -> std::uint64_t {

@@ -17,6 +17,9 @@ int cli_main(int argc, char** argv) {
       "Samples print and parse in the JSON form described in idl/README.md."};
   app.name("poise topic");
   app.require_subcommand(1);
+  // The verbs inherit this: options of the group (--dds, --domain, ...) are accepted after the
+  // verb as well, as in `ros2 topic echo X --domain 7`.
+  app.fallthrough();
   dds::add_dds_options(app, dds_options);
 
   ListOptions list;

@@ -1,0 +1,192 @@
+// `poise run` supervision and CLI, tested from outside: real processes, real signals.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/types.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "child_process.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+using namespace std::chrono_literals;
+using poise::testing::bin;
+using poise::testing::ChildProcess;
+
+fs::path work_dir(const std::string& name) {
+  const fs::path d = fs::path(POISE_BINARY_DIR) / "test_output" / "launch" / name;
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+/// Field 4 (ppid) and field 3 (state) of /proc/<pid>/stat; false if the process is gone.
+bool proc_stat(pid_t pid, pid_t& ppid, char& state) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+  std::string line;
+  if (!std::getline(in, line)) return false;
+  const auto close = line.rfind(')');
+  if (close == std::string::npos) return false;
+  std::istringstream rest(line.substr(close + 2));
+  rest >> state >> ppid;
+  return true;
+}
+
+/// Live (not zombie) processes whose parent is `parent`.
+std::set<pid_t> children_of(pid_t parent) {
+  std::set<pid_t> out;
+  for (const auto& e : fs::directory_iterator("/proc")) {
+    const std::string name = e.path().filename().string();
+    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+    pid_t ppid = 0;
+    char state = 0;
+    const auto pid = static_cast<pid_t>(std::stol(name));
+    if (proc_stat(pid, ppid, state) && ppid == parent && state != 'Z') out.insert(pid);
+  }
+  return out;
+}
+
+bool alive(pid_t pid) {
+  pid_t ppid = 0;
+  char state = 0;
+  return proc_stat(pid, ppid, state) && state != 'Z';
+}
+
+std::vector<std::string> run_args(const std::string& scenario, int domain, const fs::path& dir,
+                                  std::vector<std::string> extra) {
+  std::vector<std::string> a{bin("poise"),     "run",   scenario, "--domain",
+                             std::to_string(domain), "-o",    (dir / "run.json").string(),
+                             "--log-dir",      (dir / "logs").string()};
+  a.insert(a.end(), extra.begin(), extra.end());
+  return a;
+}
+
+}  // namespace
+
+// SIGKILL of the launcher leaves no orphan: each node gets SIGTERM from the kernel
+// (PR_SET_PDEATHSIG) and ends. The recorder, too, and its file is finished properly.
+TEST(Launch, NoOrphanSurvivesASigkilledLauncher) {
+  const int domain = poise::testing::unique_domain_id();
+  const fs::path dir = work_dir("sigkill");
+  ChildProcess launcher(run_args("standing", domain, dir,
+                                 {"--realtime", "--duration", "60", "--record",
+                                  (dir / "run.mcap").string()}),
+                        {}, false, true);
+  ASSERT_TRUE(launcher.wait_for_output("t=1.0 s", 60s)) << launcher.output();
+  const std::set<pid_t> kids = children_of(launcher.pid());
+  ASSERT_EQ(kids.size(), 5u) << "sim, estimator, contact, controller, recorder\n"
+                             << launcher.output();
+  ASSERT_EQ(::kill(launcher.pid(), SIGKILL), 0);
+  launcher.wait_for(10s);
+  const auto end = std::chrono::steady_clock::now() + 20s;
+  std::set<pid_t> left = kids;
+  while (!left.empty() && std::chrono::steady_clock::now() < end) {
+    for (auto it = left.begin(); it != left.end();)
+      it = alive(*it) ? std::next(it) : left.erase(it);
+    std::this_thread::sleep_for(20ms);
+  }
+  for (pid_t p : left) {
+    ADD_FAILURE() << "orphan pid " << p << " survived the launcher";
+    ::kill(p, SIGKILL);
+  }
+  // The recorder ended on SIGTERM: the file has its summary.
+  auto [code, out] = [&] {
+    ChildProcess info({bin("poise"), "info", (dir / "run.mcap").string()}, {}, false, true);
+    auto c = info.wait_for(60s);
+    return std::pair<int, std::string>(c.value_or(-1), info.output());
+  }();
+  EXPECT_EQ(code, 0) << out;
+  EXPECT_EQ(out.find("incomplete"), std::string::npos) << out;
+}
+
+// A run that fails still writes its result, marked failed, with the reason in words; an older
+// "survived": true at the same path never stands for it.
+TEST(Launch, AFailedRunWritesAFailedResultNamingTheSignal) {
+  const int domain = poise::testing::unique_domain_id();
+  const fs::path dir = work_dir("failed");
+  std::ofstream(dir / "run.json") << R"({"scenario": "standing", "survived": true})" << "\n";
+  ChildProcess launcher(run_args("standing", domain, dir, {"--realtime", "--duration", "60"}),
+                        {}, false, true);
+  ASSERT_TRUE(launcher.wait_for_output("t=1.0 s", 60s)) << launcher.output();
+  EXPECT_FALSE(fs::exists(dir / "run.json")) << "the stale result is still there during the run";
+  // The controller's pid: the child whose command line is poise-controller.
+  pid_t controller = 0;
+  for (pid_t p : children_of(launcher.pid())) {
+    std::ifstream cmd("/proc/" + std::to_string(p) + "/cmdline");
+    std::string argv0;
+    std::getline(cmd, argv0, '\0');
+    if (argv0.find("poise-controller") != std::string::npos) controller = p;
+  }
+  ASSERT_GT(controller, 0) << launcher.output();
+  ASSERT_EQ(::kill(controller, SIGKILL), 0);
+  const auto code = launcher.wait_for(60s);
+  ASSERT_TRUE(code.has_value()) << launcher.output();
+  EXPECT_EQ(*code, 2) << launcher.output();
+  EXPECT_NE(launcher.output().find("controller killed by SIGKILL"), std::string::npos)
+      << launcher.output();
+  const Json r = Json::parse(std::ifstream(dir / "run.json"));
+  EXPECT_FALSE(r["survived"].get<bool>()) << r.dump(2);
+  EXPECT_TRUE(r["failed"].get<bool>()) << r.dump(2);
+  EXPECT_NE(r["failure"].get<std::string>().find("controller killed by SIGKILL"),
+            std::string::npos)
+      << r.dump(2);
+  EXPECT_NE(r["exits"]["controller"].get<std::string>().find("code 137"), std::string::npos)
+      << r.dump(2);
+  EXPECT_EQ(r["pids"]["controller"].get<int>(), controller);
+}
+
+// The CLI as documented: verb-group options after the verb (as in `ros2 topic`), and
+// `poise push --force FX FY FZ` against a live stack.
+TEST(Launch, DocumentedCommandLinesParse) {
+  const int domain = poise::testing::unique_domain_id();
+  const fs::path dir = work_dir("cli");
+  ChildProcess launcher(run_args("standing", domain, dir, {"--realtime", "--duration", "8"}), {},
+                        false, true);
+  ASSERT_TRUE(launcher.wait_for_output("t=1.0 s", 60s)) << launcher.output();
+  auto run = [](std::vector<std::string> argv) {
+    ChildProcess p(std::move(argv), {}, false, true);
+    const auto c = p.wait_for(30s);
+    return std::pair<int, std::string>(c.value_or(-1), p.output());
+  };
+  const std::string d = std::to_string(domain);
+  {
+    auto [code, out] = run({bin("poise"), "topic", "echo", "poise/state", "--domain", d, "--once",
+                            "--timeout", "10"});
+    EXPECT_EQ(code, 0) << out;
+    EXPECT_NE(out.find("com_W"), std::string::npos) << out;
+  }
+  {
+    auto [code, out] = run({bin("poise"), "topic", "list", "--domain", d, "--wait", "1"});
+    EXPECT_EQ(code, 0) << out;
+    EXPECT_NE(out.find("poise/joint_command"), std::string::npos) << out;
+  }
+  {
+    auto [code, out] = run({bin("poise"), "topic", "list", "--dds", "fastdds", "--domain", d,
+                            "--wait", "2"});
+    EXPECT_EQ(code, 0) << out;
+    EXPECT_NE(out.find("poise/sensors"), std::string::npos) << out;
+  }
+  {
+    auto [code, out] = run({bin("poise"), "push", "--domain", d, "--force", "20", "0", "0",
+                            "--duration", "0.1"});
+    EXPECT_EQ(code, 0) << out;
+  }
+  const auto code = launcher.wait_for(60s);
+  ASSERT_TRUE(code.has_value());
+  EXPECT_EQ(*code, 0) << launcher.output();
+  std::ifstream sim_log(dir / "logs" / "sim.err");
+  const std::string log((std::istreambuf_iterator<char>(sim_log)), {});
+  EXPECT_NE(log.find("push"), std::string::npos) << "the simulator did not log the push:\n" << log;
+}
