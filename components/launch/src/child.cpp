@@ -1,12 +1,14 @@
 #include "child.hpp"
 
 #include <fcntl.h>
+#include <sched.h>
 #include <signal.h>
 #include <string.h>
 #include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <fstream>
 #include <sstream>
@@ -15,7 +17,8 @@
 
 namespace poise::launch {
 
-Child::Child(std::string name, std::vector<std::string> argv, const std::filesystem::path& log_dir)
+Child::Child(std::string name, std::vector<std::string> argv, const std::filesystem::path& log_dir,
+             const Scheduling& scheduling)
     : name_(std::move(name)),
       argv_(std::move(argv)),
       out_path_(log_dir / (name_ + ".out")),
@@ -42,7 +45,25 @@ Child::Child(std::string name, std::vector<std::string> argv, const std::filesys
     ::dup2(err, STDERR_FILENO);
     const int devnull = ::open("/dev/null", O_RDONLY);
     if (devnull >= 0) ::dup2(devnull, STDIN_FILENO);
-    ::execv(args[0], args.data());
+    if (!scheduling.cpus.empty()) {
+      cpu_set_t set;
+      CPU_ZERO(&set);
+      for (int c : scheduling.cpus)
+        CPU_SET(c, &set);
+      if (::sched_setaffinity(0, sizeof(set), &set) != 0)
+        ::dprintf(STDERR_FILENO, "launcher: CPU affinity refused (%s): running on any CPU\n",
+                  ::strerror(errno));
+    }
+    if (scheduling.priority > 0) {
+      sched_param sp{};
+      sp.sched_priority = scheduling.priority;
+      if (::sched_setscheduler(0, SCHED_FIFO, &sp) != 0)
+        ::dprintf(STDERR_FILENO,
+                  "launcher: SCHED_FIFO %d refused (%s; needs root, CAP_SYS_NICE or an "
+                  "RLIMIT_RTPRIO of at least %d): running with normal scheduling\n",
+                  scheduling.priority, ::strerror(errno), scheduling.priority);
+    }
+    ::execvp(args[0], args.data());
     const std::string msg = "exec " + argv_[0] + " failed\n";
     [[maybe_unused]] auto w = ::write(STDERR_FILENO, msg.data(), msg.size());
     ::_exit(127);

@@ -13,10 +13,19 @@
 
 namespace poise::launch {
 
+/// CPU affinity and real-time priority of a child, set before it runs (its threads inherit them).
+/// What the kernel refuses is written to the child's stderr log; the child runs anyway.
+struct Scheduling {
+  std::vector<int> cpus;  ///< empty: any CPU
+  int priority = 0;       ///< SCHED_FIFO 1..99; 0: normal scheduling
+};
+
 class Child {
  public:
-  /// Starts argv[0] (a path). Throws std::runtime_error when fork or exec preparation fails.
-  Child(std::string name, std::vector<std::string> argv, const std::filesystem::path& log_dir);
+  /// Starts argv[0] (a path; a bare name is looked up in PATH). Throws std::runtime_error when
+  /// fork or exec preparation fails.
+  Child(std::string name, std::vector<std::string> argv, const std::filesystem::path& log_dir,
+        const Scheduling& scheduling = {});
   ~Child();
   Child(const Child&) = delete;
   Child& operator=(const Child&) = delete;

@@ -16,4 +16,11 @@ int run_distributed(int argc, char** argv);
 /// one Disturbance (PUSH) on poise/disturbance and waits until a subscriber matched.
 int push_main(int argc, char** argv);
 
+/// `poise launch DEPLOYMENT.yaml [--host NAME] [--check]`: starts this machine's share of a
+/// deployment file (deployment.hpp) and supervises it: generated per-host DDS files, CPU affinity
+/// and SCHED_FIFO priority per component, restart policies, children that die with the launcher,
+/// a JSON result (also when it fails). 0: done (the simulator's robot survived), 1: it fell,
+/// 2: a failure (named).
+int launch_main(int argc, char** argv);
+
 }  // namespace poise::launch

@@ -1,0 +1,86 @@
+#pragma once
+// A deployment file: which Poise components run on which machine, from one YAML file
+// (`poise launch FILE --host NAME`). Format: deploy/deployments/README.md.
+//
+//   name: robot_and_desk
+//   domain: 42
+//   scenario: forward_push_double_support   # the simulator's world (a file or a name)
+//   mode: lockstep                          # or realtime
+//   hosts:
+//     robot: {address: 10.77.0.1}
+//     desk:  {address: 10.77.0.2}
+//   components:
+//     sim:        {host: robot, dds: fastdds}
+//     estimator:  {host: desk, dds: cyclone, cpu: [1], priority: 50, restart: on-failure}
+//     controller: {host: desk}
+//     contact:    {host: desk, options: [--method, qp]}
+//     recorder:   {host: desk, output: results/run.mcap}
+//     driver:     {host: robot, kind: command, command: [/opt/robot/driver, --port, /dev/ttyS0]}
+//
+// Parsing checks everything it can without starting anything and throws DeploymentError naming
+// each problem with its place in the file (all of them, not only the first).
+
+#include <filesystem>
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace poise::launch {
+
+struct DeploymentError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+enum class Restart { never, on_failure, always };
+const char* to_string(Restart r);
+
+struct Host {
+  std::string name;
+  std::string address;  ///< IPv4 address on the DDS network (127.0.0.1: one machine)
+};
+
+struct Component {
+  std::string name;  ///< key in `components`
+  std::string kind;  ///< sim, estimator, controller, contact, recorder, command
+  std::string host;
+  std::string dds;                   ///< cyclone or fastdds
+  std::vector<std::string> options;  ///< extra command-line options, appended
+  std::vector<std::string> command;  ///< kind command: the program and its arguments
+  std::string output;                ///< kind recorder: the MCAP file
+  std::vector<int> cpus;             ///< CPU affinity (empty: any)
+  int priority = 0;                  ///< SCHED_FIFO priority 1..99 (0: normal scheduling)
+  Restart restart = Restart::never;
+  int max_restarts = 3;
+};
+
+struct Deployment {
+  std::filesystem::path file;
+  std::string name;
+  int domain = 0;
+  std::string scenario;  ///< resolved path of the scenario file ("" without a simulator)
+  std::string robot;     ///< robot.yaml for the nodes ("" = the scenario's / the default)
+  bool realtime = false;
+  std::vector<Host> hosts;
+  std::vector<Component> components;  ///< in start order: recorder, contact, estimator,
+                                      ///< controller, command, sim
+
+  const Host* find_host(const std::string& name) const;
+  std::vector<const Component*> components_on(const std::string& host) const;
+};
+
+/// Reads and validates a deployment file. Relative paths (scenario, robot, outputs) are taken
+/// relative to the working directory if they exist there, else to the file's directory.
+Deployment load_deployment(const std::filesystem::path& file);
+
+/// The DDS configuration of `host` for `vendor` ("cyclone" or "fastdds"): unicast discovery to
+/// every host of the deployment, bound to this host's address only, no multicast.
+std::string dds_config_xml(const Deployment& d, const Host& host, const std::string& vendor);
+
+/// The command line of a component, given the directory of the built executables and the DDS
+/// configuration file it uses.
+std::vector<std::string> command_line(const Deployment& d, const Component& c,
+                                      const std::filesystem::path& bin_dir,
+                                      const std::filesystem::path& dds_config);
+
+}  // namespace poise::launch

@@ -1,0 +1,422 @@
+#include "poise/launch/deployment.hpp"
+
+#include <arpa/inet.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <set>
+#include <sstream>
+
+#include <yaml-cpp/yaml.h>
+
+#include "poise/sim/scenario.hpp"
+
+namespace poise::launch {
+namespace fs = std::filesystem;
+
+namespace {
+
+const std::set<std::string> kKinds{"sim",     "estimator", "controller",
+                                   "contact", "recorder",  "command"};
+const std::vector<std::string> kStartOrder{"recorder", "contact", "estimator",
+                                           "controller", "command", "sim"};
+
+/// Collects every problem of a file, then throws them together.
+class Problems {
+ public:
+  explicit Problems(fs::path file) : file_(std::move(file)) {}
+  void add(const std::string& where, const std::string& what) {
+    list_.push_back(where.empty() ? what : where + ": " + what);
+  }
+  void throw_if_any() const {
+    if (list_.empty()) return;
+    std::string msg = "deployment file " + file_.string() + ": " +
+                      std::to_string(list_.size()) + " problem" + (list_.size() > 1 ? "s" : "");
+    for (const auto& p : list_)
+      msg += "\n  - " + p;
+    throw DeploymentError(msg);
+  }
+
+ private:
+  fs::path file_;
+  std::vector<std::string> list_;
+};
+
+void allowed_keys(const YAML::Node& n, const std::string& where, const std::set<std::string>& keys,
+                  Problems& p) {
+  if (!n.IsMap()) return;
+  for (const auto& kv : n) {
+    const std::string k = kv.first.as<std::string>();
+    if (!keys.count(k)) {
+      std::string known;
+      for (const auto& x : keys)
+        known += (known.empty() ? "" : ", ") + x;
+      p.add(where, "unknown key '" + k + "' (known: " + known + ")");
+    }
+  }
+}
+
+template <class T>
+bool scalar(const YAML::Node& n, const std::string& where, T& out, Problems& p) {
+  try {
+    out = n.as<T>();
+    return true;
+  } catch (const YAML::Exception&) {
+    p.add(where, "not a valid value: '" + (n.IsScalar() ? n.Scalar() : std::string("...")) + "'");
+    return false;
+  }
+}
+
+std::vector<std::string> strings(const YAML::Node& n, const std::string& where, Problems& p) {
+  std::vector<std::string> out;
+  if (!n) return out;
+  if (!n.IsSequence()) {
+    p.add(where, "must be a list, e.g. [--realtime]");
+    return out;
+  }
+  for (std::size_t i = 0; i < n.size(); ++i) {
+    std::string s;
+    if (scalar(n[i], where + "[" + std::to_string(i) + "]", s, p)) out.push_back(s);
+  }
+  return out;
+}
+
+/// A path as written, relative to the working directory if it exists there, else to `base`.
+std::string resolve_path(const std::string& p, const fs::path& base) {
+  if (p.empty() || fs::path(p).is_absolute() || fs::exists(p)) return p;
+  if (fs::exists(base / p)) return (base / p).string();
+  return p;
+}
+
+/// A scenario file, or a name in deploy/scenarios/ of this tree (searched upwards from the
+/// executable and from the deployment file).
+std::string resolve_scenario(const std::string& s, const fs::path& base) {
+  const std::string direct = resolve_path(s, base);
+  if (fs::exists(direct)) return direct;
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  for (fs::path start : {ec ? fs::path() : exe.parent_path(), fs::absolute(base)})
+    for (fs::path d = start; !d.empty() && d != d.root_path(); d = d.parent_path())
+      if (fs::exists(d / "deploy/scenarios" / (s + ".yaml")))
+        return (d / "deploy/scenarios" / (s + ".yaml")).string();
+  return s;
+}
+
+}  // namespace
+
+const char* to_string(Restart r) {
+  switch (r) {
+    case Restart::never:
+      return "never";
+    case Restart::on_failure:
+      return "on-failure";
+    case Restart::always:
+      return "always";
+  }
+  return "?";
+}
+
+const Host* Deployment::find_host(const std::string& n) const {
+  for (const auto& h : hosts)
+    if (h.name == n) return &h;
+  return nullptr;
+}
+
+std::vector<const Component*> Deployment::components_on(const std::string& host) const {
+  std::vector<const Component*> out;
+  for (const auto& c : components)
+    if (c.host == host) out.push_back(&c);
+  return out;
+}
+
+Deployment load_deployment(const fs::path& file) {
+  Deployment d;
+  d.file = file;
+  Problems p(file);
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(file.string());
+  } catch (const YAML::BadFile&) {
+    throw DeploymentError("deployment file " + file.string() + ": cannot be read");
+  } catch (const YAML::Exception& e) {
+    throw DeploymentError("deployment file " + file.string() + ": not valid YAML: " + e.what());
+  }
+  if (!root.IsMap()) throw DeploymentError("deployment file " + file.string() + ": not a map");
+  const fs::path base = file.parent_path();
+  allowed_keys(root, "", {"name", "domain", "scenario", "robot", "mode", "hosts", "components"},
+               p);
+  d.name = file.stem().string();
+  if (root["name"]) scalar(root["name"], "name", d.name, p);
+  if (!root["domain"]) {
+    p.add("domain", "missing (the DDS domain id of the deployment, 0..232)");
+  } else if (scalar(root["domain"], "domain", d.domain, p) && (d.domain < 0 || d.domain > 232)) {
+    p.add("domain", std::to_string(d.domain) + " is outside 0..232");
+  }
+  std::string mode = "lockstep";
+  if (root["mode"]) scalar(root["mode"], "mode", mode, p);
+  if (mode != "lockstep" && mode != "realtime")
+    p.add("mode", "'" + mode + "' is not lockstep or realtime");
+  d.realtime = mode == "realtime";
+  if (root["robot"]) {
+    scalar(root["robot"], "robot", d.robot, p);
+    d.robot = resolve_path(d.robot, base);
+    if (!fs::exists(d.robot)) p.add("robot", "no such file: " + d.robot);
+  }
+
+  // Hosts.
+  const YAML::Node hosts = root["hosts"];
+  if (!hosts || !hosts.IsMap() || hosts.size() == 0) {
+    p.add("hosts", "missing: a map of host name -> {address: IPv4}");
+  } else {
+    std::set<std::string> addresses;
+    for (const auto& kv : hosts) {
+      Host h;
+      h.name = kv.first.as<std::string>();
+      const std::string where = "hosts." + h.name;
+      allowed_keys(kv.second, where, {"address"}, p);
+      if (!kv.second.IsMap() || !kv.second["address"]) {
+        p.add(where, "missing address (this host's IPv4 address on the DDS network)");
+        continue;
+      }
+      scalar(kv.second["address"], where + ".address", h.address, p);
+      in_addr a{};
+      if (::inet_pton(AF_INET, h.address.c_str(), &a) != 1)
+        p.add(where + ".address", "'" + h.address + "' is not an IPv4 address");
+      else if (!addresses.insert(h.address).second)
+        p.add(where + ".address", h.address + " is used by another host");
+      d.hosts.push_back(h);
+    }
+    const bool loopback = std::any_of(d.hosts.begin(), d.hosts.end(), [](const Host& h) {
+      return h.address.rfind("127.", 0) == 0;
+    });
+    if (loopback && d.hosts.size() > 1)
+      p.add("hosts", "a loopback address (127.x) cannot be one of several hosts");
+  }
+
+  // Components.
+  const YAML::Node comps = root["components"];
+  if (!comps || !comps.IsMap() || comps.size() == 0) {
+    p.add("components", "missing: a map of component name -> {host: ...}");
+  } else {
+    const long ncpu = ::sysconf(_SC_NPROCESSORS_CONF);
+    std::map<std::string, int> per_kind;
+    for (const auto& kv : comps) {
+      Component c;
+      c.name = kv.first.as<std::string>();
+      const std::string where = "components." + c.name;
+      const YAML::Node n = kv.second;
+      if (!n.IsMap()) {
+        p.add(where, "must be a map with at least a host");
+        continue;
+      }
+      allowed_keys(n,
+                   where,
+                   {"kind", "host", "dds", "options", "command", "output", "cpu", "priority",
+                    "restart", "max_restarts"},
+                   p);
+      c.kind = kKinds.count(c.name) ? c.name : "";
+      if (n["kind"]) scalar(n["kind"], where + ".kind", c.kind, p);
+      if (c.kind.empty()) {
+        p.add(where, "say its kind (sim, estimator, controller, contact, recorder, command)");
+      } else if (!kKinds.count(c.kind)) {
+        p.add(where + ".kind", "'" + c.kind +
+                                   "' is not one of sim, estimator, controller, contact, "
+                                   "recorder, command");
+      }
+      ++per_kind[c.kind];
+      if (!n["host"]) {
+        p.add(where, "missing host");
+      } else if (scalar(n["host"], where + ".host", c.host, p) && !d.find_host(c.host) &&
+                 hosts && hosts.IsMap()) {
+        p.add(where + ".host", "'" + c.host + "' is not among the hosts");
+      }
+      c.dds = "cyclone";
+      if (n["dds"]) scalar(n["dds"], where + ".dds", c.dds, p);
+      if (c.dds != "cyclone" && c.dds != "fastdds")
+        p.add(where + ".dds", "'" + c.dds + "' is not cyclone or fastdds");
+      c.options = strings(n["options"], where + ".options", p);
+      c.command = strings(n["command"], where + ".command", p);
+      if (c.kind == "command" && c.command.empty())
+        p.add(where + ".command", "a command component needs its program: [program, args...]");
+      if (c.kind != "command" && !c.command.empty())
+        p.add(where + ".command", "only for kind command; use options for extra arguments");
+      if (n["output"]) {
+        scalar(n["output"], where + ".output", c.output, p);
+        if (c.kind != "recorder") p.add(where + ".output", "only for kind recorder");
+      }
+      if (c.kind == "recorder" && c.output.empty()) c.output = "results/" + d.name + ".mcap";
+      if (n["cpu"]) {
+        const YAML::Node cpu = n["cpu"];
+        if (!cpu.IsSequence()) {
+          p.add(where + ".cpu", "must be a list of CPU numbers, e.g. [1]");
+        } else {
+          for (std::size_t i = 0; i < cpu.size(); ++i) {
+            int k = -1;
+            if (!scalar(cpu[i], where + ".cpu", k, p)) continue;
+            if (k < 0 || k >= ncpu)
+              p.add(where + ".cpu", "CPU " + std::to_string(k) + " does not exist (this machine: 0.." +
+                                        std::to_string(ncpu - 1) + ")");
+            else
+              c.cpus.push_back(k);
+          }
+        }
+      }
+      if (n["priority"] && scalar(n["priority"], where + ".priority", c.priority, p) &&
+          (c.priority < 0 || c.priority > 99))
+        p.add(where + ".priority", "SCHED_FIFO priority must be 1..99 (0: normal scheduling)");
+      if (n["restart"]) {
+        std::string r;
+        scalar(n["restart"], where + ".restart", r, p);
+        if (r == "never")
+          c.restart = Restart::never;
+        else if (r == "on-failure")
+          c.restart = Restart::on_failure;
+        else if (r == "always")
+          c.restart = Restart::always;
+        else
+          p.add(where + ".restart", "'" + r + "' is not never, on-failure or always");
+      }
+      if (n["max_restarts"] && scalar(n["max_restarts"], where + ".max_restarts",
+                                      c.max_restarts, p) &&
+          c.max_restarts < 0)
+        p.add(where + ".max_restarts", "must be >= 0");
+      if (c.kind == "sim" && c.restart != Restart::never)
+        p.add(where + ".restart", "the simulator is the run: it is never restarted");
+      d.components.push_back(std::move(c));
+    }
+    for (const char* k : {"sim", "estimator", "controller", "contact"})
+      if (per_kind[k] > 1)
+        p.add("components", std::string("more than one ") + k +
+                                " (two writers on one topic break the loop)");
+    if (per_kind["sim"] == 1) {
+      if (!root["scenario"]) {
+        p.add("scenario", "missing: the simulator needs a scenario (a file or a name)");
+      } else {
+        std::string s;
+        scalar(root["scenario"], "scenario", s, p);
+        d.scenario = resolve_scenario(s, base);
+        if (!fs::exists(d.scenario)) {
+          p.add("scenario", "no such file or scenario name: " + s);
+        } else {
+          try {
+            (void)sim::load_scenario(d.scenario);
+          } catch (const std::exception& e) {
+            p.add("scenario", e.what());
+          }
+        }
+      }
+    }
+  }
+  p.throw_if_any();
+  std::stable_sort(d.components.begin(), d.components.end(),
+                   [](const Component& a, const Component& b) {
+                     auto rank = [](const std::string& k) {
+                       return std::find(kStartOrder.begin(), kStartOrder.end(), k) -
+                              kStartOrder.begin();
+                     };
+                     return rank(a.kind) < rank(b.kind);
+                   });
+  for (auto& c : d.components)
+    if (c.kind == "recorder") c.output = resolve_path(c.output, fs::path("."));
+  return d;
+}
+
+std::string dds_config_xml(const Deployment& d, const Host& host, const std::string& vendor) {
+  std::ostringstream x;
+  x << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+    << "<!-- Generated by `poise launch` from " << d.file.string() << " for host " << host.name
+    << " (" << host.address
+    << "): unicast discovery to every host of the deployment, this host's address only, no "
+       "multicast. Do not edit: edit the deployment file. -->\n";
+  if (vendor == "cyclone") {
+    x << "<CycloneDDS xmlns=\"https://cdds.io/config\">\n"
+      << "  <Domain Id=\"any\">\n"
+      << "    <General>\n"
+      << "      <Interfaces>\n"
+      << "        <NetworkInterface address=\"" << host.address << "\"/>\n"
+      << "      </Interfaces>\n"
+      << "      <AllowMulticast>false</AllowMulticast>\n"
+      << "    </General>\n"
+      << "    <Discovery>\n"
+      << "      <ParticipantIndex>auto</ParticipantIndex>\n"
+      << "      <MaxAutoParticipantIndex>60</MaxAutoParticipantIndex>\n"
+      << "      <Peers>\n";
+    for (const auto& h : d.hosts)
+      x << "        <Peer address=\"" << h.address << "\"/>\n";
+    x << "      </Peers>\n"
+      << "    </Discovery>\n"
+      << "  </Domain>\n"
+      << "</CycloneDDS>\n";
+  } else {
+    x << "<dds xmlns=\"http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles\">\n"
+      << "  <profiles>\n"
+      << "    <transport_descriptors>\n"
+      << "      <transport_descriptor>\n"
+      << "        <transport_id>poise_udp_deployment</transport_id>\n"
+      << "        <type>UDPv4</type>\n"
+      << "        <interfaceWhiteList><address>" << host.address << "</address></interfaceWhiteList>\n"
+      << "        <maxInitialPeersRange>60</maxInitialPeersRange>\n"
+      << "      </transport_descriptor>\n"
+      << "    </transport_descriptors>\n"
+      << "    <participant profile_name=\"poise_participant\" is_default_profile=\"true\">\n"
+      << "      <rtps>\n"
+      << "        <useBuiltinTransports>false</useBuiltinTransports>\n"
+      << "        <userTransports><transport_id>poise_udp_deployment</transport_id></userTransports>\n"
+      << "        <builtin>\n"
+      << "          <metatrafficUnicastLocatorList>\n"
+      << "            <locator><udpv4><address>" << host.address << "</address></udpv4></locator>\n"
+      << "          </metatrafficUnicastLocatorList>\n"
+      << "          <initialPeersList>\n";
+    for (const auto& h : d.hosts)
+      x << "            <locator><udpv4><address>" << h.address << "</address></udpv4></locator>\n";
+    x << "          </initialPeersList>\n"
+      << "        </builtin>\n"
+      << "        <defaultUnicastLocatorList>\n"
+      << "          <locator><udpv4><address>" << host.address << "</address></udpv4></locator>\n"
+      << "        </defaultUnicastLocatorList>\n"
+      << "      </rtps>\n"
+      << "    </participant>\n"
+      << "  </profiles>\n"
+      << "</dds>\n";
+  }
+  return x.str();
+}
+
+std::vector<std::string> command_line(const Deployment& d, const Component& c,
+                                      const fs::path& bin_dir, const fs::path& dds_config) {
+  std::vector<std::string> a;
+  const std::vector<std::string> dds{"--dds", c.dds, "--domain", std::to_string(d.domain),
+                                     "--dds-config", dds_config.string()};
+  if (c.kind == "command") {
+    a = c.command;
+    a.insert(a.end(), c.options.begin(), c.options.end());
+    return a;
+  }
+  if (c.kind == "recorder") {
+    a = {(bin_dir / "poise").string(), "record", "-o", c.output, "--progress", "0", "--nice", "19"};
+    a.insert(a.end(), dds.begin(), dds.end());
+    a.insert(a.end(), c.options.begin(), c.options.end());
+    return a;
+  }
+  a = {(bin_dir / ("poise-" + c.kind)).string(), "--name", c.name};
+  a.insert(a.end(), dds.begin(), dds.end());
+  if (c.kind == "sim") {
+    a.insert(a.end(), {d.scenario, "--progress", d.realtime ? "--realtime" : "--lockstep"});
+  } else {
+    sim::Scenario s;
+    if (!d.scenario.empty()) s = sim::load_scenario(d.scenario);
+    std::string robot = d.robot;
+    if (robot.empty() && !s.robot_config.empty()) robot = s.robot_config.string();
+    if (!robot.empty()) a.insert(a.end(), {"--robot", robot});
+    if (c.kind == "estimator" && !s.estimator.supports.empty())
+      a.insert(a.end(), {"--supports", s.estimator.supports});
+    if (c.kind == "contact" && !s.contact_method.empty())
+      a.insert(a.end(), {"--method", s.contact_method});
+    if (c.kind == "controller")
+      a.insert(a.end(), {"--contact-deadline-us", d.realtime ? "400" : "1000000"});
+  }
+  a.insert(a.end(), c.options.begin(), c.options.end());
+  return a;
+}
+
+}  // namespace poise::launch

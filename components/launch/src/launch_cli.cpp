@@ -1,0 +1,389 @@
+// `poise launch DEPLOYMENT.yaml [--host NAME] [--check]`: starts one machine's share of a
+// deployment (deploy/deployments/README.md) and supervises it.
+#include <ifaddrs.h>
+#include <netinet/in.h>
+#include <sched.h>
+#include <signal.h>
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <arpa/inet.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <set>
+#include <thread>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "child.hpp"
+#include "poise/launch/deployment.hpp"
+#include "poise/launch/launch.hpp"
+
+namespace poise::launch {
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+std::atomic<int> g_signal{0};
+void on_signal(int sig) {
+  g_signal.store(sig);
+}
+
+fs::path exe_dir() {
+  if (const char* e = std::getenv("POISE_BIN_DIR"); e && *e) return e;
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  return ec ? fs::path(".") : exe.parent_path();
+}
+
+std::set<std::string> local_addresses() {
+  std::set<std::string> out;
+  ifaddrs* list = nullptr;
+  if (::getifaddrs(&list) != 0) return out;
+  for (ifaddrs* a = list; a; a = a->ifa_next) {
+    if (!a->ifa_addr || a->ifa_addr->sa_family != AF_INET) continue;
+    char buf[INET_ADDRSTRLEN];
+    const auto* sin = reinterpret_cast<const sockaddr_in*>(a->ifa_addr);
+    if (::inet_ntop(AF_INET, &sin->sin_addr, buf, sizeof(buf))) out.insert(buf);
+  }
+  ::freeifaddrs(list);
+  return out;
+}
+
+/// Why SCHED_FIFO `priority` would be refused here ("" if it is permitted).
+std::string fifo_refusal(int priority) {
+  if (priority <= 0 || ::geteuid() == 0) return "";
+  rlimit rl{};
+  if (::getrlimit(RLIMIT_RTPRIO, &rl) == 0 && rl.rlim_cur >= static_cast<rlim_t>(priority))
+    return "";
+  return "SCHED_FIFO " + std::to_string(priority) +
+         " needs root, CAP_SYS_NICE or an RLIMIT_RTPRIO of at least " + std::to_string(priority) +
+         " (ulimit -r); it will run with normal scheduling";
+}
+
+std::string join(const std::vector<std::string>& v) {
+  std::string s;
+  for (const auto& a : v)
+    s += (s.empty() ? "" : " ") + (a.find(' ') == std::string::npos ? a : "'" + a + "'");
+  return s;
+}
+
+std::string cpus_text(const std::vector<int>& cpus) {
+  std::string s;
+  for (int c : cpus)
+    s += (s.empty() ? "" : ",") + std::to_string(c);
+  return s;
+}
+
+bool is_node(const Component& c) {
+  return c.kind == "sim" || c.kind == "estimator" || c.kind == "controller" ||
+         c.kind == "contact";
+}
+
+struct Running {
+  const Component* component;
+  std::vector<std::string> argv;
+  std::unique_ptr<Child> child;
+  int restarts = 0;
+  std::vector<std::string> exits;  ///< how each instance ended
+  bool done = false;               ///< ended and not to be restarted
+  std::chrono::steady_clock::time_point restart_at{};
+};
+
+}  // namespace
+
+int launch_main(int argc, char** argv) {
+  std::string file, host_name, output, log_dir;
+  bool check = false, quiet = false;
+  double duration = 0;
+  CLI::App app{
+      "Start this machine's share of a deployment: which components run on which host, with "
+      "their DDS vendor, options, CPU affinity, real-time priority and restart policy, from one "
+      "YAML file (deploy/deployments/README.md). The DDS configuration of each host is generated "
+      "from the file: unicast to the deployment's hosts, this host's address only, no "
+      "multicast. The launcher owns its components: none survives it."};
+  app.name("poise launch");
+  app.add_option("deployment", file, "deployment YAML file")->required()->check(
+      CLI::ExistingFile);
+  app.add_option("--host", host_name,
+                 "the host to start (default: the one whose address is this machine's, or the "
+                 "only one)");
+  app.add_flag("--check", check, "validate the file and print what each host runs; start nothing");
+  app.add_option("-o,--output", output, "JSON result (default: results/<name>.<host>.json)");
+  app.add_option("--log-dir", log_dir,
+                 "logs and generated DDS files (default: results/<name>.<host>.logs)");
+  app.add_option("--duration", duration,
+                 "stop after this many seconds (default: when the simulator of this host ends, "
+                 "else at Ctrl-C / SIGTERM)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_flag("-q,--quiet", quiet, "only problems and the final line");
+  CLI11_PARSE(app, argc, argv);
+
+  Deployment d;
+  try {
+    d = load_deployment(file);
+  } catch (const DeploymentError& e) {
+    std::fprintf(stderr, "poise launch: %s\n", e.what());
+    return 2;
+  }
+
+  if (check) {
+    std::printf("deployment %s: domain %d, %s%s%s\n", d.name.c_str(), d.domain,
+                d.realtime ? "real time" : "lockstep", d.scenario.empty() ? "" : ", scenario ",
+                d.scenario.c_str());
+    for (const auto& h : d.hosts) {
+      if (!host_name.empty() && h.name != host_name) continue;
+      std::printf("host %s (%s):\n", h.name.c_str(), h.address.c_str());
+      const auto comps = d.components_on(h.name);
+      if (comps.empty()) std::printf("  (nothing)\n");
+      for (const Component* c : comps) {
+        const fs::path cfg =
+            fs::path("results") / (d.name + "." + h.name + ".logs") / "dds" / (c->dds + ".xml");
+        std::printf("  %-11s %s\n", c->name.c_str(), join(command_line(d, *c, exe_dir(), cfg)).c_str());
+        std::printf("              restart %s (at most %d)%s%s%s%s\n", to_string(c->restart),
+                    c->max_restarts, c->cpus.empty() ? "" : ", CPUs ",
+                    cpus_text(c->cpus).c_str(),
+                    c->priority > 0 ? (", SCHED_FIFO " + std::to_string(c->priority)).c_str() : "",
+                    fifo_refusal(c->priority).empty()
+                        ? ""
+                        : (" (on this machine: " + fifo_refusal(c->priority) + ")").c_str());
+      }
+    }
+    return 0;
+  }
+
+  // Which host is this?
+  const Host* host = nullptr;
+  if (!host_name.empty()) {
+    host = d.find_host(host_name);
+    if (!host) {
+      std::string names;
+      for (const auto& h : d.hosts)
+        names += (names.empty() ? "" : ", ") + h.name;
+      std::fprintf(stderr, "poise launch: no host '%s' in %s (hosts: %s)\n", host_name.c_str(),
+                   file.c_str(), names.c_str());
+      return 2;
+    }
+  } else if (d.hosts.size() == 1) {
+    host = &d.hosts[0];
+  } else {
+    const auto mine = local_addresses();
+    std::vector<const Host*> matches;
+    for (const auto& h : d.hosts)
+      if (mine.count(h.address)) matches.push_back(&h);
+    if (matches.size() != 1) {
+      std::fprintf(stderr,
+                   "poise launch: name the host to start with --host (%zu of the file's hosts have "
+                   "an address of this machine); --check shows what each runs\n",
+                   matches.size());
+      return 2;
+    }
+    host = matches[0];
+  }
+  if (!local_addresses().count(host->address))
+    std::fprintf(stderr,
+                 "poise launch: warning: %s is not an address of this machine: DDS will not find "
+                 "its interface\n",
+                 host->address.c_str());
+
+  const fs::path logs = log_dir.empty()
+                            ? fs::path("results") / (d.name + "." + host->name + ".logs")
+                            : fs::path(log_dir);
+  const fs::path result_path =
+      output.empty() ? fs::path("results") / (d.name + "." + host->name + ".json") : fs::path(output);
+  fs::create_directories(logs / "dds");
+  if (result_path.has_parent_path()) fs::create_directories(result_path.parent_path());
+  std::error_code ignored;
+  fs::remove(result_path, ignored);  // an older result never stands for this run
+  for (const char* v : {"cyclone", "fastdds"})
+    std::ofstream(logs / "dds" / (std::string(v) + ".xml")) << dds_config_xml(d, *host, v);
+
+  struct sigaction sa {};
+  sa.sa_handler = on_signal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+
+  std::vector<Running> running;
+  for (const Component* c : d.components_on(host->name)) {
+    Running r;
+    r.component = c;
+    r.argv = command_line(d, *c, exe_dir(), fs::absolute(logs / "dds" / (c->dds + ".xml")));
+    if (is_node(*c))
+      r.argv.insert(r.argv.end(),
+                    {"--summary", (logs / (c->name + ".summary.json")).string()});
+    running.push_back(std::move(r));
+  }
+  if (!quiet)
+    std::printf("poise launch %s: host %s (%s), domain %d, %zu components, logs in %s\n",
+                d.name.c_str(), host->name.c_str(), host->address.c_str(), d.domain,
+                running.size(), logs.c_str());
+  auto start = [&](Running& r) {
+    const Component& c = *r.component;
+    if (const std::string why = fifo_refusal(c.priority); !why.empty())
+      std::fprintf(stderr, "poise launch: %s: %s\n", c.name.c_str(), why.c_str());
+    r.child = std::make_unique<Child>(c.name, r.argv, logs, Scheduling{c.cpus, c.priority});
+    if (!quiet)
+      std::printf("  %-11s pid %d%s%s%s\n", c.name.c_str(), static_cast<int>(r.child->pid()),
+                  c.cpus.empty() ? "" : (", CPUs " + cpus_text(c.cpus)).c_str(),
+                  c.priority > 0 ? (", SCHED_FIFO " + std::to_string(c.priority)).c_str() : "",
+                  r.restarts > 0 ? (", restart " + std::to_string(r.restarts)).c_str() : "");
+    std::fflush(stdout);
+  };
+  std::string failure;
+  try {
+    for (auto& r : running)
+      start(r);
+  } catch (const std::exception& e) {
+    failure = std::string("cannot start a component: ") + e.what();
+  }
+
+  const auto t0 = std::chrono::steady_clock::now();
+  Running* sim = nullptr;
+  for (auto& r : running)
+    if (r.component->kind == "sim") sim = &r;
+  std::ifstream progress;
+  std::string partial;
+  while (failure.empty()) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    if (sim && !quiet) {  // relay the simulator's progress lines
+      if (!progress.is_open()) progress.open(sim->child->stdout_path());
+      progress.clear();
+      std::string line;
+      while (std::getline(progress, line)) {
+        if (progress.eof()) {
+          partial += line;
+          break;
+        }
+        line = partial + line;
+        partial.clear();
+        if (line.rfind("progress ", 0) == 0) std::printf("  %s\n", line.c_str() + 9);
+      }
+      std::fflush(stdout);
+    }
+    const auto now = std::chrono::steady_clock::now();
+    bool any_left = false;
+    for (auto& r : running) {
+      if (r.done) continue;
+      if (!r.child) {  // waiting to restart
+        any_left = true;
+        if (now >= r.restart_at) start(r);
+        continue;
+      }
+      const auto code = r.child->poll();
+      if (!code) {
+        any_left = true;
+        continue;
+      }
+      const Component& c = *r.component;
+      const std::string how = r.child->exit_description();
+      r.exits.push_back(how);
+      if (&r == sim) {
+        r.done = true;
+        continue;
+      }
+      const bool again = c.restart == Restart::always ||
+                         (c.restart == Restart::on_failure && *code != 0);
+      if (again && r.restarts < c.max_restarts) {
+        ++r.restarts;
+        std::fprintf(stderr, "poise launch: %s %s; restarting it (%d of %d)\n", c.name.c_str(),
+                     how.c_str(), r.restarts, c.max_restarts);
+        r.child.reset();
+        r.restart_at = now + std::chrono::milliseconds(500);
+        any_left = true;
+        continue;
+      }
+      r.done = true;
+      if (*code != 0) {
+        failure = c.name + " " + how +
+                  (again ? " (restarted " + std::to_string(r.restarts) + " times already)" : "");
+        break;
+      }
+      if (!quiet) std::printf("  %s finished (%s)\n", c.name.c_str(), how.c_str());
+    }
+    if (!failure.empty()) break;
+    if (sim && sim->done) break;
+    if (!any_left) break;
+    if (g_signal.load() != 0) {
+      failure = std::string("stopped by ") + (g_signal.load() == SIGINT ? "SIGINT" : "SIGTERM");
+      break;
+    }
+    if (duration > 0 &&
+        std::chrono::duration<double>(now - t0).count() >= duration)
+      break;
+  }
+
+  // Stop: the simulator first (it writes its result), the nodes, the recorder last.
+  for (const char* kind : {"sim", "estimator", "controller", "contact", "command", "recorder"})
+    for (auto& r : running)
+      if (r.component->kind == kind && r.child && !r.child->poll()) {
+        r.child->stop(r.component->kind == "recorder" ? 30000 : 3000);
+        r.exits.push_back(r.child->exit_description() + " (stopped by the launcher)");
+      }
+
+  Json j;
+  j["deployment"] = d.name;
+  j["file"] = fs::absolute(d.file).string();
+  j["host"] = host->name;
+  j["address"] = host->address;
+  j["domain"] = d.domain;
+  j["mode"] = d.realtime ? "realtime" : "lockstep";
+  j["logs"] = logs.string();
+  j["components"] = Json::object();
+  for (auto& r : running) {
+    Json c;
+    c["kind"] = r.component->kind;
+    c["dds"] = r.component->dds;
+    c["command"] = r.argv;
+    c["pid"] = r.child ? r.child->pid() : -1;
+    c["restarts"] = r.restarts;
+    c["exits"] = r.exits;
+    j["components"][r.component->name] = c;
+  }
+  int code = 0;
+  if (sim && failure.empty()) {
+    std::ifstream in(logs / (sim->component->name + ".summary.json"));
+    Json summary;
+    try {
+      summary = Json::parse(in);
+    } catch (...) {
+    }
+    if (!summary.is_object()) {
+      failure = "the simulator wrote no result (" + sim->exits.back() + ")";
+    } else {
+      j["sim"] = summary;
+      j["survived"] = summary.value("survived", false);
+      code = j["survived"].get<bool>() ? 0 : 1;
+    }
+  }
+  j["failed"] = !failure.empty();
+  if (!failure.empty()) {
+    j["failure"] = failure;
+    if (sim) j["survived"] = false;
+    code = 2;
+  }
+  std::ofstream(result_path) << j.dump(2) << "\n";
+  if (!failure.empty()) {
+    std::fprintf(stderr, "poise launch %s: host %s FAILED: %s -> %s\n", d.name.c_str(),
+                 host->name.c_str(), failure.c_str(), result_path.c_str());
+  } else if (sim) {
+    const Json& s = j["sim"];
+    std::printf("%s %s on host %s: com_error max %.3f m, foot slip %.4f m -> %s\n",
+                code == 0 ? "SURVIVED" : "FAILED", d.name.c_str(), host->name.c_str(),
+                s.value("com_error_max_m", 0.0), s.value("foot_slip_max_m", 0.0),
+                result_path.c_str());
+  } else {
+    std::printf("poise launch %s: host %s stopped cleanly -> %s\n", d.name.c_str(),
+                host->name.c_str(), result_path.c_str());
+  }
+  return code;
+}
+
+}  // namespace poise::launch
