@@ -100,7 +100,7 @@ struct Running {
 }  // namespace
 
 int launch_main(int argc, char** argv) {
-  std::string file, host_name, output, log_dir;
+  std::string file, host_name, output, log_dir, dds_files;
   bool check = false, quiet = false;
   double duration = 0;
   CLI::App app{
@@ -123,6 +123,10 @@ int launch_main(int argc, char** argv) {
                  "stop after this many seconds (default: when the simulator of this host ends, "
                  "else at Ctrl-C / SIGTERM)")
       ->check(CLI::NonNegativeNumber);
+  app.add_option("--dds-files", dds_files,
+                 "write this host's generated DDS files (cyclone.xml, fastdds.xml) to this "
+                 "directory and exit: for tools on the host, e.g. `poise topic list --dds-config "
+                 "DIR/cyclone.xml`");
   app.add_flag("-q,--quiet", quiet, "only problems and the final line");
   CLI11_PARSE(app, argc, argv);
 
@@ -187,6 +191,15 @@ int launch_main(int argc, char** argv) {
     }
     host = matches[0];
   }
+  if (!dds_files.empty()) {
+    fs::create_directories(dds_files);
+    for (const char* v : {"cyclone", "fastdds"})
+      std::ofstream(fs::path(dds_files) / (std::string(v) + ".xml")) << dds_config_xml(d, *host, v);
+    std::printf("%s/cyclone.xml and %s/fastdds.xml: DDS files of host %s (%s), domain %d\n",
+                dds_files.c_str(), dds_files.c_str(), host->name.c_str(), host->address.c_str(),
+                d.domain);
+    return 0;
+  }
   if (!local_addresses().count(host->address))
     std::fprintf(stderr,
                  "poise launch: warning: %s is not an address of this machine: DDS will not find "
@@ -250,7 +263,7 @@ int launch_main(int argc, char** argv) {
   for (auto& r : running)
     if (r.component->kind == "sim") sim = &r;
   std::ifstream progress;
-  std::string partial;
+  std::string partial, stopped_by;
   while (failure.empty()) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     if (sim && !quiet) {  // relay the simulator's progress lines
@@ -312,7 +325,9 @@ int launch_main(int argc, char** argv) {
     if (sim && sim->done) break;
     if (!any_left) break;
     if (g_signal.load() != 0) {
-      failure = std::string("stopped by ") + (g_signal.load() == SIGINT ? "SIGINT" : "SIGTERM");
+      // The normal end of a host without the simulator; an interruption of one with it.
+      stopped_by = g_signal.load() == SIGINT ? "SIGINT" : "SIGTERM";
+      if (sim) failure = "interrupted by " + stopped_by + " before the simulator finished";
       break;
     }
     if (duration > 0 &&
@@ -336,6 +351,7 @@ int launch_main(int argc, char** argv) {
   j["domain"] = d.domain;
   j["mode"] = d.realtime ? "realtime" : "lockstep";
   j["logs"] = logs.string();
+  if (!stopped_by.empty()) j["stopped_by"] = stopped_by;
   j["components"] = Json::object();
   for (auto& r : running) {
     Json c;
