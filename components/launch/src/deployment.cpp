@@ -393,7 +393,7 @@ std::vector<std::string> command_line(const Deployment& d, const Component& c,
     return a;
   }
   if (c.kind == "recorder") {
-    a = {(bin_dir / "poise").string(), "record", "-o", c.output, "--progress", "0", "--nice", "19"};
+    a = {(bin_dir / "poise").string(), "record", "-o", c.output, "--progress", "0"};
     a.insert(a.end(), dds.begin(), dds.end());
     a.insert(a.end(), c.options.begin(), c.options.end());
     return a;

@@ -315,7 +315,7 @@ int run_distributed(int argc, char** argv) {
           "recorder",
           std::vector<std::string>{(bin / "poise").string(), "record", "--dds", "cyclone",
                                    "--domain", std::to_string(domain), "-o", recording.string(),
-                                   "--progress", "0", "--nice", "19"},
+                                   "--progress", "0"},
           logs);
       if (const std::string why = wait_for_recorder(*recorder, 10.0); !why.empty()) {
         std::fprintf(stderr, "poise run %s: FAILED: cannot record to %s: %s\n",
