@@ -14,6 +14,8 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
+#include <poise/dds/dds.hpp>
+#include <poise/msg/joint_command.h>
 
 #include "child_process.hpp"
 
@@ -277,4 +279,37 @@ TEST(Launch, AKilledComponentIsRestartedByItsPolicy) {
   // controller's fallback); the launcher's job was to bring the optimiser back.
   std::printf("after a restart of the contact optimiser: exit %d, survived %s\n", *code,
               r.value("survived", false) ? "yes" : "no");
+}
+
+// Anyone on the domain can publish: the simulator refuses an absurd push (it threw the robot
+// 604 m before), and a second writer of the commands is reported by the simulator as an error.
+TEST(Launch, AnAbsurdPushIsRefusedAndASecondCommandWriterIsReported) {
+  const int domain = poise::testing::unique_domain_id();
+  const fs::path dir = work_dir("forged");
+  ChildProcess launcher(run_args("standing", domain, dir, {"--realtime", "--duration", "5"}), {},
+                        false, true);
+  ASSERT_TRUE(launcher.wait_for_output("t=1.0 s", 60s)) << launcher.output();
+  auto [code, out] = run_cmd({bin("poise"), "push", "--domain", std::to_string(domain), "--force",
+                              "1e9", "0", "0", "--duration", "0.1"},
+                             30s);
+  EXPECT_EQ(code, 0) << out;
+  std::this_thread::sleep_for(1200ms);  // node errors are logged at most once per second
+  {
+    poise::dds::DdsOptions o = poise::dds::dds_options_from_env();
+    o.domain_id = domain;
+    poise::dds::Participant participant(o);
+    poise::dds::Publisher<poise::msg::JointCommand> forged(participant);
+    EXPECT_TRUE(forged.wait_for_matches(1, 10s));
+    std::this_thread::sleep_for(500ms);  // > one diagnostics period of the simulator
+  }
+  const auto rc = launcher.wait_for(60s);
+  ASSERT_TRUE(rc.has_value()) << launcher.output();
+  EXPECT_EQ(*rc, 0) << "the robot must still stand\n" << launcher.output();
+  std::ifstream err(dir / "logs" / "sim.err");
+  const std::string log((std::istreambuf_iterator<char>(err)), {});
+  EXPECT_NE(log.find("exceeds the limit"), std::string::npos) << log;
+  EXPECT_NE(log.find("poise/joint_command has 2 writers"), std::string::npos) << log;
+  const Json summary = Json::parse(std::ifstream(dir / "logs" / "sim.summary.json"));
+  EXPECT_EQ(summary["pushes_refused"], 1) << summary.dump(2);
+  EXPECT_GE(summary["diagnostics"]["errors"].get<int>(), 2) << summary.dump(2);
 }

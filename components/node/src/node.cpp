@@ -120,6 +120,16 @@ void Node::serve(std::mutex& state_mutex) noexcept {
 }
 
 void Node::publish_diagnostics() noexcept {
+  for (auto& w : single_writers_) {
+    const int n = w.matched();
+    if (n > 1 && n != w.reported) {
+      ++extra_writer_events_;
+      error("%s has %d writers, one expected: another process publishes this node's input "
+            "(`poise topic list` shows the writers)",
+            w.topic.c_str(), n);
+    }
+    w.reported = n;
+  }
   std::uint64_t rejected = 0, mismatches = participant_->type_mismatches();
   for (const auto* c : watched_)
     rejected += c->rejected.load() + c->deserialize_errors.load();

@@ -241,6 +241,8 @@ int run(int argc, char** argv) {
       });
   node.watch(states);
   node.watch(solutions);
+  node.expect_one_writer(states);
+  node.expect_one_writer(solutions);
   if (!problems.wait_for_matches(1, std::chrono::milliseconds(contact_wait_ms)) ||
       !solutions.wait_for_matches(1, std::chrono::milliseconds(contact_wait_ms)))
     dds::log(dds::LogLevel::warn,

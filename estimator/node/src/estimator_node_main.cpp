@@ -140,6 +140,7 @@ int run(int argc, char** argv) {
                                                                 handle(in);
                                                               });
     node.watch(*sensors);
+    node.expect_one_writer(*sensors);
     node.serve(state_mutex);
   } else {
     // Debug mode: the loop thread waits for the ground truth of the tick, which arrives on the
@@ -147,6 +148,7 @@ int run(int argc, char** argv) {
     sensors =
         std::make_unique<dds::Subscriber<msg::Sensors>>(node.participant(), sensor_box.callback());
     node.watch(*sensors);
+    node.expect_one_writer(*sensors);
     msg::Sensors in;
     std::uint64_t seen = 0;
     while (node.running()) {

@@ -67,6 +67,8 @@ struct Settings {
   int wait_readers = 1;        ///< poise/sensors readers to wait for before tick k0
   int wait_truth_readers = 0;  ///< poise/ground_truth readers to wait for before tick k0
   std::string start_file;      ///< wait until this file exists before tick k0 ("": no wait)
+  double max_push_force = 1000.0;   ///< pushes from poise/disturbance above this are refused [N]
+  double max_push_duration = 5.0;   ///< ... and longer than this [s]
 };
 
 /// Everything one run measures (the node's summary).
@@ -76,7 +78,8 @@ struct Figures {
   node::LatencyHistogram publish;  ///< publishing sensors + ground truth of one tick  ///< sensors
                                    ///< k published -> the loop holds command k
   std::uint64_t ticks = 0, command_timeouts = 0, rejected_commands = 0, damping_ticks = 0;
-  std::uint64_t watchdog_stale_events = 0, overruns = 0, pushes = 0, total_other_contacts = 0;
+  std::uint64_t watchdog_stale_events = 0, overruns = 0, pushes = 0, refused_pushes = 0,
+                total_other_contacts = 0;
   double wall_s = 0.0;
   bool aborted = false;
 };
@@ -102,6 +105,7 @@ class SimNode {
         publish_ns_(1024, 0),
         commands_in_(node.participant(), [this](const msg::JointCommand& c) { on_command(c); }) {
     node.watch(commands_in_);
+    node.expect_one_writer(commands_in_);
     node.watch(disturbances_);
     sim::make_damping_command(sim_.damping_kd(), damping_);
     command_ = damping_;
@@ -190,6 +194,7 @@ class SimNode {
     j["watchdog_stale_events"] = figures_.watchdog_stale_events;
     j["overruns"] = figures_.overruns;
     j["pushes_received"] = figures_.pushes;
+    j["pushes_refused"] = figures_.refused_pushes;
     j["sim_time_s"] = sim_s;
     j["wall_time_s"] = figures_.wall_s;
     j["realtime_factor"] = figures_.wall_s > 0 ? sim_s / figures_.wall_s : 0.0;
@@ -268,10 +273,22 @@ class SimNode {
   void apply_disturbances() noexcept {
     while (disturbances_.take(disturbance_)) {
       ++figures_.pushes;
-      if (!sim_node::from_msg(disturbance_, sim_.time(), push_) || !sim_.add_push(push_))
+      if (!sim_node::from_msg(disturbance_, sim_.time(), push_)) {
         node_.error("disturbance %u refused (kind %d, link '%s')", disturbance_.id(),
                     static_cast<int>(disturbance_.kind()), disturbance_.link().c_str());
-      else
+      } else if (!(push_.force_W.norm() <= settings_.max_push_force) ||
+                 !(push_.duration <= settings_.max_push_duration)) {
+        // Anyone on the domain can publish a disturbance: a limit keeps a typo or a forged
+        // sample from throwing the robot across the room.
+        ++figures_.refused_pushes;
+        node_.error("disturbance %u refused: %.3g N for %.3g s exceeds the limit (%.0f N, %.1f s; "
+                    "--max-push-force, --max-push-duration)",
+                    disturbance_.id(), push_.force_W.norm(), push_.duration,
+                    settings_.max_push_force, settings_.max_push_duration);
+      } else if (!sim_.add_push(push_)) {
+        node_.error("disturbance %u refused (kind %d, link '%s')", disturbance_.id(),
+                    static_cast<int>(disturbance_.kind()), disturbance_.link().c_str());
+      } else
         dds::log(dds::LogLevel::info, "push %u: %.1f N on %s for %.3f s at t=%.3f s",
                  disturbance_.id(), push_.force_W.norm(), push_.link.c_str(), push_.duration,
                  push_.start);
@@ -542,6 +559,15 @@ int run(int argc, char** argv) {
   app.add_option("--start-file", s.start_file,
                  "start-up: wait (at most --startup-timeout-ms) until this file exists before the "
                  "first tick: a launcher's go signal, e.g. once a recorder matched every writer");
+  app.add_option("--max-push-force", s.max_push_force,
+                 "pushes received on poise/disturbance stronger than this are refused and "
+                 "counted [N] (the scenario's own pushes are not limited)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--max-push-duration", s.max_push_duration,
+                 "... and longer than this [s]")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   app.add_option("--settle-ticks", s.settle_ticks,
                  "start-up: steps with the joints held by PD before the first sensor frame, so "
                  "that it measures the feet loaded")

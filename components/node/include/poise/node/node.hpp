@@ -24,6 +24,7 @@
 #include <chrono>
 #include <cstdarg>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -105,6 +106,20 @@ class Node {
              all ? "" : " (some short, see above): starting anyway");
   }
 
+  /// The node expects one writer on this input topic (the robot's sensors, the controller's
+  /// commands): from the diagnostics period on, more matched writers are reported as an error
+  /// (counted, logged, Diagnostics.last_error) each time their number changes. A second writer
+  /// on a control topic is another process driving this node. Configuration time.
+  void expect_one_writer(std::string topic, std::function<int()> matched_writers) {
+    single_writers_.push_back({std::move(topic), std::move(matched_writers), 1});
+  }
+  template <class S>
+  void expect_one_writer(const S& subscriber) {
+    expect_one_writer(subscriber.topic_name(), [&subscriber] { return subscriber.matched(); });
+  }
+  /// Times a topic of expect_one_writer() was seen with a new number of writers above one.
+  std::uint64_t extra_writer_events() const noexcept { return extra_writer_events_; }
+
   /// False once a shutdown was requested (signal or request_shutdown()).
   bool running() const noexcept { return !shutdown_requested(); }
 
@@ -168,6 +183,13 @@ class Node {
   std::unique_ptr<dds::Participant> participant_;
   std::unique_ptr<dds::Publisher<msg::Diagnostics>> diag_pub_;
   std::vector<const dds::SubscriberCounters*> watched_;
+  struct SingleWriter {
+    std::string topic;
+    std::function<int()> matched;
+    int reported;
+  };
+  std::vector<SingleWriter> single_writers_;
+  std::uint64_t extra_writer_events_ = 0;
   msg::Diagnostics diag_;
   ComputeStats compute_;
   LatencyHistogram compute_run_{20000};  ///< whole run, 1 us bins up to 20 ms
