@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <filesystem>
 #include <iterator>
 #include <map>
 #include <mutex>
@@ -111,6 +112,35 @@ dds_qos_t* make_qos(const Qos& q, bool writer) {
   const dds_data_representation_id_t xcdr1 = DDS_DATA_REPRESENTATION_XCDR1;
   dds_qset_data_representation(qos, 1, &xcdr1);
   return qos;
+}
+
+/// The plugin library: Debian installs Cyclone's security plugins beside libddsc's private
+/// directory, which the loader does not search.
+std::string plugin_path(const char* name) {
+  const std::string debian = std::string("/usr/lib/x86_64-linux-gnu/libddsc0debian/lib") + name +
+                             ".so";
+  std::error_code ec;
+  return std::filesystem::exists(debian, ec) ? debian : name;
+}
+
+/// DDS Security through the participant's QoS properties (the OMG plugins Cyclone ships).
+void set_security(dds_qos_t* qos, const BackendOptions::Security& s) {
+  auto file = [](const std::string& p) { return "file:" + p; };
+  dds_qset_prop(qos, "dds.sec.auth.library.path", plugin_path("dds_security_auth").c_str());
+  dds_qset_prop(qos, "dds.sec.auth.library.init", "init_authentication");
+  dds_qset_prop(qos, "dds.sec.auth.library.finalize", "finalize_authentication");
+  dds_qset_prop(qos, "dds.sec.crypto.library.path", plugin_path("dds_security_crypto").c_str());
+  dds_qset_prop(qos, "dds.sec.crypto.library.init", "init_crypto");
+  dds_qset_prop(qos, "dds.sec.crypto.library.finalize", "finalize_crypto");
+  dds_qset_prop(qos, "dds.sec.access.library.path", plugin_path("dds_security_ac").c_str());
+  dds_qset_prop(qos, "dds.sec.access.library.init", "init_access_control");
+  dds_qset_prop(qos, "dds.sec.access.library.finalize", "finalize_access_control");
+  dds_qset_prop(qos, "dds.sec.auth.identity_ca", file(s.ca).c_str());
+  dds_qset_prop(qos, "dds.sec.auth.identity_certificate", file(s.certificate).c_str());
+  dds_qset_prop(qos, "dds.sec.auth.private_key", file(s.private_key).c_str());
+  dds_qset_prop(qos, "dds.sec.access.permissions_ca", file(s.ca).c_str());
+  dds_qset_prop(qos, "dds.sec.access.governance", file(s.governance).c_str());
+  dds_qset_prop(qos, "dds.sec.access.permissions", file(s.permissions).c_str());
 }
 
 dds_entity_t make_topic(dds_entity_t participant, const std::string& topic_name,
@@ -234,6 +264,7 @@ class CycloneParticipant final : public ParticipantBackend {
     DomainRegistry::instance().acquire(domain_id_, o.config_path);
     dds_qos_t* qos = dds_create_qos();
     dds_qset_entity_name(qos, o.participant_name.c_str());
+    if (!o.security.ca.empty()) set_security(qos, o.security);
     participant_ = dds_create_participant(static_cast<dds_domainid_t>(domain_id_), qos, nullptr);
     dds_delete_qos(qos);
     if (participant_ < 0) {

@@ -244,6 +244,23 @@ class FastddsParticipant final : public ParticipantBackend, public fdds::DomainP
       pqos = factory->get_default_participant_qos();
     }
     pqos.name(o.participant_name);
+    if (!o.security.ca.empty()) {
+      // DDS Security: the builtin PKI-DH, Access-Permissions and AES-GCM-GMAC plugins.
+      auto& props = pqos.properties().properties();
+      auto file = [](const std::string& p) { return "file://" + p; };
+      const std::pair<const char*, std::string> sec[] = {
+          {"dds.sec.auth.plugin", "builtin.PKI-DH"},
+          {"dds.sec.auth.builtin.PKI-DH.identity_ca", file(o.security.ca)},
+          {"dds.sec.auth.builtin.PKI-DH.identity_certificate", file(o.security.certificate)},
+          {"dds.sec.auth.builtin.PKI-DH.private_key", file(o.security.private_key)},
+          {"dds.sec.access.plugin", "builtin.Access-Permissions"},
+          {"dds.sec.access.builtin.Access-Permissions.permissions_ca", file(o.security.ca)},
+          {"dds.sec.access.builtin.Access-Permissions.governance", file(o.security.governance)},
+          {"dds.sec.access.builtin.Access-Permissions.permissions", file(o.security.permissions)},
+          {"dds.sec.crypto.plugin", "builtin.AES-GCM-GMAC"}};
+      for (const auto& [k, v] : sec)
+        props.emplace_back(k, v);
+    }
     participant_ = factory->create_participant(static_cast<fdds::DomainId_t>(o.domain_id), pqos,
                                                this, fdds::StatusMask::none());
     if (!participant_) throw std::runtime_error("Fast DDS refused to create the participant");

@@ -35,6 +35,26 @@ Participant::Participant(const DdsOptions& options)
   bo.domain_id = domain_id_;
   bo.config_path = config_path_;
   bo.participant_name = name_;
+  if (!options.security_dir.empty()) {
+    namespace fs = std::filesystem;
+    const fs::path dir = fs::absolute(options.security_dir, ec).lexically_normal();
+    if (options.identity.empty())
+      throw std::runtime_error(where + ": DDS Security (" + dir.string() +
+                               ") needs an identity (--identity NAME or POISE_DDS_IDENTITY)");
+    const fs::path id = dir / options.identity;
+    auto need = [&](const fs::path& p) {
+      if (!fs::is_regular_file(p, ec))
+        throw std::runtime_error(where + ": DDS Security file " + p.string() +
+                                 " does not exist (identity '" + options.identity +
+                                 "'; make them with `poise security init`)");
+      return p.string();
+    };
+    bo.security.ca = need(dir / "ca.pem");
+    bo.security.governance = need(dir / "governance.p7s");
+    bo.security.certificate = need(id / "cert.pem");
+    bo.security.private_key = need(id / "key.pem");
+    bo.security.permissions = need(id / "permissions.p7s");
+  }
   bo.on_endpoint = [this](const detail::EndpointEvent& e) { on_endpoint(e); };
   try {
     backend_ = vendor_ == Vendor::fastdds ? detail::make_fastdds_backend(bo)

@@ -57,6 +57,8 @@ DdsOptions dds_options_from_env() {
     o.domain_id = parse_domain(d, "POISE_DDS_DOMAIN");
   }
   o.config_path = env("POISE_DDS_CONFIG");
+  o.security_dir = env("POISE_DDS_SECURITY");
+  o.identity = env("POISE_DDS_IDENTITY");
   return o;
 }
 

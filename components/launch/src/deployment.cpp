@@ -143,7 +143,8 @@ Deployment load_deployment(const fs::path& file) {
   }
   if (!root.IsMap()) throw DeploymentError("deployment file " + file.string() + ": not a map");
   const fs::path base = file.parent_path();
-  allowed_keys(root, "", {"name", "domain", "scenario", "robot", "mode", "hosts", "components"},
+  allowed_keys(root, "",
+               {"name", "domain", "scenario", "robot", "mode", "security", "hosts", "components"},
                p);
   d.name = file.stem().string();
   if (root["name"]) scalar(root["name"], "name", d.name, p);
@@ -157,6 +158,13 @@ Deployment load_deployment(const fs::path& file) {
   if (mode != "lockstep" && mode != "realtime")
     p.add("mode", "'" + mode + "' is not lockstep or realtime");
   d.realtime = mode == "realtime";
+  if (root["security"]) {
+    scalar(root["security"], "security", d.security, p);
+    d.security = resolve_path(d.security, base);
+    if (!fs::is_directory(d.security) || !fs::exists(fs::path(d.security) / "ca.pem"))
+      p.add("security", d.security + " is not a directory made by `poise security init`");
+    if (d.domain > 230) p.add("domain", "DDS Security takes domains 0..230 (Cyclone's plugins)");
+  }
   if (root["robot"]) {
     scalar(root["robot"], "robot", d.robot, p);
     d.robot = resolve_path(d.robot, base);
@@ -385,8 +393,13 @@ std::string dds_config_xml(const Deployment& d, const Host& host, const std::str
 std::vector<std::string> command_line(const Deployment& d, const Component& c,
                                       const fs::path& bin_dir, const fs::path& dds_config) {
   std::vector<std::string> a;
-  const std::vector<std::string> dds{"--dds", c.dds, "--domain", std::to_string(d.domain),
-                                     "--dds-config", dds_config.string()};
+  std::vector<std::string> dds{"--dds", c.dds, "--domain", std::to_string(d.domain),
+                               "--dds-config", dds_config.string()};
+  // Under DDS Security each component authenticates as its kind (the identities of
+  // `poise security init`); a command (a driver) reads POISE_DDS_SECURITY itself.
+  if (!d.security.empty() && c.kind != "command")
+    dds.insert(dds.end(), {"--security", fs::absolute(d.security).string(), "--identity",
+                           c.kind});
   if (c.kind == "command") {
     a = c.command;
     a.insert(a.end(), c.options.begin(), c.options.end());

@@ -68,6 +68,7 @@ struct Settings {
   double timeout_s = -1.0;
   bool quiet = false;
   std::string record;  ///< MCAP file of `--record` ("" with the flag alone: the default path)
+  std::string security;  ///< DDS Security directory (poise security init), "" = none
 };
 
 /// Waits until the recorder child says it is recording (its subscribers exist), it exits, or
@@ -171,6 +172,10 @@ int run_distributed(int argc, char** argv) {
                      "record every topic of the run (all processes, whole run) to this MCAP file "
                      "with `poise record` (default: results/<scenario>.mcap)")
           ->expected(0, 1);
+  app.add_option("--security", s.security,
+                 "DDS Security for every process of the run: the directory `poise security "
+                 "init` made (each node authenticates as its name, the recorder as recorder)")
+      ->check(CLI::ExistingDirectory);
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -228,6 +233,7 @@ int run_distributed(int argc, char** argv) {
         a.push_back("--robot");
         a.push_back(robot);
       }
+      if (!s.security.empty()) a.insert(a.end(), {"--security", s.security});
       return a;
     };
     std::vector<std::string> sim_args = common("sim");
@@ -313,9 +319,14 @@ int run_distributed(int argc, char** argv) {
       if (recording.has_parent_path()) fs::create_directories(recording.parent_path());
       recorder = std::make_unique<Child>(
           "recorder",
-          std::vector<std::string>{(bin / "poise").string(), "record", "--dds", "cyclone",
-                                   "--domain", std::to_string(domain), "-o", recording.string(),
-                                   "--progress", "0"},
+          [&] {
+            std::vector<std::string> a{(bin / "poise").string(), "record", "--dds", "cyclone",
+                                       "--domain", std::to_string(domain), "-o",
+                                       recording.string(), "--progress", "0"};
+            if (!s.security.empty())
+              a.insert(a.end(), {"--security", s.security, "--identity", "recorder"});
+            return a;
+          }(),
           logs);
       if (const std::string why = wait_for_recorder(*recorder, 10.0); !why.empty()) {
         std::fprintf(stderr, "poise run %s: FAILED: cannot record to %s: %s\n",

@@ -58,6 +58,9 @@ Node::Node(const NodeOptions& options) : options_(options) {
   dds::set_log_name(options_.name);
   install_shutdown_handlers();
   options_.dds.participant_name = "poise/" + options_.name;
+  // Under DDS Security a node authenticates as its name unless told otherwise.
+  if (!options_.dds.security_dir.empty() && options_.dds.identity.empty())
+    options_.dds.identity = options_.name;
   participant_ = std::make_unique<dds::Participant>(options_.dds);
   diag_pub_ = std::make_unique<dds::Publisher<msg::Diagnostics>>(*participant_);
   diag_.node(options_.name.substr(0, 32));

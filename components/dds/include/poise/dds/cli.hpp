@@ -27,6 +27,13 @@ inline void add_dds_options(CLI::App& app, DdsOptions& options) {
   app.add_option("--dds-config", options.config_path,
                  "vendor XML configuration (default: deploy/dds/<vendor>-loopback.xml)")
       ->check(CLI::ExistingFile);
+  app.add_option("--security", options.security_dir,
+                 "DDS Security: directory made by `poise security init` (authentication, access "
+                 "control, encryption; default: $POISE_DDS_SECURITY)")
+      ->check(CLI::ExistingDirectory);
+  app.add_option("--identity", options.identity,
+                 "DDS Security identity to authenticate as (a subdirectory of --security; "
+                 "default: $POISE_DDS_IDENTITY, for nodes their name)");
 }
 
 }  // namespace poise::dds

@@ -30,6 +30,10 @@ struct DdsOptions {
   int domain_id = 0;        ///< 0..232 (both vendors' port mapping allows 232 domains)
   std::string config_path;  ///< vendor XML file; empty = deploy/dds/<vendor>-loopback.xml
   std::string participant_name = "poise";
+  /// DDS Security: the directory `poise security init` made ("" = no security), and the
+  /// identity (a subdirectory of it) this participant authenticates as.
+  std::string security_dir;
+  std::string identity;
 };
 
 /// Options from POISE_DDS, POISE_DDS_DOMAIN and POISE_DDS_CONFIG, with the defaults above.

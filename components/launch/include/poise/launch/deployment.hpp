@@ -6,6 +6,7 @@
 //   domain: 42
 //   scenario: forward_push_double_support   # the simulator's world (a file or a name)
 //   mode: lockstep                          # or realtime
+//   security: secrets/poise                 # optional: DDS Security (poise security init)
 //   hosts:
 //     robot: {address: 10.77.0.1}
 //     desk:  {address: 10.77.0.2}
@@ -61,6 +62,7 @@ struct Deployment {
   std::string scenario;  ///< resolved path of the scenario file ("" without a simulator)
   std::string robot;     ///< robot.yaml for the nodes ("" = the scenario's / the default)
   bool realtime = false;
+  std::string security;  ///< DDS Security directory (poise security init), "" = none
   std::vector<Host> hosts;
   std::vector<Component> components;  ///< in start order: recorder, contact, estimator,
                                       ///< controller, command, sim

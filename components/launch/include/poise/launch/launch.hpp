@@ -23,4 +23,8 @@ int push_main(int argc, char** argv);
 /// 2: a failure (named).
 int launch_main(int argc, char** argv);
 
+/// `poise security init DIR`: CA, identities and signed governance / permissions documents for
+/// DDS Security (security_cli.cpp).
+int security_main(int argc, char** argv);
+
 }  // namespace poise::launch

@@ -74,6 +74,10 @@ struct BackendOptions {
   int domain_id = 0;
   std::string config_path;  ///< resolved, absolute, existing
   std::string participant_name;
+  /// DDS Security files, absolute paths ("" ca: no security).
+  struct Security {
+    std::string ca, governance, certificate, private_key, permissions;
+  } security;
   /// Discovery of every endpoint of other participants (both vendors call it on their threads).
   std::function<void(const EndpointEvent&)> on_endpoint;
 };

@@ -1,0 +1,213 @@
+// `poise security init DIR`: a certificate authority, one identity per component and signed
+// governance / permissions documents for DDS Security (OMG DDS Security 1.1 builtin plugins:
+// PKI-DH authentication, Access-Permissions, AES-GCM-GMAC), made with Debian's openssl.
+//
+// Access control gives each identity write access to its own topics only: only `controller` may
+// write poise/joint_command, only `sim` (or a driver using that identity) poise/sensors;
+// `operator` (poise push, poise reference, poise topic) may write the disturbance and balance
+// reference and read everything; `recorder` reads everything and writes nothing.
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "poise/launch/launch.hpp"
+
+namespace poise::launch {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Grant {
+  std::vector<std::string> publish, subscribe;
+};
+
+const std::vector<std::string> kAllTopics{
+    "poise/robot_description", "poise/sensors",          "poise/ground_truth",
+    "poise/state",             "poise/balance_reference", "poise/contact_problem",
+    "poise/contact_solution",  "poise/joint_command",    "poise/disturbance",
+    "poise/diagnostics"};
+
+std::map<std::string, Grant> grants() {
+  return {
+      {"sim",
+       {{"poise/robot_description", "poise/sensors", "poise/ground_truth", "poise/diagnostics"},
+        {"poise/joint_command", "poise/disturbance"}}},
+      {"estimator",
+       {{"poise/state", "poise/diagnostics"},
+        {"poise/robot_description", "poise/sensors", "poise/ground_truth"}}},
+      {"controller",
+       {{"poise/contact_problem", "poise/joint_command", "poise/diagnostics"},
+        {"poise/robot_description", "poise/state", "poise/contact_solution",
+         "poise/balance_reference"}}},
+      {"contact",
+       {{"poise/contact_solution", "poise/diagnostics"},
+        {"poise/robot_description", "poise/contact_problem"}}},
+      {"recorder", {{}, kAllTopics}},
+      {"operator", {{"poise/disturbance", "poise/balance_reference"}, kAllTopics}},
+  };
+}
+
+/// Runs a program (no shell); its output goes to `log`. Returns its exit code.
+int run(const std::vector<std::string>& argv, const fs::path& log) {
+  std::vector<char*> args;
+  std::vector<std::string> copy = argv;
+  for (auto& a : copy)
+    args.push_back(a.data());
+  args.push_back(nullptr);
+  const pid_t pid = ::fork();
+  if (pid < 0) return -1;
+  if (pid == 0) {
+    if (std::FILE* f = std::fopen(log.c_str(), "a")) {
+      ::dup2(::fileno(f), STDOUT_FILENO);
+      ::dup2(::fileno(f), STDERR_FILENO);
+    }
+    ::execvp(args[0], args.data());
+    ::_exit(127);
+  }
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+std::string topics_xml(const std::vector<std::string>& topics, const char* indent) {
+  std::string s;
+  for (const auto& t : topics)
+    s += std::string(indent) + "<topic>" + t + "</topic>\n";
+  return s;
+}
+
+std::string governance_xml() {
+  // No XML comments: Cyclone's parser of these documents refuses them.
+  // No unauthenticated participant joins; discovery, liveliness and every topic's data are
+  // encrypted; reading and writing any topic needs a grant in the signed permissions.
+  return R"(<?xml version="1.0" encoding="UTF-8"?>
+<dds xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance"
+     xsi:noNamespaceSchemaLocation="http://www.omg.org/spec/DDS-SECURITY/20170901/omg_shared_ca_governance.xsd">
+  <domain_access_rules>
+    <domain_rule>
+      <domains><id_range><min>0</min><max>230</max></id_range></domains>
+      <allow_unauthenticated_participants>false</allow_unauthenticated_participants>
+      <enable_join_access_control>true</enable_join_access_control>
+      <discovery_protection_kind>ENCRYPT</discovery_protection_kind>
+      <liveliness_protection_kind>ENCRYPT</liveliness_protection_kind>
+      <rtps_protection_kind>NONE</rtps_protection_kind>
+      <topic_access_rules>
+        <topic_rule>
+          <topic_expression>*</topic_expression>
+          <enable_discovery_protection>true</enable_discovery_protection>
+          <enable_liveliness_protection>false</enable_liveliness_protection>
+          <enable_read_access_control>true</enable_read_access_control>
+          <enable_write_access_control>true</enable_write_access_control>
+          <metadata_protection_kind>ENCRYPT</metadata_protection_kind>
+          <data_protection_kind>ENCRYPT</data_protection_kind>
+        </topic_rule>
+      </topic_access_rules>
+    </domain_rule>
+  </domain_access_rules>
+</dds>
+)";
+}
+
+std::string permissions_xml(const std::string& name, const Grant& g) {
+  std::string s = R"(<?xml version="1.0" encoding="UTF-8"?>
+<dds xmlns:xsi="http://www.w3.org/2001/XMLSchema-instance"
+     xsi:noNamespaceSchemaLocation="http://www.omg.org/spec/DDS-SECURITY/20170901/omg_shared_ca_permissions.xsd">
+  <permissions>
+    <grant name=")" + name + R"(">
+      <subject_name>CN=)" + name + R"(</subject_name>
+      <validity><not_before>2020-01-01T00:00:00</not_before><not_after>2045-01-01T00:00:00</not_after></validity>
+      <allow_rule>
+        <domains><id_range><min>0</min><max>230</max></id_range></domains>
+)";
+  if (!g.publish.empty())
+    s += "        <publish>\n          <topics>\n" + topics_xml(g.publish, "            ") +
+         "          </topics>\n        </publish>\n";
+  if (!g.subscribe.empty())
+    s += "        <subscribe>\n          <topics>\n" + topics_xml(g.subscribe, "            ") +
+         "          </topics>\n        </subscribe>\n";
+  s += R"(      </allow_rule>
+      <default>DENY</default>
+    </grant>
+  </permissions>
+</dds>
+)";
+  return s;
+}
+
+}  // namespace
+
+int security_main(int argc, char** argv) {
+  std::string dir;
+  bool force = false;
+  CLI::App app{
+      "DDS Security for a Poise deployment: `poise security init DIR` makes a certificate "
+      "authority, an identity per component (sim, estimator, controller, contact, recorder, "
+      "operator) and signed governance and permissions documents, with openssl. Use them with "
+      "`--security DIR` on every process (nodes authenticate as their name; tools with "
+      "`--identity operator`), or `POISE_DDS_SECURITY`."};
+  app.name("poise security");
+  app.require_subcommand(1);
+  auto* init = app.add_subcommand("init", "make the CA, identities and signed documents in DIR");
+  init->add_option("dir", dir, "output directory")->required();
+  init->add_flag("--force", force, "replace an existing directory's contents");
+  CLI11_PARSE(app, argc, argv);
+
+  const fs::path root = fs::absolute(dir);
+  if (fs::exists(root / "ca.pem") && !force) {
+    std::fprintf(stderr,
+                 "poise security init: %s already holds a CA (ca.pem); --force replaces it "
+                 "(every identity signed by it stops working)\n",
+                 root.c_str());
+    return 2;
+  }
+  fs::create_directories(root);
+  const fs::path log = root / "openssl.log";
+  std::ofstream(log, std::ios::trunc).close();
+  auto ok = [&](const std::vector<std::string>& argv) {
+    if (run(argv, log) == 0) return true;
+    std::fprintf(stderr, "poise security init: `%s ...` failed; see %s\n", argv[1].c_str(),
+                 log.c_str());
+    return false;
+  };
+  const std::string ca_key = (root / "ca.key").string(), ca = (root / "ca.pem").string();
+  if (!ok({"openssl", "ecparam", "-name", "prime256v1", "-genkey", "-noout", "-out", ca_key}) ||
+      !ok({"openssl", "req", "-x509", "-new", "-key", ca_key, "-out", ca, "-days", "7300",
+           "-sha256", "-subj", "/CN=Poise CA"}))
+    return 1;
+  fs::permissions(ca_key, fs::perms::owner_read | fs::perms::owner_write);
+  std::ofstream(root / "governance.xml") << governance_xml();
+  if (!ok({"openssl", "smime", "-sign", "-in", (root / "governance.xml").string(), "-text",
+           "-out", (root / "governance.p7s").string(), "-signer", ca, "-inkey", ca_key}))
+    return 1;
+  for (const auto& [name, g] : grants()) {
+    const fs::path id = root / name;
+    fs::create_directories(id);
+    const std::string key = (id / "key.pem").string(), csr = (id / "cert.csr").string();
+    if (!ok({"openssl", "ecparam", "-name", "prime256v1", "-genkey", "-noout", "-out", key}) ||
+        !ok({"openssl", "req", "-new", "-key", key, "-out", csr, "-subj", "/CN=" + name}) ||
+        !ok({"openssl", "x509", "-req", "-in", csr, "-CA", ca, "-CAkey", ca_key,
+             "-CAcreateserial", "-out", (id / "cert.pem").string(), "-days", "7300",
+             "-sha256"}))
+      return 1;
+    fs::remove(csr);
+    fs::permissions(key, fs::perms::owner_read | fs::perms::owner_write);
+    std::ofstream(id / "permissions.xml") << permissions_xml(name, g);
+    if (!ok({"openssl", "smime", "-sign", "-in", (id / "permissions.xml").string(), "-text",
+             "-out", (id / "permissions.p7s").string(), "-signer", ca, "-inkey", ca_key}))
+      return 1;
+  }
+  std::printf("poise security init: CA, governance and identities sim, estimator, controller, "
+              "contact, recorder, operator in %s\n",
+              root.c_str());
+  return 0;
+}
+
+}  // namespace poise::launch
