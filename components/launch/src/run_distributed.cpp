@@ -203,7 +203,12 @@ int run_distributed(int argc, char** argv) {
     if (!s.dds_contact.empty()) vendor["contact"] = vendor_name(s.dds_contact);
     if (!s.dds_controller.empty()) vendor["controller"] = vendor_name(s.dds_controller);
 
-    const int domain = s.domain >= 0 ? s.domain : dds::claim_free_domain();
+    int domain = s.domain >= 0 ? s.domain : dds::claim_free_domain();
+    // Cyclone's security plugins take domains 0..230 only.
+    while (!s.security.empty() && s.domain < 0 && domain > 230)
+      domain = dds::claim_free_domain();
+    if (!s.security.empty() && domain > 230)
+      throw std::runtime_error("DDS Security takes domains 0..230 (Cyclone's plugins)");
     const fs::path output =
         s.output.empty() ? fs::path("results") / (scenario.name + ".json") : fs::path(s.output);
     const fs::path logs =
