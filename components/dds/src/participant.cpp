@@ -114,6 +114,14 @@ void Participant::unwatch_topic(int token) {
   std::erase_if(watches_, [token](const Watch& w) { return w.token == token; });
 }
 
+int Participant::writers_of(std::string_view topic_name) const noexcept {
+  std::lock_guard lock(mutex_);
+  int n = 0;
+  for (const auto& e : endpoints_)
+    if (e.event.is_writer && e.event.topic_name == topic_name) ++n;
+  return n;
+}
+
 std::vector<DiscoveredTopic> Participant::discovered_topics() const {
   std::map<std::pair<std::string, std::string>, DiscoveredTopic> m;
   {

@@ -126,6 +126,23 @@ int Child::stop(int grace_ms) {
   return *exit_code_;
 }
 
+std::vector<std::string> LineFollower::poll() {
+  std::vector<std::string> out;
+  if (!in_.is_open()) in_.open(path_);
+  if (!in_.is_open()) return out;
+  in_.clear();
+  std::string line;
+  while (std::getline(in_, line)) {
+    if (in_.eof()) {  // no newline yet: keep it for later
+      partial_ += line;
+      break;
+    }
+    out.push_back(partial_ + line);
+    partial_.clear();
+  }
+  return out;
+}
+
 std::string Child::stderr_tail(int n) const {
   return tail_lines(err_path_, n);
 }

@@ -7,6 +7,7 @@
 #include <sys/types.h>
 
 #include <filesystem>
+#include <fstream>
 #include <optional>
 #include <string>
 #include <vector>
@@ -55,6 +56,19 @@ class Child {
 
 /// An exit in words; `signal` > 0 if a signal ended the process (then code = 128 + signal).
 std::string describe_exit(int code, int signal);
+
+/// Follows a growing text file (a child's stdout) and hands out its complete new lines.
+class LineFollower {
+ public:
+  explicit LineFollower(std::filesystem::path path) : path_(std::move(path)) {}
+  /// Lines completed since the last call (a partial last line waits for its end).
+  std::vector<std::string> poll();
+
+ private:
+  std::filesystem::path path_;
+  std::ifstream in_;
+  std::string partial_;
+};
 
 /// The last `n` lines of a text file ("" if unreadable).
 std::string tail_lines(const std::filesystem::path& path, int n);

@@ -262,23 +262,14 @@ int launch_main(int argc, char** argv) {
   Running* sim = nullptr;
   for (auto& r : running)
     if (r.component->kind == "sim") sim = &r;
-  std::ifstream progress;
-  std::string partial, stopped_by;
+  std::unique_ptr<LineFollower> progress;
+  if (sim && sim->child) progress = std::make_unique<LineFollower>(sim->child->stdout_path());
+  std::string stopped_by;
   while (failure.empty()) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    if (sim && !quiet) {  // relay the simulator's progress lines
-      if (!progress.is_open()) progress.open(sim->child->stdout_path());
-      progress.clear();
-      std::string line;
-      while (std::getline(progress, line)) {
-        if (progress.eof()) {
-          partial += line;
-          break;
-        }
-        line = partial + line;
-        partial.clear();
+    if (progress && !quiet) {  // relay the simulator's progress lines
+      for (const auto& line : progress->poll())
         if (line.rfind("progress ", 0) == 0) std::printf("  %s\n", line.c_str() + 9);
-      }
       std::fflush(stdout);
     }
     const auto now = std::chrono::steady_clock::now();

@@ -395,26 +395,13 @@ int run_distributed(int argc, char** argv) {
     }
 
     const auto t_start = std::chrono::steady_clock::now();
-    std::ifstream progress;
-    std::string partial;
+    LineFollower progress(sim.stdout_path());
     int sim_code = -1;
     while (failure.empty()) {
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
-      if (!progress.is_open()) progress.open(sim.stdout_path());
-      if (progress.is_open()) {  // relay the simulator's progress lines
-        progress.clear();
-        std::string line;
-        while (std::getline(progress, line)) {
-          if (progress.eof()) {  // incomplete line: keep for later
-            partial += line;
-            break;
-          }
-          line = partial + line;
-          partial.clear();
-          if (!s.quiet && line.rfind("progress ", 0) == 0) std::printf("  %s\n", line.c_str() + 9);
-        }
-        std::fflush(stdout);
-      }
+      for (const auto& line : progress.poll())  // relay the simulator's progress lines
+        if (!s.quiet && line.rfind("progress ", 0) == 0) std::printf("  %s\n", line.c_str() + 9);
+      std::fflush(stdout);
       if (auto code = sim.poll()) {
         sim_code = *code;
         break;

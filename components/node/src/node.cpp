@@ -124,7 +124,7 @@ void Node::serve(std::mutex& state_mutex) noexcept {
 
 void Node::publish_diagnostics() noexcept {
   for (auto& w : single_writers_) {
-    const int n = w.matched();
+    const int n = participant_->writers_of(w.topic);
     if (n > 1 && n != w.reported) {
       ++extra_writer_events_;
       error("%s has %d writers, one expected: another process publishes this node's input "

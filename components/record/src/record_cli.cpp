@@ -1,4 +1,5 @@
 // `poise record`: records Poise DDS topics to MCAP until Ctrl-C, SIGTERM or --duration.
+#include <sched.h>
 #include <signal.h>
 #include <sys/resource.h>
 #include <time.h>
@@ -81,6 +82,7 @@ int record_main(int argc, char** argv) {
   double duration_s = 0;
   double progress_s = -1;
   int nice_value = 0;
+  bool idle = false;
   bool all = false;
   CLI::App app{
       "Record Poise DDS topics to an MCAP file (schema encoding omgidl, message encoding cdr), "
@@ -122,8 +124,18 @@ int record_main(int argc, char** argv) {
                  "what it still misses is counted as tick gaps")
       ->check(CLI::Range(-20, 19))
       ->capture_default_str();
+  app.add_flag("--idle", idle,
+               "run every thread of the recorder under SCHED_IDLE: it never preempts the control "
+               "loop's processes and runs only on CPU time they leave (what it then misses is "
+               "counted as tick gaps)");
   CLI11_PARSE(app, argc, argv);
   // Before any thread exists: DDS and writer threads inherit it.
+  if (idle) {
+    sched_param sp{};
+    if (::sched_setscheduler(0, SCHED_IDLE, &sp) != 0)
+      std::fprintf(stderr, "poise record: warning: cannot use SCHED_IDLE (%s)\n",
+                   std::strerror(errno));
+  }
   if (nice_value != 0 && ::setpriority(PRIO_PROCESS, 0, nice_value) != 0)
     std::fprintf(stderr, "poise record: warning: cannot set niceness %d (%s); running at %d\n",
                  nice_value, std::strerror(errno), ::getpriority(PRIO_PROCESS, 0));

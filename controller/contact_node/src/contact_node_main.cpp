@@ -110,8 +110,7 @@ int run(int argc, char** argv) {
                                 std::lock_guard lock(state_mutex);
                                 handle(bytes);
                               });
-  node.expect_one_writer(std::string(dds::TopicTraits<msg::ContactProblem>::topic_name),
-                         [&problems] { return problems.matched(); });
+  node.expect_one_writer(std::string(dds::TopicTraits<msg::ContactProblem>::topic_name));
   node.serve(state_mutex);
   std::lock_guard lock(state_mutex);
   char extra[128];

@@ -7,6 +7,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <string_view>
 #include <thread>
 #include <vector>
 
@@ -50,6 +51,11 @@ class Participant {
   /// by topic then type. Discovery is asynchronous: a just-started process sees nothing for
   /// ~20 ms (same vendor) to ~1 s (other vendor).
   std::vector<DiscoveredTopic> discovered_topics() const;
+
+  /// Writers of other participants on `topic_name` known to discovery now (any type and QoS).
+  /// From this participant's own table: no vendor call, no allocation, never blocks on a vendor
+  /// lock (safe under locks a listener callback also takes).
+  int writers_of(std::string_view topic_name) const noexcept;
 
   /// Writers discovered with a known topic name but another type, since start (all subscribers).
   std::uint64_t type_mismatches() const noexcept { return type_mismatches_.load(); }

@@ -23,6 +23,9 @@
 
 #include <chrono>
 #include <cstdarg>
+#include <atomic>
+#include <condition_variable>
+#include <thread>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -107,15 +110,18 @@ class Node {
   }
 
   /// The node expects one writer on this input topic (the robot's sensors, the controller's
-  /// commands): from the diagnostics period on, more matched writers are reported as an error
-  /// (counted, logged, Diagnostics.last_error) each time their number changes. A second writer
-  /// on a control topic is another process driving this node. Configuration time.
-  void expect_one_writer(std::string topic, std::function<int()> matched_writers) {
-    single_writers_.push_back({std::move(topic), std::move(matched_writers), 1});
+  /// commands): more matched writers are reported as an error (counted, logged,
+  /// Diagnostics.last_error) with the next diagnostics, each time their number changes. A second
+  /// writer on a control topic is another process driving this node. Configuration time.
+  /// The count comes from the participant's own discovery table (Participant::writers_of),
+  /// never from a vendor status call: those take the reader's lock, which Fast DDS holds while
+  /// it runs a listener that waits for the node's mutex, under which diagnostics are published.
+  void expect_one_writer(std::string topic) {
+    single_writers_.push_back({std::move(topic), 1});
   }
   template <class S>
   void expect_one_writer(const S& subscriber) {
-    expect_one_writer(subscriber.topic_name(), [&subscriber] { return subscriber.matched(); });
+    expect_one_writer(subscriber.topic_name());
   }
   /// Times a topic of expect_one_writer() was seen with a new number of writers above one.
   std::uint64_t extra_writer_events() const noexcept { return extra_writer_events_; }
@@ -185,8 +191,7 @@ class Node {
   std::vector<const dds::SubscriberCounters*> watched_;
   struct SingleWriter {
     std::string topic;
-    std::function<int()> matched;
-    int reported;
+    int reported;  ///< the writer count the diagnostics last saw
   };
   std::vector<SingleWriter> single_writers_;
   std::uint64_t extra_writer_events_ = 0;
