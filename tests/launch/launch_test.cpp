@@ -316,7 +316,8 @@ TEST(Launch, AnAbsurdPushIsRefusedAndASecondCommandWriterIsReported) {
 
 // DDS Security (Cyclone): the secured stack balances; a participant without credentials can
 // neither read the state nor push the robot; an authenticated operator can push but may not
-// write joint commands (access control).
+// write joint commands (access control). Lockstep, so that the verdict does not depend on how
+// busy the machine is (the secured loop's real-time latency is in deploy/dds/README.md).
 TEST(Launch, SecuredStackKeepsOutsidersAndEnforcesWhoWritesWhat) {
   int domain = poise::testing::unique_domain_id();
   if (domain > 230) GTEST_SKIP() << "Cyclone's security plugins take domains 0..230 only";
@@ -327,7 +328,7 @@ TEST(Launch, SecuredStackKeepsOutsidersAndEnforcesWhoWritesWhat) {
     ASSERT_EQ(code, 0) << out;
   }
   ChildProcess launcher(
-      run_args("standing", domain, dir, {"--realtime", "--duration", "12", "--security", sec}),
+      run_args("standing", domain, dir, {"--lockstep", "--duration", "60", "--security", sec}),
       {}, false, true);
   ASSERT_TRUE(launcher.wait_for_output("t=1.0 s", 60s)) << launcher.output();
   const std::string d = std::to_string(domain);
@@ -366,13 +367,13 @@ TEST(Launch, SecuredStackKeepsOutsidersAndEnforcesWhoWritesWhat) {
     EXPECT_NE(code, 0) << out;
     EXPECT_NE(out.find("Not Allowed By Security"), std::string::npos) << out;
   }
-  const auto rc = launcher.wait_for(90s);
+  const auto rc = launcher.wait_for(240s);
   ASSERT_TRUE(rc.has_value()) << launcher.output();
   EXPECT_EQ(*rc, 0) << launcher.output();
   std::ifstream err(dir / "logs" / "sim.err");
   const std::string log((std::istreambuf_iterator<char>(err)), {});
   EXPECT_NE(log.find("push 1: 20.0 N"), std::string::npos) << log;
   const Json r = Json::parse(std::ifstream(dir / "run.json"));
-  std::printf("secured real-time stack: tick latency p50 %.0f us, p99 %.0f us\n",
+  std::printf("secured lockstep stack: tick latency p50 %.0f us, p99 %.0f us\n",
               r["tick_latency_us"]["p50"].get<double>(), r["tick_latency_us"]["p99"].get<double>());
 }

@@ -506,10 +506,16 @@ TEST(ClosedLoop, AFailingChildIsNamedWithItsLastStderrLines) {
   const auto code = p.wait_for(90s);
   ASSERT_TRUE(code.has_value()) << p.output();
   EXPECT_EQ(*code, 2) << p.output();
-  EXPECT_NE(p.output().find("controller exited early with code 4"), std::string::npos)
+  EXPECT_NE(p.output().find("controller exited with code 4"), std::string::npos)
       << p.output();
   EXPECT_NE(p.output().find("controller boom: cannot start"), std::string::npos) << p.output();
-  EXPECT_FALSE(fs::exists(dir / "r.json"));
+  // The failed run still writes its result, marked failed, with the reason.
+  const auto r = nlohmann::json::parse(std::ifstream(dir / "r.json"), nullptr, false);
+  ASSERT_TRUE(r.is_object()) << p.output();
+  EXPECT_TRUE(r.value("failed", false)) << r.dump(2);
+  EXPECT_NE(r.value("failure", std::string()).find("controller exited with code 4"),
+            std::string::npos)
+      << r.dump(2);
   fs::remove_all(dir);
 }
 
