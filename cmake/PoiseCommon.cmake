@@ -22,8 +22,12 @@ function(poise_add_gtest name)
   if(ARG_RUN_SERIAL)
     set(serial TRUE)
   endif()
+  # Labels go on the directory (ctest gives every test in it the directory's LABELS): passed
+  # through gtest_discover_tests, a list "a;b" is split into separate arguments, so that
+  # "LABELS a b RUN_SERIAL TRUE" sets LABELS=a and b=RUN_SERIAL, and RUN_SERIAL is lost.
+  set_property(DIRECTORY APPEND PROPERTY LABELS ${ARG_LABELS})
   gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60
-                       PROPERTIES TIMEOUT ${ARG_TIMEOUT} LABELS "${ARG_LABELS}" RUN_SERIAL ${serial})
+                       PROPERTIES TIMEOUT ${ARG_TIMEOUT} RUN_SERIAL ${serial})
 endfunction()
 
 # poise_register_cli_command(VERB SUMMARY FUNCTION LIBRARY)
