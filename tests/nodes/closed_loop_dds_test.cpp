@@ -551,7 +551,9 @@ TEST(ClosedLoopDds, TracksACommandedComShiftFromTheBalanceReferenceTopic) {
       "[dds com shift] tracking error max %.4f m, final %.4f m (%d ticks), CoM moved (%.4f, "
       "%.4f, %.4f) m\n",
       err_max, err_final, compared, moved.x(), moved.y(), moved.z());
-  EXPECT_GT(compared, 2300);
+  // 2510 ticks from 1.0 s to the end; the test's own reader may miss some when the machine is
+  // starved (a CI run on 2 busy cores delivered 2219): the tracking bounds are what matters.
+  EXPECT_GT(compared, 2000);
   EXPECT_LT(err_max, 0.01);
   EXPECT_LT(err_final, 0.005);
   EXPECT_NEAR(moved.y(), 0.03, 0.005);
