@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <set>
 #include <sstream>
 
@@ -88,21 +89,24 @@ std::string resolve_path(const std::string& p, const fs::path& base) {
   return p;
 }
 
-/// A scenario file, or a name in deploy/scenarios/ of this tree (searched upwards from the
-/// executable and from the deployment file).
+}  // namespace
+
+fs::path bin_dir() {
+  if (const char* e = std::getenv("POISE_BIN_DIR"); e && *e) return e;
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  return ec ? fs::path(".") : exe.parent_path();
+}
+
 std::string resolve_scenario(const std::string& s, const fs::path& base) {
   const std::string direct = resolve_path(s, base);
   if (fs::exists(direct)) return direct;
-  std::error_code ec;
-  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-  for (fs::path start : {ec ? fs::path() : exe.parent_path(), fs::absolute(base)})
+  for (fs::path start : {fs::absolute(bin_dir()), fs::absolute(base)})
     for (fs::path d = start; !d.empty() && d != d.root_path(); d = d.parent_path())
       if (fs::exists(d / "deploy/scenarios" / (s + ".yaml")))
         return (d / "deploy/scenarios" / (s + ".yaml")).string();
   return s;
 }
-
-}  // namespace
 
 const char* to_string(Restart r) {
   switch (r) {

@@ -36,13 +36,6 @@ void on_signal(int sig) {
   g_signal.store(sig);
 }
 
-fs::path exe_dir() {
-  if (const char* e = std::getenv("POISE_BIN_DIR"); e && *e) return e;
-  std::error_code ec;
-  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-  return ec ? fs::path(".") : exe.parent_path();
-}
-
 std::set<std::string> local_addresses() {
   std::set<std::string> out;
   ifaddrs* list = nullptr;
@@ -150,7 +143,7 @@ int launch_main(int argc, char** argv) {
       for (const Component* c : comps) {
         const fs::path cfg =
             fs::path("results") / (d.name + "." + h.name + ".logs") / "dds" / (c->dds + ".xml");
-        std::printf("  %-11s %s\n", c->name.c_str(), join(command_line(d, *c, exe_dir(), cfg)).c_str());
+        std::printf("  %-11s %s\n", c->name.c_str(), join(command_line(d, *c, bin_dir(), cfg)).c_str());
         std::printf("              restart %s (at most %d)%s%s%s%s\n", to_string(c->restart),
                     c->max_restarts, c->cpus.empty() ? "" : ", CPUs ",
                     cpus_text(c->cpus).c_str(),
@@ -228,7 +221,7 @@ int launch_main(int argc, char** argv) {
   for (const Component* c : d.components_on(host->name)) {
     Running r;
     r.component = c;
-    r.argv = command_line(d, *c, exe_dir(), fs::absolute(logs / "dds" / (c->dds + ".xml")));
+    r.argv = command_line(d, *c, bin_dir(), fs::absolute(logs / "dds" / (c->dds + ".xml")));
     if (is_node(*c))
       r.argv.insert(r.argv.end(),
                     {"--summary", (logs / (c->name + ".summary.json")).string()});

@@ -17,6 +17,7 @@
 #include "child.hpp"
 #include "poise/dds/domain_claim.hpp"
 #include "poise/dds/vendor.hpp"
+#include "poise/launch/deployment.hpp"
 #include "poise/launch/launch.hpp"
 #include "poise/sim/scenario.hpp"
 
@@ -35,13 +36,6 @@ extern "C" void on_interrupt(int) {
 std::string vendor_name(const std::string& v) {
   const std::string n = v == "cyclonedds" ? "cyclone" : v == "fastrtps" ? "fastdds" : v;
   return std::string(dds::to_string(dds::parse_vendor(n)));
-}
-
-fs::path bin_dir() {
-  if (const char* e = std::getenv("POISE_BIN_DIR"); e && *e) return e;
-  std::error_code ec;
-  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-  return ec ? fs::path(".") : exe.parent_path();
 }
 
 Json read_json(const fs::path& path) {
@@ -179,13 +173,7 @@ int run_distributed(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   try {
-    if (!fs::exists(s.scenario)) {  // a name: deploy/scenarios/<name>.yaml of this tree
-      for (fs::path d = bin_dir(); !d.empty() && d != d.root_path(); d = d.parent_path())
-        if (fs::exists(d / "deploy/scenarios" / (s.scenario + ".yaml"))) {
-          s.scenario = (d / "deploy/scenarios" / (s.scenario + ".yaml")).string();
-          break;
-        }
-    }
+    s.scenario = resolve_scenario(s.scenario);  // a file, or a name in deploy/scenarios/
     const sim::Scenario scenario = sim::load_scenario(s.scenario);
     const double duration = s.duration > 0 ? s.duration : scenario.duration;
     if (s.method.empty())

@@ -71,6 +71,15 @@ struct Deployment {
   std::vector<const Component*> components_on(const std::string& host) const;
 };
 
+/// The directory of Poise's executables: $POISE_BIN_DIR, else this executable's directory.
+std::filesystem::path bin_dir();
+
+/// A scenario file as given (relative to the working directory, else to `base`), or a name in
+/// deploy/scenarios/ of this tree, searched upwards from bin_dir() and from `base`. Returns the
+/// argument unchanged when nothing matches (the loader then names the missing file).
+std::string resolve_scenario(const std::string& file_or_name,
+                             const std::filesystem::path& base = ".");
+
 /// Reads and validates a deployment file. Relative paths (scenario, robot, outputs) are taken
 /// relative to the working directory if they exist there, else to the file's directory.
 Deployment load_deployment(const std::filesystem::path& file);
