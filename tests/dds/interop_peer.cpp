@@ -14,6 +14,7 @@
 #include <poise/msg/contact_solution.h>
 #include <poise/msg/diagnostics.h>
 #include <poise/msg/disturbance.h>
+#include <poise/msg/estop.h>
 #include <poise/msg/ground_truth.h>
 #include <poise/msg/joint_command.h>
 #include <poise/msg/robot_description.h>
@@ -40,7 +41,7 @@ using namespace poise::msg;
 using namespace std::chrono_literals;
 using AllTypes =
     std::tuple<RobotDescription, Sensors, GroundTruth, State, BalanceReference, ContactProblem,
-               ContactSolution, JointCommand, Disturbance, Diagnostics>;
+               ContactSolution, JointCommand, Disturbance, EStop, Diagnostics>;
 
 template <class F>
 void for_each_type(F&& f) {

@@ -20,6 +20,7 @@
 #include <poise/msg/contact_solution.h>
 #include <poise/msg/diagnostics.h>
 #include <poise/msg/disturbance.h>
+#include <poise/msg/estop.h>
 #include <poise/msg/ground_truth.h>
 #include <poise/msg/joint_command.h>
 #include <poise/msg/robot_description.h>
@@ -45,7 +46,7 @@ namespace {
 using AllTypes =
     std::tuple<poise::msg::RobotDescription, poise::msg::Sensors, poise::msg::GroundTruth,
                poise::msg::State, poise::msg::BalanceReference, poise::msg::ContactProblem,
-               poise::msg::ContactSolution, poise::msg::JointCommand, poise::msg::Disturbance,
+               poise::msg::ContactSolution, poise::msg::JointCommand, poise::msg::Disturbance, poise::msg::EStop,
                poise::msg::Diagnostics>;
 
 template <class F>

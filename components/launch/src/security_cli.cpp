@@ -33,13 +33,13 @@ const std::vector<std::string> kAllTopics{
     "poise/robot_description", "poise/sensors",          "poise/ground_truth",
     "poise/state",             "poise/balance_reference", "poise/contact_problem",
     "poise/contact_solution",  "poise/joint_command",    "poise/disturbance",
-    "poise/diagnostics"};
+    "poise/estop",             "poise/diagnostics"};
 
 std::map<std::string, Grant> grants() {
   return {
       {"sim",
        {{"poise/robot_description", "poise/sensors", "poise/ground_truth", "poise/diagnostics"},
-        {"poise/joint_command", "poise/disturbance"}}},
+        {"poise/joint_command", "poise/disturbance", "poise/estop"}}},
       {"estimator",
        {{"poise/state", "poise/diagnostics"},
         {"poise/robot_description", "poise/sensors", "poise/ground_truth"}}},
@@ -51,7 +51,7 @@ std::map<std::string, Grant> grants() {
        {{"poise/contact_solution", "poise/diagnostics"},
         {"poise/robot_description", "poise/contact_problem"}}},
       {"recorder", {{}, kAllTopics}},
-      {"operator", {{"poise/disturbance", "poise/balance_reference"}, kAllTopics}},
+      {"operator", {{"poise/disturbance", "poise/balance_reference", "poise/estop"}, kAllTopics}},
   };
 }
 
