@@ -17,13 +17,19 @@
 //               step and the next sensors are done in the command callback on the DDS listener
 //               thread (no wake-up of the main thread per tick); the main thread publishes the
 //               diagnostics and handles the start-up repeats and the timeouts.
-//   --realtime  1 kHz on the wall clock with the newest command; the watchdog switches to damping
-//               when no fresh command came for --watchdog-ms (default 5) and resumes when they
-//               come back (both transitions logged).
+//   --realtime  1 kHz on the wall clock with the newest command.
+//   safety      every command goes through the robot-side safety layer (components/safety), as
+//               on a hardware driver: validated (joint_count, finite, gains, limits, tick age),
+//               watchdog (no accepted command for --watchdog-ms, default 5: HOLD the last
+//               targets with the robot's PD gains for --hold-s, then DAMP; a fresh command
+//               resumes), e-stop (poise/estop: damping until released). Modes are logged and
+//               reported in the diagnostics (HOLD: DEGRADED, DAMP/ESTOP: FAULT). In lockstep a
+//               command timeout holds the same way.
 //   start-up    waits for --wait-readers sensors readers (and --wait-truth-readers ground-truth
 //               readers) and for --start-file to exist (a launcher's go signal); real time publishes the frame k0 and waits for its acknowledgment by
 //               every matched reader before the wall clock starts.
-//               --settle-ticks (10) steps with the joints held by PD before tick k0 is published:
+//               --settle-ticks (10) steps with the joints held by the safety layer's start-up
+//               hold (the robot's PD gains, bounded by each joint's inertia) before tick k0:
 //               the frame right after construction has no contact forces yet, and the
 //               estimator would report "no contact" (flight) to the controller.
 //   measures    tick latency: sensors k published -> command k received (this process's clock);
@@ -38,6 +44,7 @@
 #include <cstdio>
 #include <exception>
 #include <filesystem>
+#include <memory>
 #include <mutex>
 #include <thread>
 #include <nlohmann/json.hpp>
@@ -47,7 +54,8 @@
 #include "poise/node/shutdown.hpp"
 #include "poise/sim/scenario.hpp"
 #include "poise/sim/simulator.hpp"
-#include "poise/sim/watchdog.hpp"
+#include "poise/safety/safety_layer.hpp"
+#include "poise/model/robot_config.hpp"
 #include "poise/sim_node/sim_messages.hpp"
 
 namespace {
@@ -62,6 +70,7 @@ struct Settings {
   int startup_timeout_ms = 30000;
   int max_consecutive_timeouts = 3;
   double watchdog_ms = 5.0;
+  double hold_s = 5.0;  ///< safety layer: HOLD this long, then DAMP
   bool progress = false;
   int settle_ticks = 10;
   int wait_readers = 1;        ///< poise/sensors readers to wait for before tick k0
@@ -77,8 +86,9 @@ struct Figures {
   node::LatencyHistogram loop_wait;
   node::LatencyHistogram publish;  ///< publishing sensors + ground truth of one tick  ///< sensors
                                    ///< k published -> the loop holds command k
-  std::uint64_t ticks = 0, command_timeouts = 0, rejected_commands = 0, damping_ticks = 0;
-  std::uint64_t watchdog_stale_events = 0, overruns = 0, pushes = 0, refused_pushes = 0,
+  std::uint64_t ticks = 0, command_timeouts = 0, rejected_commands = 0, damping_ticks = 0,
+                hold_ticks = 0, estop_ticks = 0;
+  std::uint64_t overruns = 0, pushes = 0, refused_pushes = 0,
                 total_other_contacts = 0;
   double wall_s = 0.0;
   bool aborted = false;
@@ -96,9 +106,9 @@ class SimNode {
         slip_(sim_platforms()),
         sensors_(sim_.make_sensor_frame()),
         truth_(sim_.make_ground_truth()),
-        command_(sim_.make_command()),
-        damping_(sim_.make_command()),
+        safety_(make_safety_config(scenario_, sim_, settings)),
         disturbances_(node.participant()),
+        estops_(node.participant()),
         description_pub_(node.participant()),
         sensors_pub_(node.participant()),
         truth_pub_(node.participant()),
@@ -107,13 +117,14 @@ class SimNode {
     node.watch(commands_in_);
     node.expect_one_writer(commands_in_);
     node.watch(disturbances_);
-    sim::make_damping_command(sim_.damping_kd(), damping_);
-    command_ = damping_;
+    node.watch(estops_);
+    applied_ = sim_.make_command();
+    applied_.mode = sim::CommandMode::kPd;
     const msg::RobotDescription description =
         sim_node::make_robot_description(scenario_, sim_, feet_);
     urdf_link_of_body_ = sim_node::urdf_link_index_of_bodies(description.urdf(), sim_.body_names());
     description_pub_.publish(description);
-    sim_node::settle(sim_, settings_.settle_ticks, sensors_, truth_);
+    settle();
     monitor_.update(truth_);
     slip_.update(truth_);
     dds::log(dds::LogLevel::info, "initial base height %.3f m, CoM (%.3f, %.3f, %.3f) m",
@@ -191,7 +202,22 @@ class SimNode {
     j["command_timeouts"] = figures_.command_timeouts;
     j["rejected_commands"] = figures_.rejected_commands;
     j["damping_ticks"] = figures_.damping_ticks;
-    j["watchdog_stale_events"] = figures_.watchdog_stale_events;
+    const safety::Counters& sc = safety_.counters();
+    j["watchdog_stale_events"] = sc.hold_events;
+    j["hold_ticks"] = figures_.hold_ticks;
+    j["estop_ticks"] = figures_.estop_ticks;
+    j["safety"] = {{"mode", safety::to_string(safety_.mode())},
+                   {"accepted", sc.accepted},
+                   {"rejected", sc.rejected},
+                   {"rejected_size", sc.rejected_size},
+                   {"rejected_non_finite", sc.rejected_non_finite},
+                   {"rejected_gain", sc.rejected_gain},
+                   {"rejected_range", sc.rejected_range},
+                   {"rejected_tick", sc.rejected_tick},
+                   {"ignored_during_estop", sc.ignored_estop},
+                   {"hold_events", sc.hold_events},
+                   {"damp_events", sc.damp_events},
+                   {"estop_events", sc.estop_events}};
     j["overruns"] = figures_.overruns;
     j["pushes_received"] = figures_.pushes;
     j["pushes_refused"] = figures_.refused_pushes;
@@ -202,6 +228,101 @@ class SimNode {
   }
 
  private:
+  /// The safety layer of this robot: gains from the scenario's robot configuration (or the
+  /// URDF alone), bounded by each joint's inertia.
+  static safety::Config make_safety_config(const sim::Scenario& scenario, const sim::Simulator& sim,
+                                           const Settings& settings) {
+    std::unique_ptr<model::RobotConfig> robot;
+    model::Model model;
+    if (!scenario.robot_config.empty()) {
+      robot = std::make_unique<model::RobotConfig>(model::load_robot_config(scenario.robot_config));
+      model = model::load_robot_model(*robot);
+    } else {
+      model = model::build_model_from_urdf_file(scenario.sim.robot.urdf_path);
+    }
+    safety::Config c =
+        safety::make_config(model, robot.get(), sim.joint_names(), sim.dt(), sim.damping_kd());
+    c.watchdog_s = settings.watchdog_ms * 1e-3;
+    c.hold_s = settings.hold_s;
+    return c;
+  }
+
+  /// Safety layer command -> simulator command (kPd: the same law).
+  void apply_safety(const safety::Command& c) noexcept {
+    applied_.tick = c.tick;
+    applied_.tau_ff = c.tau_ff;
+    applied_.q_ref = c.q_ref;
+    applied_.qd_ref = c.qd_ref;
+    applied_.kp = c.kp;
+    applied_.kd = c.kd;
+  }
+
+  /// Start-up: the safety layer holds the initial posture for --settle-ticks steps, so that the
+  /// first frame the components see measures the feet loaded.
+  void settle() {
+    sim_.read(sensors_, truth_);
+    safety_.start(sensors_.q, node::now_ns());
+    for (int i = 0; i < settings_.settle_ticks; ++i) {
+      apply_safety(safety_.update(node::now_ns(), sensors_.q));
+      sim_.step(applied_, sensors_, truth_);
+    }
+    safety_.start(sensors_.q, node::now_ns());  // hold where it settled until the first command
+  }
+
+  /// E-stops, then the safety layer's command for this tick; mode changes logged and reported.
+  const safety::Command& safety_command() noexcept {
+    while (estops_.take(estop_msg_)) {
+      safety_.on_estop(estop_msg_.engaged(), estop_msg_.reason().c_str(), sensors_.q,
+                       node::now_ns());
+      note_safety_mode();
+    }
+    const safety::Command& c = safety_.update(node::now_ns(), sensors_.q);
+    note_safety_mode();
+    switch (safety_.mode()) {
+      case safety::Mode::kHold: ++figures_.hold_ticks; break;
+      case safety::Mode::kDamp: ++figures_.damping_ticks; break;
+      case safety::Mode::kEStop:
+        ++figures_.damping_ticks;
+        ++figures_.estop_ticks;
+        break;
+      default: break;
+    }
+    return c;
+  }
+
+  /// Logs a mode change (at most one line per 100 ms, with the count in between) and sets the
+  /// node's health condition.
+  void note_safety_mode() noexcept {
+    const safety::Mode mode = safety_.mode();
+    if (mode == noted_mode_) return;
+    noted_mode_ = mode;
+    ++mode_transitions_;
+    switch (mode) {
+      case safety::Mode::kHold:
+        node_.set_condition(msg::HEALTH_DEGRADED, "safety layer HOLD: no fresh joint command");
+        break;
+      case safety::Mode::kDamp:
+        node_.set_condition(msg::HEALTH_FAULT, "safety layer DAMP: no joint command for --hold-s");
+        break;
+      case safety::Mode::kEStop:
+        node_.set_condition(msg::HEALTH_FAULT, "safety layer ESTOP: e-stop engaged (poise/estop)");
+        break;
+      default:
+        node_.set_condition(msg::HEALTH_OK, nullptr);
+        break;
+    }
+    const std::int64_t now = node::now_ns();
+    if (now - last_mode_log_ns_ < 100'000'000) return;
+    last_mode_log_ns_ = now;
+    dds::log(mode == safety::Mode::kActive ? dds::LogLevel::info : dds::LogLevel::warn,
+             "safety: %s at t=%.3f s (%s; %llu transitions since the last line)",
+             safety::to_string(mode), sensors_.time,
+             mode == safety::Mode::kActive ? "joint commands fresh: control resumed"
+                                           : safety_.last_error(),
+             static_cast<unsigned long long>(mode_transitions_));
+    mode_transitions_ = 0;
+  }
+
   std::vector<int> sim_platforms() const {
     // platforms_of_feet() is indexed like the scenario's feet, which is the simulator's order.
     return sim::platforms_of_feet(scenario_);
@@ -295,17 +416,22 @@ class SimNode {
     }
   }
 
-  /// Takes the newest command if it is new; converts it. Returns true for a new, valid command.
+  /// Takes the newest command if it is new. Returns true for a new command (not yet checked).
   bool take_command(std::int64_t* arrival_ns) noexcept {
-    if (!command_box_.take(command_msg_, command_seen_, arrival_ns)) return false;
-    if (!sim_node::from_msg(command_msg_, command_)) {
-      ++figures_.rejected_commands;
-      node_.error("command of tick %llu has joint_count %u, the robot has %d joints: ignored",
-                  static_cast<unsigned long long>(command_msg_.header().tick()),
-                  command_msg_.joint_count(), sim_.num_joints());
-      return false;
+    return command_box_.take(command_msg_, command_seen_, arrival_ns);
+  }
+
+  /// The safety layer's verdict on the command just taken (robot at tick `robot_tick`).
+  bool accept_command(std::int64_t robot_tick, std::int64_t arrival_ns) noexcept {
+    if (safety_.on_command(command_msg_, robot_tick, arrival_ns)) {
+      note_safety_mode();
+      return true;
     }
-    return true;
+    if (safety_.mode() != safety::Mode::kEStop) {
+      ++figures_.rejected_commands;
+      node_.error("%s", safety_.last_error());
+    }
+    return false;
   }
 
   // Lockstep: the command of tick k is taken, the simulator stepped and sensors k+1 published in
@@ -333,7 +459,10 @@ class SimNode {
   void take_lockstep_commands() noexcept {
     std::int64_t arrival = 0;
     while (lockstep_.active && take_command(&arrival))
-      if (command_.tick == static_cast<std::int64_t>(lockstep_.k)) finish_tick(true, arrival);
+      if (command_msg_.header().tick() == lockstep_.k) {
+        accept_command(static_cast<std::int64_t>(lockstep_.k), arrival);
+        finish_tick(true, arrival);  // a rejected command: the safety layer holds
+      }
   }
 
   /// Publishes sensors k (the current tick) and waits for its command.
@@ -356,7 +485,6 @@ class SimNode {
     Lockstep& ls = lockstep_;
     ls.active = false;
     if (ls.i == 0) ls.wall0 = node::now_ns();
-    const sim::JointCommand* apply = &command_;
     if (got) {
       ls.consecutive = 0;
       const std::int64_t published = publish_ns_[ls.k % publish_ns_.size()];
@@ -364,12 +492,11 @@ class SimNode {
       figures_.loop_wait.add(static_cast<double>(node::now_ns() - published) * 1e-3);
     } else {
       ++figures_.command_timeouts;
-      ++figures_.damping_ticks;
       node_.deadline_miss();
-      node_.error("tick %llu: no joint command within %d ms: damping",
+      node_.error("tick %llu: no joint command within %d ms: safety layer %s",
                   static_cast<unsigned long long>(ls.k),
-                  ls.i == 0 ? settings_.startup_timeout_ms : settings_.command_timeout_ms);
-      apply = &damping_;
+                  ls.i == 0 ? settings_.startup_timeout_ms : settings_.command_timeout_ms,
+                  safety::to_string(safety_.mode()));
       if (++ls.consecutive >= settings_.max_consecutive_timeouts) {
         node_.error("%d ticks in a row without a command: giving up", ls.consecutive);
         figures_.aborted = true;
@@ -377,7 +504,8 @@ class SimNode {
         return;
       }
     }
-    step(*apply);
+    apply_safety(safety_command());
+    step(applied_);
     if (++ls.i >= ls.steps || !node_.running()) {
       observe();
       end_lockstep();
@@ -434,51 +562,21 @@ class SimNode {
   }
 
   bool run_realtime(std::int64_t steps) {
-    sim::CommandWatchdog watchdog(static_cast<std::int64_t>(settings_.watchdog_ms * 1e6));
     node::TickTimer timer(static_cast<std::int64_t>(sim_.dt() * 1e9));
     timer.start();
     const std::int64_t wall0 = node::now_ns();
-    auto last_state = watchdog.state();
-    auto logged_state = last_state;
-    std::int64_t last_log_ns = 0;
-    std::uint64_t transitions = 0;
     for (std::int64_t i = 0; i < steps && node_.running(); ++i) {
       std::int64_t arrival = 0;
       while (take_command(&arrival)) {  // newest command, if one came
-        watchdog.on_command(arrival);
-        const auto kc = static_cast<std::uint64_t>(command_.tick);
+        if (!accept_command(sensors_.tick, arrival)) continue;
+        const auto kc = static_cast<std::uint64_t>(command_msg_.header().tick());
         if (kc <= static_cast<std::uint64_t>(sensors_.tick) &&
             static_cast<std::uint64_t>(sensors_.tick) - kc < publish_ns_.size())
           figures_.latency.add(static_cast<double>(arrival - publish_ns_[kc % publish_ns_.size()]) *
                                1e-3);
       }
-      const std::int64_t now = node::now_ns();
-      const auto state = watchdog.update(now);
-      if (state != last_state) {
-        if (state == sim::CommandWatchdog::State::kStale) ++figures_.watchdog_stale_events;
-        ++transitions;
-        last_state = state;
-      }
-      // Transitions are logged at most every 100 ms (the newest state, with the count of the
-      // transitions in between), so that flapping cannot flood the log.
-      if (state != logged_state && now - last_log_ns >= 100'000'000) {
-        if (state == sim::CommandWatchdog::State::kActive)
-          dds::log(dds::LogLevel::info,
-                   "watchdog: joint commands fresh again at t=%.3f s: control RESUMED "
-                   "(%llu transitions since the last line)",
-                   sensors_.time, static_cast<unsigned long long>(transitions));
-        else
-          dds::log(dds::LogLevel::warn,
-                   "watchdog: no fresh joint command for %.1f ms at t=%.3f s: DAMPING mode "
-                   "(%llu transitions since the last line)",
-                   settings_.watchdog_ms, sensors_.time,
-                   static_cast<unsigned long long>(transitions));
-        logged_state = state;
-        last_log_ns = now;
-        transitions = 0;
-      }
-      if (watchdog.damping()) ++figures_.damping_ticks;
-      step_and_observe(sim::select_command(watchdog, command_, damping_));
+      apply_safety(safety_command());
+      step_and_observe(applied_);
       publish_tick();
       node_.poll();
       timer.wait_next();
@@ -499,7 +597,11 @@ class SimNode {
   std::vector<std::int32_t> urdf_link_of_body_;  ///< GroundTruth.other_contact_links numbering
   sim::SensorFrame sensors_;
   sim::GroundTruth truth_;
-  sim::JointCommand command_, damping_;
+  sim::JointCommand applied_;
+  safety::SafetyLayer safety_;
+  safety::Mode noted_mode_ = safety::Mode::kStartup;
+  std::uint64_t mode_transitions_ = 0;
+  std::int64_t last_mode_log_ns_ = 0;
   sim::Push push_;
   node::Mailbox<msg::JointCommand> command_box_;
   std::uint64_t command_seen_ = 0;
@@ -507,6 +609,7 @@ class SimNode {
   std::condition_variable lockstep_wake_;  ///< the lockstep run ended
   Lockstep lockstep_;
   dds::Subscriber<msg::Disturbance> disturbances_;
+  dds::Subscriber<msg::EStop> estops_;
   dds::Publisher<msg::RobotDescription> description_pub_;
   dds::Publisher<msg::Sensors> sensors_pub_;
   dds::Publisher<msg::GroundTruth> truth_pub_;
@@ -514,6 +617,7 @@ class SimNode {
   msg::GroundTruth truth_msg_;
   msg::JointCommand command_msg_;
   msg::Disturbance disturbance_;
+  msg::EStop estop_msg_;
   std::vector<std::int64_t> publish_ns_;  ///< publication time of sensors k, ring by k
   Figures figures_;
   // Last: its callback uses the members above, and it goes first.
@@ -544,8 +648,13 @@ int run(int argc, char** argv) {
                  "lockstep: give up after this many ticks in a row without a command")
       ->capture_default_str();
   app.add_option("--watchdog-ms", s.watchdog_ms,
-                 "real time: damping after this long without a fresh command")
-      ->capture_default_str();
+                 "safety layer: HOLD after this long without an accepted command")
+      ->capture_default_str()
+      ->check(CLI::Range(0.1, 60000.0));
+  app.add_option("--hold-s", s.hold_s,
+                 "safety layer: hold the last joint targets this long, then damp")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 3600.0));
   app.add_flag("--progress", s.progress, "print a progress line every simulated second");
   app.add_option("--wait-readers", s.wait_readers,
                  "start-up: poise/sensors readers to wait for (at most --startup-timeout-ms) "
