@@ -422,9 +422,9 @@ std::vector<std::string> command_line(const Deployment& d, const Component& c,
   } else {
     sim::Scenario s;
     if (!d.scenario.empty()) s = sim::load_scenario(d.scenario);
-    std::string robot = d.robot;
-    if (robot.empty() && !s.robot_config.empty()) robot = s.robot_config.string();
-    if (!robot.empty()) a.insert(a.end(), {"--robot", robot});
+    // The nodes take the robot from poise/robot_description; `robot:` of the file is an explicit
+    // override, which each node checks against the description (and refuses on a difference).
+    if (!d.robot.empty()) a.insert(a.end(), {"--robot", d.robot});
     if (c.kind == "estimator" && !s.estimator.supports.empty())
       a.insert(a.end(), {"--supports", s.estimator.supports});
     if (c.kind == "contact" && !s.contact_method.empty())

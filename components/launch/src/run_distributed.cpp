@@ -211,7 +211,6 @@ int run_distributed(int argc, char** argv) {
         s.contact_deadline_us > 0 ? s.contact_deadline_us : (s.realtime ? 400.0 : 1e6);
     const double timeout_s =
         s.timeout_s > 0 ? s.timeout_s : (s.realtime ? 60.0 + duration : 60.0 + 30.0 * duration);
-    const std::string robot = scenario.robot_config.empty() ? "" : scenario.robot_config.string();
     const fs::path bin = bin_dir();
 
     auto common = [&](const std::string& name) {
@@ -222,10 +221,6 @@ int run_distributed(int argc, char** argv) {
                                  std::to_string(domain),
                                  "--summary",
                                  (logs / (name + ".summary.json")).string()};
-      if (!robot.empty() && name != "sim") {
-        a.push_back("--robot");
-        a.push_back(robot);
-      }
       if (!s.security.empty()) a.insert(a.end(), {"--security", s.security});
       return a;
     };

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <map>
 #include <set>
 #include <sstream>
@@ -57,32 +58,19 @@ class Reader {
 
 }  // namespace
 
-RobotConfig load_robot_config(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec))
-    throw ModelError("robot config not found: '" + path.string() + "'");
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path.string());
-  } catch (const YAML::Exception& e) {
-    throw ModelError("robot config '" + path.string() + "': bad YAML: " + e.what());
-  }
-  const Reader r(path.string());
-  RobotConfig cfg;
-  cfg.config_path = std::filesystem::absolute(path);
-  cfg.name = r.text(r.child(root, "", "name"), "name");
-  const std::filesystem::path urdf = r.text(r.child(root, "", "urdf"), "urdf");
-  cfg.urdf_path = urdf.is_absolute() ? urdf : cfg.config_path.parent_path() / urdf;
-  const Model model = build_model_from_urdf_file(cfg.urdf_path);
+namespace {
 
+// Everything of robot.yaml but `name` and `urdf`, checked against `model`; `urdf_origin` names
+// the model's source in messages.
+void read_config_body(const YAML::Node& root, const Reader& r, const Model& model,
+                      const std::string& urdf_origin, RobotConfig& cfg) {
   auto frame = [&](const std::string& name, const std::string& key) {
-    if (!model.has_frame(name))
-      r.fail(key, "'" + name + "' is not a link of " + cfg.urdf_path.string());
+    if (!model.has_frame(name)) r.fail(key, "'" + name + "' is not a link of " + urdf_origin);
     return model.frame_id(name);
   };
   auto joint = [&](const std::string& name, const std::string& key) {
     if (!model.has_joint(name))
-      r.fail(key, "'" + name + "' is not a (non-fixed) joint of " + cfg.urdf_path.string());
+      r.fail(key, "'" + name + "' is not a (non-fixed) joint of " + urdf_origin);
     return model.joint_index(name);
   };
 
@@ -241,10 +229,64 @@ RobotConfig load_robot_config(const std::filesystem::path& path) {
       r.fail("pd_gains", "no gains for joint '" + model.joint_names[j] + "' and no default");
     cfg.gains[j] = def;
   }
+}
+
+std::string read_text_file(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) throw ModelError("cannot read URDF file '" + path.string() + "'");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+}  // namespace
+
+RobotConfig load_robot_config(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec))
+    throw ModelError("robot config not found: '" + path.string() + "'");
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path.string());
+  } catch (const YAML::Exception& e) {
+    throw ModelError("robot config '" + path.string() + "': bad YAML: " + e.what());
+  }
+  const Reader r(path.string());
+  RobotConfig cfg;
+  cfg.config_path = std::filesystem::absolute(path);
+  cfg.name = r.text(r.child(root, "", "name"), "name");
+  const std::filesystem::path urdf = r.text(r.child(root, "", "urdf"), "urdf");
+  cfg.urdf_path = urdf.is_absolute() ? urdf : cfg.config_path.parent_path() / urdf;
+  const Model model = build_model_from_urdf_file(cfg.urdf_path);
+  cfg.urdf_xml = read_text_file(cfg.urdf_path);
+  read_config_body(root, r, model, cfg.urdf_path.string(), cfg);
+  return cfg;
+}
+
+RobotConfig parse_robot_config(const std::string& yaml_text, const std::string& urdf_text,
+                               const std::string& origin) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    throw ModelError("robot config " + origin + ": bad YAML: " + e.what());
+  }
+  if (!root.IsMap()) throw ModelError("robot config " + origin + ": expected a mapping");
+  const Reader r(origin);
+  RobotConfig cfg;
+  cfg.name = r.text(r.child(root, "", "name"), "name");
+  const std::string urdf_origin = "the URDF of " + origin;
+  const Model model = build_model_from_urdf_string(urdf_text, urdf_origin);
+  cfg.urdf_xml = urdf_text;
+  read_config_body(root, r, model, urdf_origin, cfg);
   return cfg;
 }
 
 Model load_robot_model(const RobotConfig& config) {
+  if (!config.urdf_xml.empty())
+    return build_model_from_urdf_string(
+        config.urdf_xml,
+        config.urdf_path.empty() ? "of robot '" + config.name + "'" : "'" + config.urdf_path.string() + "'");
   return build_model_from_urdf_file(config.urdf_path);
 }
 

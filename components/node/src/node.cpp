@@ -31,11 +31,13 @@ std::string default_robot_config() {
 
 void add_node_options(CLI::App& app, NodeOptions& options, const std::string& kind) {
   options.name = kind;
-  if (options.robot.empty()) options.robot = default_robot_config();
   app.add_option("--name", options.name, "node name in logs and diagnostics")
       ->capture_default_str();
-  app.add_option("--robot", options.robot, "robot configuration YAML")
-      ->capture_default_str()
+  app.add_option("--robot", options.robot,
+                 "robot configuration YAML (its URDF beside it). Default: none, the robot comes "
+                 "from poise/robot_description (configuration + URDF). Given, it must be that "
+                 "robot (the node refuses to run and names what differs); needed only for a "
+                 "driver whose description carries no robot configuration")
       ->check(CLI::ExistingFile);
   app.add_option("--summary", options.summary,
                  "write a JSON summary (last diagnostics and node figures) to this file at exit");

@@ -50,9 +50,6 @@ int play(int argc, char** argv) {
   const Trajectory traj = load_trajectory(path);
   const int lead = lead_ticks > 0 ? lead_ticks : traj.lead_ticks;
   if (lead >= kWriterHistory) throw std::runtime_error("--lead-ticks must be < 512");
-  const model::RobotConfig robot = model::load_robot_config(options.robot);
-  const model::Model model = model::load_robot_model(robot);
-
   node::Node node(options);
   std::printf(
       "poise reference: %s, %.3f..%.3f s, lead %d ticks, domain %d: waiting for the robot\n",
@@ -60,6 +57,9 @@ int play(int argc, char** argv) {
   std::fflush(stdout);
   const msg::RobotDescription description =
       node::wait_for_robot_description(node, std::chrono::milliseconds(description_timeout_ms));
+  const node::RobotFromDescription resolved = node::resolve_robot(node, description, options.robot);
+  const model::RobotConfig& robot = resolved.config;
+  const model::Model& model = resolved.model;
   const std::vector<int> model_to_wire =
       node::model_to_wire_map(description.joint_names(), model.joint_names);
   const double period =

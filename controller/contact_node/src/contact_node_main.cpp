@@ -26,6 +26,7 @@
 
 #include "poise/contact_node/contact_messages.hpp"
 #include "poise/node/node.hpp"
+#include "poise/node/robot_description.hpp"
 
 namespace {
 
@@ -51,6 +52,9 @@ int run(int argc, char** argv) {
 
   const contact::Method method = *contact::parse_method(method_name);
   node::Node node(options);
+  if (!options.robot.empty())  // the optimiser needs nothing of the robot: --robot is only checked
+    node::resolve_robot(node, node::wait_for_robot_description(node, std::chrono::seconds(30)),
+                        options.robot);
   contact::ContactOptimizer optimizer(method);
   contact::ContactProblem problem;
   contact::ContactSolution solution;

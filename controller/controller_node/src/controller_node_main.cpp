@@ -82,14 +82,15 @@ int run(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   node::Node node(options);
-  const model::RobotConfig robot = model::load_robot_config(options.robot);
-  const model::Model model = model::load_robot_model(robot);
+  const msg::RobotDescription description =
+      node::wait_for_robot_description(node, std::chrono::milliseconds(description_timeout_ms));
+  const node::RobotFromDescription resolved = node::resolve_robot(node, description, options.robot);
+  const model::RobotConfig& robot = resolved.config;
+  const model::Model& model = resolved.model;
   const controller::ControllerConfig config = config_path.empty()
                                                   ? controller::ControllerConfig{}
                                                   : controller::load_controller_config(config_path);
   controller::BalanceController ctrl(model, robot, config);
-  const msg::RobotDescription description =
-      node::wait_for_robot_description(node, std::chrono::milliseconds(description_timeout_ms));
   const std::vector<int> model_to_wire =
       node::model_to_wire_map(description.joint_names(), model.joint_names);
 

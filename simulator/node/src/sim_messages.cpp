@@ -61,8 +61,23 @@ msg::RobotDescription make_robot_description(const sim::Scenario& scenario,
     margin = rc.safety_margin;
     mu = rc.friction_mu;
     mu_torsion = rc.torsional_mu;
+    // The configuration text as the scenario's robot has it: the nodes build their robot from it
+    // and the urdf field (its `urdf:` entry is ignored on the receiving side).
+    std::ifstream config(scenario.robot_config);
+    if (!config)
+      throw std::runtime_error("cannot read the robot configuration " +
+                               scenario.robot_config.string());
+    std::stringstream config_text;
+    config_text << config.rdbuf();
+    d.robot_config(config_text.str());
   } else {
-    d.robot_name(scenario.name);
+    // A robot given inline (urdf + feet): no configuration to send (nodes need --robot); the
+    // name is the URDF's robot name.
+    TiXmlDocument doc;
+    doc.Parse(d.urdf().c_str());
+    const TiXmlElement* root = doc.RootElement();
+    const char* name = root ? root->Attribute("name") : nullptr;
+    d.robot_name(name ? name : scenario.name);
   }
   for (int f = 0; f < 2; ++f) {
     const sim::FootConfig& fc = scenario.sim.robot.feet[feet[f]];

@@ -60,7 +60,7 @@ struct Deployment {
   std::string name;
   int domain = 0;
   std::string scenario;  ///< resolved path of the scenario file ("" without a simulator)
-  std::string robot;     ///< robot.yaml for the nodes ("" = the scenario's / the default)
+  std::string robot;     ///< --robot for the nodes ("" = none: the robot of the description)
   bool realtime = false;
   std::string security;  ///< DDS Security directory (poise security init), "" = none
   std::vector<Host> hosts;

@@ -37,8 +37,9 @@ struct JointGains {
 
 struct RobotConfig {
   std::string name;
-  std::filesystem::path config_path;  ///< the YAML file
-  std::filesystem::path urdf_path;    ///< absolute path of the URDF
+  std::filesystem::path config_path;  ///< the YAML file ("" when parsed from text)
+  std::filesystem::path urdf_path;    ///< absolute path of the URDF ("" when parsed from text)
+  std::string urdf_xml;               ///< the URDF text the model is built from
   std::string imu_frame;
   int imu_frame_id = -1;
   std::array<FootConfig, 2> feet;              ///< indexed by Side (kRight, kLeft)
@@ -61,7 +62,25 @@ struct RobotConfig {
 /// the CoM above the feet. Throws ModelError naming the problem.
 RobotConfig load_robot_config(const std::filesystem::path& path);
 
-/// The model of a loaded configuration.
+/// Same from text, with no file access: `yaml_text` in the robot.yaml format (its `urdf:` entry,
+/// if any, is ignored), the model built from `urdf_text`. `origin` names the source in error
+/// messages (e.g. "from poise/robot_description"). Same checks and errors as load_robot_config.
+RobotConfig parse_robot_config(const std::string& yaml_text, const std::string& urdf_text,
+                               const std::string& origin);
+
+/// The model of a loaded configuration (built from its urdf_xml; from urdf_path if that is empty).
 Model load_robot_model(const RobotConfig& config);
+
+/// What differs between two robots (configuration + model), one readable line per difference
+/// ("joint 3: 'l_knee' in A, 'l_hip_pitch' in B", "link 'pelvis' mass: 10 in A, 12 in B"),
+/// at most `max_lines` (then "... and N more"). `a` and `b` name the two sides. Compares content,
+/// not text: robot name, URDF robot name, joint names and order, per-body mass / CoM / inertia /
+/// placement / axis / limits, links, IMU frame, feet and sole geometry, contact parameters,
+/// joint groups, nominal posture, PD gains; numbers to a relative 1e-9. Paths and the URDF
+/// text itself (whitespace, comments, attribute order) are not compared. Empty: the same robot.
+std::vector<std::string> robot_differences(const RobotConfig& config_a, const Model& model_a,
+                                           const std::string& a, const RobotConfig& config_b,
+                                           const Model& model_b, const std::string& b,
+                                           std::size_t max_lines = 20);
 
 }  // namespace poise::model

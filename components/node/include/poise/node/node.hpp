@@ -47,7 +47,7 @@ namespace poise::node {
 /// Options common to every node.
 struct NodeOptions {
   std::string name;     ///< node name in logs and diagnostics (default: the node kind)
-  std::string robot;    ///< robot configuration YAML (default: the project humanoid)
+  std::string robot;    ///< --robot: robot configuration YAML; "" (default): from the description
   std::string summary;  ///< write a JSON summary (last diagnostics + node figures) at exit
   dds::DdsOptions dds = dds::dds_options_from_env();
   double diagnostics_hz = 10.0;
@@ -60,7 +60,8 @@ struct NodeOptions {
 };
 
 /// deploy/robots/poise_humanoid/robot.yaml, located like the DDS configurations (source tree
-/// of this build, or relative to the executable).
+/// of this build, or relative to the executable). Not the nodes' default any more (they take the
+/// robot from poise/robot_description): for tools and benchmarks that need the project humanoid.
 std::string default_robot_config();
 
 /// Adds --name, --robot, --summary and the DDS options (--dds, --domain, --dds-config).

@@ -1,6 +1,7 @@
 #pragma once
 // Start-up helpers around the latched "poise/robot_description" topic: every component learns
-// the robot's joint order from it (the order of every per-joint array on the 1 kHz topics).
+// the robot from it (configuration + model: resolve_robot) and its joint order (the order of
+// every per-joint array on the 1 kHz topics).
 
 #include <chrono>
 #include <string>
@@ -8,9 +9,40 @@
 
 #include <poise/msg/robot_description.h>
 
+#include "poise/model/model.hpp"
+#include "poise/model/robot_config.hpp"
 #include "poise/node/node.hpp"
 
 namespace poise::node {
+
+/// The robot a node runs with, and where it came from.
+struct RobotFromDescription {
+  model::RobotConfig config;
+  model::Model model;
+  std::string source;  ///< "poise/robot_description" or the --robot file
+};
+
+/// The robot of a description alone (no file access): its robot_config text and urdf. Throws
+/// std::runtime_error when the description carries no robot_config (an old or minimal driver:
+/// the message tells to pass --robot) or when either does not load (the loader's message).
+RobotFromDescription robot_from_description(const msg::RobotDescription& description);
+
+/// What differs between a robot and a description (one line per difference; empty = the same):
+/// with a robot_config in the description, the full comparison (model::robot_differences);
+/// always the robot name, the joint names against the description's joint list (as a set: the
+/// wire order is the robot's own, model_to_wire_map maps it), the IMU frame and the sole
+/// geometry of each foot. `label` names the robot's side (e.g. "--robot 'x.yaml'").
+std::vector<std::string> description_differences(const RobotFromDescription& robot,
+                                                 const std::string& label,
+                                                 const msg::RobotDescription& description);
+
+/// The one call every node makes once it has the description: with an empty `override_path`,
+/// the robot of the description (robot_from_description); with `--robot FILE`, that file's robot,
+/// which must be the description's: a difference throws std::runtime_error listing every
+/// difference ("the robot of --robot 'FILE' is not the robot on poise/robot_description: ...").
+/// Logs which robot the node runs with. Configuration time.
+RobotFromDescription resolve_robot(Node& node, const msg::RobotDescription& description,
+                                   const std::string& override_path);
 
 /// Waits for the robot description (reliable, transient-local). Throws std::runtime_error after
 /// `timeout` or on shutdown. Configuration time.
