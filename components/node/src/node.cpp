@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <stdexcept>
 
 #include "poise/reflect/json.hpp"
 
@@ -54,6 +55,31 @@ void add_node_options(CLI::App& app, NodeOptions& options, const std::string& ki
       ->check(CLI::Range(0, 600000))
       ->capture_default_str();
   dds::add_dds_options(app, options.dds);
+}
+
+void add_input_options(CLI::App& app, NodeOptions& options) {
+  app.add_option("--input-stale-ms", options.input_stale_ms,
+                 "report the per-tick input stale (health FAULT) after this long without a sample")
+      ->check(CLI::Range(1.0, 600000.0))
+      ->capture_default_str();
+  app.add_option("--max-tick-jump", options.ticks.max_jump,
+                 "largest forward tick step taken as the next tick; larger jumps and regressions "
+                 "are out of sequence (rejected unless they restart the stream)")
+      ->check(CLI::Range(1, 1000000000))
+      ->capture_default_str();
+  app.add_option("--restart-confirm", options.ticks.confirm,
+                 "consecutive out-of-sequence ticks that confirm a restarted input stream")
+      ->check(CLI::Range(1, 100000))
+      ->capture_default_str();
+  double silence_ms = static_cast<double>(options.ticks.restart_silence_ns) * 1e-6;
+  app.add_option_function<double>(
+         "--restart-silence-ms",
+         [&options](double ms) {
+           options.ticks.restart_silence_ns = static_cast<std::int64_t>(ms * 1e6);
+         },
+         "silence of the accepted input stream after which a new stream is followed at once")
+      ->check(CLI::Range(0.0, 600000.0))
+      ->default_str(std::to_string(static_cast<int>(silence_ms)));
 }
 
 Node::Node(const NodeOptions& options) : options_(options) {
@@ -124,26 +150,93 @@ void Node::serve(std::mutex& state_mutex) noexcept {
   }
 }
 
+int Node::expect_input(const std::string& topic, double stale_ms) {
+  if (num_inputs_ >= kMaxInputs) throw std::runtime_error("too many inputs for one node");
+  Input& in = inputs_[static_cast<std::size_t>(num_inputs_)];
+  in.topic = topic;
+  in.stale_ns = static_cast<std::int64_t>(stale_ms * 1e6);
+  return num_inputs_++;
+}
+
+void Node::input_seen(int id, std::uint64_t tick) noexcept {
+  if (id < 0 || id >= num_inputs_) return;
+  Input& in = inputs_[static_cast<std::size_t>(id)];
+  in.last_tick.store(tick, std::memory_order_relaxed);
+  in.last_ns.store(now_ns(), std::memory_order_relaxed);
+}
+
+bool Node::input_stale(int id) const noexcept {
+  return id >= 0 && id < num_inputs_ && inputs_[static_cast<std::size_t>(id)].stale;
+}
+
+void Node::set_condition(msg::NodeHealth health, const char* text) noexcept {
+  if (text == condition_) return;
+  if (text)
+    dds::log(health == msg::HEALTH_FAULT ? dds::LogLevel::error : dds::LogLevel::warn, "%s",
+             text);
+  else if (condition_)
+    dds::log(dds::LogLevel::info, "cleared: %s", condition_);
+  condition_ = text;
+  condition_health_ = text ? health : msg::HEALTH_OK;
+}
+
 void Node::publish_diagnostics() noexcept {
+  const std::int64_t now = now_ns();
+  bool any_stale = false;
+  for (int i = 0; i < num_inputs_; ++i) {
+    Input& in = inputs_[static_cast<std::size_t>(i)];
+    const std::int64_t last = in.last_ns.load(std::memory_order_relaxed);
+    const bool stale = last != 0 && now - last > in.stale_ns;
+    const auto tick = static_cast<unsigned long long>(in.last_tick.load(std::memory_order_relaxed));
+    if (stale) {
+      any_stale = true;
+      std::snprintf(last_error_, sizeof(last_error_),
+                    "no %s for %.0f ms (last tick %llu): input stale", in.topic.c_str(),
+                    static_cast<double>(now - last) * 1e-6, tick);
+      if (!in.stale) {
+        ++stale_events_;
+        ++errors_;
+        dds::log(dds::LogLevel::error, "%s: FAULT", last_error_);
+      }
+    } else if (in.stale) {
+      dds::log(dds::LogLevel::info, "%s back (tick %llu): input fresh again", in.topic.c_str(),
+               tick);
+    }
+    in.stale = stale;
+  }
   for (auto& w : single_writers_) {
     const int n = participant_->writers_of(w.topic);
     if (n > 1 && n != w.reported) {
       ++extra_writer_events_;
-      error("%s has %d writers, one expected: another process publishes this node's input "
+      error("%s has %d writers, one expected: another process publishes this node's input, "
+            "or a killed one's writer is still listed until its DDS lease expires "
             "(`poise topic list` shows the writers)",
             w.topic.c_str(), n);
     }
     w.reported = n;
   }
   std::uint64_t rejected = 0, mismatches = participant_->type_mismatches();
-  for (const auto* c : watched_)
-    rejected += c->rejected.load() + c->deserialize_errors.load();
+  for (auto& w : watched_) {
+    const std::uint64_t r = w.counters->rejected.load() + w.counters->deserialize_errors.load();
+    if (r != w.seen && !any_stale) {  // newest rejection reason (rare: allocation tolerated)
+      try {
+        const std::string why = w.last_error();
+        std::snprintf(last_error_, sizeof(last_error_), "%s", why.c_str());
+      } catch (...) {
+      }
+    }
+    w.seen = r;
+    rejected += r;
+  }
+  if (condition_ && !any_stale) std::snprintf(last_error_, sizeof(last_error_), "%s", condition_);
   const WindowStats w = compute_.window();
   diag_.header().tick(last_tick_);
-  diag_.health(
-      health_ != msg::HEALTH_OK
-          ? health_
-          : (errors_ || rejected || deadline_misses_ ? msg::HEALTH_DEGRADED : msg::HEALTH_OK));
+  msg::NodeHealth health =
+      errors_ || rejected || deadline_misses_ ? msg::HEALTH_DEGRADED : msg::HEALTH_OK;
+  health = std::max(health, health_);
+  health = std::max(health, condition_health_);
+  if (any_stale) health = msg::HEALTH_FAULT;
+  diag_.health(health);
   diag_.heartbeat(diag_.heartbeat() + 1);
   diag_.ticks(ticks_);
   diag_.compute_us_p50(w.p50);

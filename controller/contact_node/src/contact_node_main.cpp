@@ -48,6 +48,10 @@ int run(int argc, char** argv) {
   app.add_option("--method", method_name, "sequential (paper) or qp")
       ->check(CLI::IsMember({"sequential", "qp"}))
       ->capture_default_str();
+  app.add_option("--input-stale-ms", options.input_stale_ms,
+                 "report poise/contact_problem stale (health FAULT) after this long without one")
+      ->check(CLI::Range(1.0, 600000.0))
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   const contact::Method method = *contact::parse_method(method_name);
@@ -64,6 +68,7 @@ int run(int argc, char** argv) {
   Incoming in;
   msg::ContactSolution out;
   std::uint64_t bad_cdr = 0;
+  const int problem_input = node.expect_input("poise/contact_problem", options.input_stale_ms);
   // One received problem: decode, validate, solve, answer. Runs on the DDS listener thread as the
   // sample arrives (no hand-off to a loop thread), under state_mutex (diagnostics: Node::serve).
   auto handle = [&](const std::vector<std::uint8_t>& bytes) noexcept {
@@ -75,6 +80,7 @@ int run(int argc, char** argv) {
       node.error("unreadable contact problem (%s): not answered", in.why);
       return;
     }
+    node.input_seen(problem_input, in.problem.header().tick());
     const std::int64_t t_solve = node::now_ns();
     const char* bad_geometry = in.valid ? contact_node::from_msg(in.problem, problem) : nullptr;
     if (bad_geometry) {

@@ -15,6 +15,13 @@
 //               contact solution k until --contact-deadline-us after the problem was sent ->
 //               phase B (eq 33, inverse dynamics, PD references), or the library's fallback on a
 //               miss (counted as a deadline miss) -> joint command k
+//   faults      (table: idl/README.md "Fault semantics") a rejected state gets NO command:
+//               joint_count other than the robot's, a tick out of sequence (node::TickSequencer;
+//               a restarted state stream is followed: the controller resets and says so). No
+//               state for --input-stale-ms: health FAULT. No contact solution for
+//               --contact-stale-ticks ticks in a row: NO joint command is sent (the robot's
+//               safety layer holds the posture; the fallback wrenches are for isolated misses
+//               only), health FAULT, until solutions come back.
 //   repeats     a state with the tick just handled is answered with the same command again; one
 //               with the tick still waiting for its contact solution is ignored (the command
 //               follows); states that arrive before the start-up is complete are kept (the newest)
@@ -67,6 +74,13 @@ int run(int argc, char** argv) {
       "Balance controller node: state k in, contact problem k out, contact solution k "
       "in, joint command k out."};
   node::add_node_options(app, options, "controller");
+  node::add_input_options(app, options);
+  int contact_stale_ticks = 20;
+  app.add_option("--contact-stale-ticks", contact_stale_ticks,
+                 "after this many ticks in a row without a contact solution, send no joint "
+                 "command (the robot holds) until solutions come back")
+      ->check(CLI::Range(1, 1000000))
+      ->capture_default_str();
   app.add_option("--config", config_path, "controller YAML (default: the library's defaults)")
       ->check(CLI::ExistingFile);
   app.add_option("--contact-deadline-us", deadline_us,
@@ -113,6 +127,11 @@ int run(int argc, char** argv) {
   msg::JointCommand out;
   bool have_last = false;
   std::uint64_t last_tick = 0;
+  bool last_answered = false;  // command last_tick was sent
+  node::TickSequencer sequencer(options.ticks);
+  const int state_input = node.expect_input("poise/state", options.input_stale_ms);
+  int contact_misses = 0;  // ticks in a row without a contact solution
+  std::uint64_t commands_withheld = 0;
   // Posture-target velocity of a reference trajectory played per tick (see the contract above).
   const double period_s =
       description.control_period_s() > 0.0 ? description.control_period_s() : 1e-3;
@@ -154,11 +173,36 @@ int run(int argc, char** argv) {
       }
       return;  // a repeat of the pending tick (the answer follows) or an older one
     }
-    if (have_last && k == last_tick) {  // repeated state: same answer
-      node.publish(commands, out);
+    if (in.joint_count() != static_cast<std::uint32_t>(n_joints)) {
+      node.error("tick %llu: poise/state joint_count %u, the robot has %lld joints: rejected, "
+                 "no command sent",
+                 static_cast<unsigned long long>(k), in.joint_count(),
+                 static_cast<long long>(n_joints));
       return;
     }
     const std::int64_t t0 = node::now_ns();
+    switch (sequencer.accept(k, t0)) {
+      case node::TickSequencer::Verdict::kRepeat:  // repeated state: same answer
+        node.input_seen(state_input, k);
+        if (have_last && k == last_tick && last_answered) node.publish(commands, out);
+        return;
+      case node::TickSequencer::Verdict::kOutOfSequence:
+        node.error("tick %llu out of sequence (last accepted %llu): rejected, no command sent",
+                   static_cast<unsigned long long>(k),
+                   static_cast<unsigned long long>(sequencer.last()));
+        return;
+      case node::TickSequencer::Verdict::kRestart:
+        ctrl.reset();
+        have_last = false;
+        applied_has_q = false;
+        node.error("state stream restarted at tick %llu (previous %llu): controller reset",
+                   static_cast<unsigned long long>(k),
+                   static_cast<unsigned long long>(sequencer.previous()));
+        break;
+      default:
+        break;
+    }
+    node.input_seen(state_input, k);
     const auto due = reference_queue.take_due(k, have_last, last_tick, ref_in,
                                               previous_wire_q.data(), previous_wire_q.size());
     if (due.late > 0)
@@ -203,17 +247,33 @@ int run(int argc, char** argv) {
   };
   complete = [&](const msg::ContactSolution* answer) noexcept {
     const std::int64_t t_back = node::now_ns();
+    bool send = true;
     if (answer) {
+      contact_misses = 0;
+      node.set_condition(msg::HEALTH_OK, nullptr);
       contact_node::from_msg(*answer, solution);
       ctrl.finish(solution, command);
     } else {
       node.deadline_miss();
-      node.error("tick %llu: no contact solution within %.0f us: fallback wrenches",
-                 static_cast<unsigned long long>(pending.k), deadline_us);
-      ctrl.finish_fallback(command);
+      if (++contact_misses >= contact_stale_ticks) {
+        // The optimiser is gone: fallback wrenches do not balance a humanoid for long; the
+        // robot's safety layer holds the posture better, and resumes with the next command.
+        send = false;
+        ++commands_withheld;
+        node.set_condition(msg::HEALTH_FAULT,
+                           "contact optimiser silent (no poise/contact_solution for "
+                           "--contact-stale-ticks ticks): no joint command sent, the robot holds");
+      } else {
+        node.error("tick %llu: no contact solution within %.0f us: fallback wrenches",
+                   static_cast<unsigned long long>(pending.k), deadline_us);
+        ctrl.finish_fallback(command);
+      }
     }
-    controller_node::to_msg(command, pending.header, model_to_wire, out);
-    node.publish(commands, out);
+    if (send) {
+      controller_node::to_msg(command, pending.header, model_to_wire, out);
+      node.publish(commands, out);
+    }
+    last_answered = send;
     pending.active = false;
     have_last = true;
     last_tick = pending.k;
@@ -275,18 +335,23 @@ int run(int argc, char** argv) {
   }
   std::lock_guard lock(mutex);
   const auto& d = ctrl.diagnostics();
-  char extra[512];
+  char extra[1024];
   std::snprintf(extra, sizeof(extra),
                 "{\"late_solutions\": %llu, \"qp_failures\": %llu, \"controller_ticks\": %llu, "
                 "\"references_received\": %llu, \"references_applied\": %llu, "
-                "\"late_references\": %llu, \"reference_overflows\": %llu}",
+                "\"late_references\": %llu, \"reference_overflows\": %llu, \"out_of_sequence\": %llu, "
+                "\"stream_restarts\": %llu, \"commands_withheld\": %llu, \"stale_events\": %llu}",
                 static_cast<unsigned long long>(d.late_solutions),
                 static_cast<unsigned long long>(d.qp_failures),
                 static_cast<unsigned long long>(d.ticks),
                 static_cast<unsigned long long>(reference_queue.received()),
                 static_cast<unsigned long long>(references_applied),
                 static_cast<unsigned long long>(reference_queue.late()),
-                static_cast<unsigned long long>(reference_queue.overflows()));
+                static_cast<unsigned long long>(reference_queue.overflows()),
+                static_cast<unsigned long long>(sequencer.rejected()),
+                static_cast<unsigned long long>(sequencer.restarts()),
+                static_cast<unsigned long long>(commands_withheld),
+                static_cast<unsigned long long>(node.stale_events()));
   node.write_summary(extra);
   return 0;
 }

@@ -10,7 +10,12 @@
 //               poise/diagnostics        Diagnostics       ~10 Hz best-effort, keep-last 1
 //   repeats     a sensor sample with the tick just handled is answered with the same state again
 //               (the simulator repeats tick 0 until the loop is connected)
-//   bad input   rejected by the DDS layer (counted) or by the library (state held, status bit)
+//   faults      (table: idl/README.md "Fault semantics") a rejected sample gets NO state:
+//               non-finite / over-long (DDS layer), joint_count other than the robot's, a tick
+//               out of sequence (node::TickSequencer: a regression or a jump > --max-tick-jump is
+//               rejected unless it restarts the stream: then the estimator re-initialises and
+//               says so). No sensors for --input-stale-ms: health FAULT. IMU frozen: health
+//               DEGRADED, kinematics-only fallback (status bit). Reasons in last_error.
 //   threading   each sensor sample is handled on the DDS listener thread as it arrives (no
 //               wake-up of a loop thread per tick); the main thread publishes the diagnostics.
 //   debug       --ground-truth-state: base pose/twist, CoM and contacts copied from the
@@ -43,6 +48,7 @@ int run(int argc, char** argv) {
   std::string supports = "fixed";
   CLI::App app{"State estimator node: sensors k in, state k out."};
   node::add_node_options(app, options, "estimator");
+  node::add_input_options(app, options);
   app.add_flag("--ground-truth-state", ground_truth_state,
                "DEBUG: copy the simulator's ground truth into the state (sets STATE_GROUND_TRUTH)");
   app.add_option("--description-timeout-ms", description_timeout_ms,
@@ -94,24 +100,56 @@ int run(int argc, char** argv) {
   msg::GroundTruth truth;
   msg::State out;
   std::uint64_t truth_seen = 0;
-  bool have_last = false;
-  std::uint64_t last_tick = 0, library_rejected = 0;
+  std::uint64_t library_rejected = 0;
+  node::TickSequencer sequencer(options.ticks);
+  const int sensors_input = node.expect_input("poise/sensors", options.input_stale_ms);
+  const std::size_t joints = model_to_wire.size();
   // One sensor sample: estimate, answer. Allocation-free; runs on one thread at a time.
   auto handle = [&](const msg::Sensors& in) noexcept {
     const std::uint64_t k = in.header().tick();
-    if (have_last && k == last_tick) {  // repeated sample: same answer
-      node.publish(states, out);
+    if (in.joint_count() != joints) {
+      node.error("tick %llu: poise/sensors joint_count %u, the robot has %zu joints: rejected, "
+                 "no state sent",
+                 static_cast<unsigned long long>(k), in.joint_count(), joints);
       return;
     }
     const std::int64_t t0 = node::now_ns();
+    switch (sequencer.accept(k, t0)) {
+      case node::TickSequencer::Verdict::kRepeat:  // repeated sample: same answer
+        node.input_seen(sensors_input, k);
+        node.publish(states, out);
+        return;
+      case node::TickSequencer::Verdict::kOutOfSequence:
+        node.error("tick %llu out of sequence (last accepted %llu): rejected, no state sent",
+                   static_cast<unsigned long long>(k),
+                   static_cast<unsigned long long>(sequencer.last()));
+        return;
+      case node::TickSequencer::Verdict::kRestart:
+        estimator.reset();
+        library_rejected = 0;
+        node.error("sensor stream restarted at tick %llu (previous %llu): estimator "
+                   "re-initialised",
+                   static_cast<unsigned long long>(k),
+                   static_cast<unsigned long long>(sequencer.previous()));
+        break;
+      default:
+        break;
+    }
+    node.input_seen(sensors_input, k);
     estimator_node::from_msg(in, model_to_wire, frame);
-    estimator.update(frame, state);
-    estimator_node::to_msg(state, model_to_wire, out);
+    const estimator::StatusFlags flags = estimator.update(frame, state);
     if (estimator.diagnostics().rejected_frames != library_rejected) {
       library_rejected = estimator.diagnostics().rejected_frames;
-      node.error("tick %llu: sensor frame rejected: %s", static_cast<unsigned long long>(k),
-                 estimator.diagnostics().last_error);
+      node.error("tick %llu: sensor frame rejected: %s: no state sent",
+                 static_cast<unsigned long long>(k), estimator.diagnostics().last_error);
+      return;
     }
+    node.set_condition(msg::HEALTH_DEGRADED,
+                       (flags & estimator::kImuFrozen)
+                           ? "IMU frozen (bit-identical samples): base tracked by leg kinematics "
+                             "only (STATE_IMU_FROZEN)"
+                           : nullptr);
+    estimator_node::to_msg(state, model_to_wire, out);
     if (ground_truth_state) {
       const std::int64_t deadline = node::now_ns() + std::int64_t{truth_timeout_ms} * 1'000'000;
       bool found = truth.header().tick() == k;
@@ -124,8 +162,6 @@ int run(int argc, char** argv) {
                    static_cast<unsigned long long>(k));
     }
     node.publish(states, out);
-    have_last = true;
-    last_tick = k;
     node.tick_done(k, node::now_ns() - t0);
   };
 
@@ -160,17 +196,21 @@ int run(int argc, char** argv) {
   }
   std::lock_guard lock(state_mutex);
   const estimator::EstimatorDiagnostics& d = estimator.diagnostics();
-  char extra[512];
+  char extra[1024];
   std::snprintf(extra, sizeof(extra),
                 "{\"state_source\": \"%s\", \"supports\": \"%s\", \"filter_resets\": %llu, "
                 "\"rejected_frames\": %llu, \"dropped_frames\": %llu, \"frozen_imu_ticks\": %llu, "
-                "\"orientation_rejections\": %llu}",
+                "\"orientation_rejections\": %llu, \"out_of_sequence\": %llu, \"stream_restarts\": %llu, "
+                "\"stale_events\": %llu}",
                 ground_truth_state ? "ground_truth" : "estimator",
                 estimator::to_string(config.supports), static_cast<unsigned long long>(d.resets),
                 static_cast<unsigned long long>(d.rejected_frames),
                 static_cast<unsigned long long>(d.dropped_frames),
                 static_cast<unsigned long long>(d.frozen_imu_ticks),
-                static_cast<unsigned long long>(d.orientation_rejections));
+                static_cast<unsigned long long>(d.orientation_rejections),
+                static_cast<unsigned long long>(sequencer.rejected()),
+                static_cast<unsigned long long>(sequencer.restarts()),
+                static_cast<unsigned long long>(node.stale_events()));
   node.write_summary(extra);
   return 0;
 }

@@ -21,6 +21,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include <array>
 #include <chrono>
 #include <cstdarg>
 #include <atomic>
@@ -39,6 +40,7 @@
 #include "poise/dds/dds.hpp"
 #include "poise/node/compute_stats.hpp"
 #include "poise/node/shutdown.hpp"
+#include "poise/node/tick_sequencer.hpp"
 #include "poise/node/tick_timer.hpp"
 #include "poise/reflect/validate.hpp"
 
@@ -57,6 +59,10 @@ struct NodeOptions {
   /// the run asks for the consumer + the recorder.
   int output_readers = 0;
   int output_readers_timeout_ms = 20000;
+  /// Nodes with a per-tick input (add_input_options): staleness bound and tick sequencing
+  /// (fault semantics table: idl/README.md).
+  double input_stale_ms = 50.0;
+  TickSequencer::Config ticks;
 };
 
 /// deploy/robots/poise_humanoid/robot.yaml, located like the DDS configurations (source tree
@@ -67,6 +73,10 @@ std::string default_robot_config();
 /// Adds --name, --robot, --summary and the DDS options (--dds, --domain, --dds-config).
 /// `kind` is the default name ("sim", "estimator", ...).
 void add_node_options(CLI::App& app, NodeOptions& options, const std::string& kind);
+
+/// Adds the options of a node that consumes a per-tick input: --input-stale-ms,
+/// --max-tick-jump, --restart-confirm, --restart-silence-ms.
+void add_input_options(CLI::App& app, NodeOptions& options);
 
 class Node {
  public:
@@ -83,10 +93,32 @@ class Node {
 
   /// Sums this subscriber's rejected / deserialize-error / type-mismatch counters into the
   /// diagnostics. The subscriber must outlive the node's last poll().
+  /// The newest rejection reason of a watched subscriber ("topic 'poise/sensors': invalid sample
+  /// rejected: q[3]: not finite") becomes Diagnostics.last_error when its count grows.
   template <class S>
   void watch(const S& subscriber) {
-    watched_.push_back(&subscriber.counters());
+    watched_.push_back({&subscriber.counters(), [&subscriber] { return subscriber.last_error(); }, 0});
   }
+
+  /// Declares a per-tick input of this node (poise/sensors, poise/state, ...): once a first
+  /// sample came, the input is STALE when no sample came for `stale_ms`. While an input is
+  /// stale the diagnostics say HEALTH_FAULT with last_error "no <topic> for N ms (last tick k)";
+  /// both transitions are logged. Returns the id for input_seen(). Configuration time; at most
+  /// kMaxInputs inputs.
+  int expect_input(const std::string& topic, double stale_ms);
+  /// A sample of input `id` arrived (call from the subscriber callback). Any thread; no
+  /// allocation, no lock.
+  void input_seen(int id, std::uint64_t tick) noexcept;
+  /// True while input `id` is stale (as of the last diagnostics).
+  bool input_stale(int id) const noexcept;
+  /// Times any input went stale since start.
+  std::uint64_t stale_events() const noexcept { return stale_events_; }
+  static constexpr int kMaxInputs = 8;
+
+  /// A lasting condition of the node (IMU frozen, contact optimiser silent): while set, the
+  /// health is at least `health` and last_error is `text` (logged on each change). `text` must
+  /// stay valid (a literal); nullptr clears it. No allocation.
+  void set_condition(msg::NodeHealth health, const char* text) noexcept;
 
   /// --output-readers: waits until each publisher has matched `options().output_readers`
   /// readers (at most the timeout; a warning names the ones short of it), then logs
@@ -189,7 +221,24 @@ class Node {
   NodeOptions options_;
   std::unique_ptr<dds::Participant> participant_;
   std::unique_ptr<dds::Publisher<msg::Diagnostics>> diag_pub_;
-  std::vector<const dds::SubscriberCounters*> watched_;
+  struct Watched {
+    const dds::SubscriberCounters* counters;
+    std::function<std::string()> last_error;
+    std::uint64_t seen;  ///< rejections already reported
+  };
+  std::vector<Watched> watched_;
+  struct Input {
+    std::string topic;
+    std::int64_t stale_ns = 0;
+    std::atomic<std::int64_t> last_ns{0};  ///< 0: no sample yet
+    std::atomic<std::uint64_t> last_tick{0};
+    bool stale = false;
+  };
+  std::array<Input, kMaxInputs> inputs_;
+  int num_inputs_ = 0;
+  std::uint64_t stale_events_ = 0;
+  msg::NodeHealth condition_health_ = msg::HEALTH_OK;
+  const char* condition_ = nullptr;
   struct SingleWriter {
     std::string topic;
     int reported;  ///< the writer count the diagnostics last saw
