@@ -21,7 +21,7 @@ packages=(
   libfastrtps-dev libfastcdr-dev fastddsgen default-jre-headless
   cyclonedds-dev cyclonedds-tools iceoryx
   libbullet-dev libbullet-extras-dev
-  nlohmann-json3-dev libyaml-cpp-dev libcli11-dev
+  nlohmann-json3-dev libyaml-cpp-dev libcli11-dev libyaml-dev libexpat1-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libzstd-dev liblz4-dev zlib1g-dev gnuplot-nox nodejs
 )
