@@ -10,6 +10,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <nlohmann/json.hpp>
 #include <random>
 #include <thread>
@@ -193,10 +194,19 @@ INSTANTIATE_TEST_SUITE_P(Vendors, ContactNode, ::testing::Values("cyclone", "fas
 // Estimator node: a standing robot's sensor samples in, one state per sample out, joints mapped
 // through a permuted robot description.
 
-/// The project humanoid's robot description with the joints in `wire` order, 1 kHz.
+/// The project humanoid's robot description with the joints in `wire` order, 1 kHz: the
+/// robot.yaml and URDF texts the nodes build their robot from (no --robot).
 msg::RobotDescription humanoid_description(const std::vector<std::string>& wire) {
   msg::RobotDescription d;
   d.robot_name("poise_humanoid");
+  const auto text = [](const std::string& path) {
+    std::ifstream in(path);
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+  };
+  d.robot_config(text(kSource + "/deploy/robots/poise_humanoid/robot.yaml"));
+  d.urdf(text(kSource + "/deploy/robots/poise_humanoid/poise_humanoid.urdf"));
   d.joint_names(wire);
   d.control_period_s(0.001);
   return d;
