@@ -193,9 +193,8 @@ void Node::publish_diagnostics() noexcept {
       std::snprintf(last_error_, sizeof(last_error_),
                     "no %s for %.0f ms (last tick %llu): input stale", in.topic.c_str(),
                     static_cast<double>(now - last) * 1e-6, tick);
-      if (!in.stale) {
+      if (!in.stale) {  // a state, not an error: counted as stale_events, health FAULT
         ++stale_events_;
-        ++errors_;
         dds::log(dds::LogLevel::error, "%s: FAULT", last_error_);
       }
     } else if (in.stale) {

@@ -15,6 +15,8 @@ int run_distributed(int argc, char** argv);
 /// `poise push --link L --force FX FY FZ [--point X Y Z] [--duration S] [--start T]`: publishes
 /// one Disturbance (PUSH) on poise/disturbance and waits until a subscriber matched.
 int push_main(int argc, char** argv);
+/// `poise estop [--release]`: the robot's e-stop on poise/estop.
+int estop_main(int argc, char** argv);
 
 /// `poise launch DEPLOYMENT.yaml [--host NAME] [--check]`: starts this machine's share of a
 /// deployment file (deployment.hpp) and supervises it: generated per-host DDS files, CPU affinity
