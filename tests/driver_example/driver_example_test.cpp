@@ -62,7 +62,14 @@ std::int64_t mode_time(const std::string& out, const std::string& mode, std::siz
 struct Nodes {
   Nodes(const std::string& vendor, const std::string& dom) {
     auto node = [&](const std::string& exe, std::vector<std::string> extra = {}) {
-      std::vector<std::string> a{bin(exe), "--dds", vendor, "--domain", dom};
+      std::vector<std::string> a;
+      // As root (CI), the nodes run SCHED_FIFO below the driver, as a robot's deployment gives
+      // its control processes (deploy/deployments/robot_and_desk.yaml): the verdict is then about
+      // the contract, not about what else the machine is compiling. chrt execs the node (same
+      // pid, so the kill below hits the node itself).
+      if (::geteuid() == 0 && ::access("/usr/bin/chrt", X_OK) == 0)
+        a = {"/usr/bin/chrt", "-f", "40"};
+      a.insert(a.end(), {bin(exe), "--dds", vendor, "--domain", dom});
       a.insert(a.end(), extra.begin(), extra.end());
       return std::make_unique<ChildProcess>(a, std::vector<std::string>{}, false, true);
     };

@@ -61,6 +61,7 @@ typedef struct options {
   double hold_ms;
   double inertia; /* J of every joint [kg m^2] */
   int priority;   /* SCHED_FIFO priority, 0 = normal scheduling */
+  int load_each_command; /* tau_load = tau_ff of the obeyed command (1) or of the first one (0) */
   int quiet;
 } options;
 
@@ -82,6 +83,8 @@ static void usage(FILE *out) {
           "  --watchdog-ms MS    no fresh command for this long: HOLD (default 5)\n"
           "  --hold-ms MS        HOLD this long, then DAMP (default 1000)\n"
           "  --inertia J         joint inertia of the simulated joints [kg m^2] (default 0.05)\n"
+          "  --load command|first  the gantry carries tau_ff of the command obeyed (default) or\n"
+          "                      of the first command for the whole run (see the README)\n"
           "  --priority P        run the loop SCHED_FIFO at priority P (needs the privilege)\n"
           "  --quiet             only errors, watchdog transitions and the summary\n"
           "  --help              this text\n");
@@ -130,6 +133,7 @@ static int parse_options(int argc, char **argv, options *o) {
   o->watchdog_ms = 5.0;
   o->hold_ms = 1000.0;
   o->inertia = 0.05;
+  o->load_each_command = 1;
   const char *env_domain = getenv("POISE_DDS_DOMAIN");
   double v = 0.0;
   if (env_domain && env_domain[0]) {
@@ -169,6 +173,13 @@ static int parse_options(int argc, char **argv, options *o) {
       ++i;
     } else if (strcmp(a, "--inertia") == 0) {
       if (parse_number(a, next, 1e-4, 1e3, &o->inertia)) return -1;
+      ++i;
+    } else if (strcmp(a, "--load") == 0) {
+      if (!next || (strcmp(next, "command") != 0 && strcmp(next, "first") != 0)) {
+        fprintf(stderr, "poise-example-c-driver: --load needs 'command' or 'first'\n");
+        return -1;
+      }
+      o->load_each_command = strcmp(next, "command") == 0;
       ++i;
     } else if (strcmp(a, "--priority") == 0) {
       if (parse_number(a, next, 1, 99, &v)) return -1;
@@ -364,7 +375,7 @@ static int publish_description(const dds_handles *h, const driver_robot *r) {
 
 typedef struct robot_state {
   double q[DRIVER_MAX_JOINTS], qd[DRIVER_MAX_JOINTS], tau[DRIVER_MAX_JOINTS];
-  double tau_load[DRIVER_MAX_JOINTS]; /* carried by the gantry: tau_ff of the first command */
+  double tau_load[DRIVER_MAX_JOINTS]; /* carried by the gantry: see --load */
 } robot_state;
 
 /* One period of J qdd = tau - tau_load, semi-implicit Euler (velocity first), hard stops at the
@@ -439,6 +450,8 @@ typedef struct counters {
   uint64_t late_commands;      /* valid command answering an older tick */
   uint64_t watchdog_events, holds, damps, estops;
   uint64_t deadline_misses, skipped_ticks, publish_failures;
+  double max_deviation; /* largest |q - q_initial| seen [rad] or [m] */
+  int max_deviation_joint;
 } counters;
 
 static void set_mode(driver_mode *mode, driver_mode next, int64_t t, const char *why) {
@@ -556,13 +569,17 @@ int main(int argc, char **argv) {
         c.age[0]++;
       }
       if (!have_command) {
-        /* The gantry carries the load the controller first asked for (see the README). */
+        /* The gantry carries the load the controller asks for (see the README): with
+         * --load first, the first command's feed-forward for the whole run. */
         for (int i = 0; i < n; ++i)
           s.tau_load[i] = cmd.mode == poise_msg_COMMAND_TORQUE ? cmd.tau_ff[i] : 0.0;
         first_command_tick = cmd.header.tick;
         have_command = 1;
       }
       active = cmd;
+      if (o.load_each_command && cmd.mode == poise_msg_COMMAND_TORQUE)
+        for (int i = 0; i < n; ++i)
+          s.tau_load[i] = cmd.tau_ff[i]; /* kept through HOLD, DAMP and non-torque modes */
       last_fresh_ns = t;
     }
     for (;;) {
@@ -619,6 +636,13 @@ int main(int argc, char **argv) {
       }
       integrate(&robot, o.inertia, &s, (double)PERIOD_NS * 1e-9);
     }
+    for (int i = 0; i < n; ++i) {
+      const double dev = fabs(s.q[i] - robot.joints[i].q_initial);
+      if (dev > c.max_deviation) {
+        c.max_deviation = dev;
+        c.max_deviation_joint = i;
+      }
+    }
 
     /* 4. Sensors of the new tick. */
     if (have_command && tick > 0) c.answerable++;
@@ -633,7 +657,7 @@ int main(int argc, char **argv) {
          "first_command_tick=%llu answered_within_1_tick=%llu answerable=%llu answered_pct=%.2f "
          "watchdog_events=%llu holds=%llu damps=%llu estops=%llu deadline_misses=%llu "
          "skipped_ticks=%llu publish_failures=%llu command_age_ticks=%llu/%llu/%llu/%llu/%llu "
-         "final_mode=%s\n",
+         "max_joint_deviation=%.4f (%s) final_mode=%s\n",
          (unsigned long long)c.ticks, (unsigned long long)tick, (unsigned long long)c.commands,
          (unsigned long long)c.rejected, (unsigned long long)c.non_finite,
          (unsigned long long)c.bad_joint_count, (unsigned long long)c.negative_gain,
@@ -644,7 +668,8 @@ int main(int argc, char **argv) {
          (unsigned long long)c.deadline_misses, (unsigned long long)c.skipped_ticks,
          (unsigned long long)c.publish_failures, (unsigned long long)c.age[0],
          (unsigned long long)c.age[1], (unsigned long long)c.age[2], (unsigned long long)c.age[3],
-         (unsigned long long)c.age[4], driver_mode_name(mode));
+         (unsigned long long)c.age[4], c.max_deviation, robot.joints[c.max_deviation_joint].name,
+         driver_mode_name(mode));
   dds_delete(h.domain);
   driver_robot_free(&robot);
   return 0;
