@@ -59,6 +59,9 @@ struct Settings {
   std::string method;  ///< "" = the scenario's contact.method, else sequential
   double contact_deadline_us = -1.0;
   int command_timeout_ms = 2000;
+  int settle_ticks = -1;      ///< simulator start-up hold steps (-1: the simulator's default)
+  double watchdog_ms = -1.0;  ///< safety layer watchdog (-1: default)
+  double hold_s = -1.0;       ///< safety layer hold before damping (-1: default)
   double timeout_s = -1.0;
   bool quiet = false;
   std::string record;  ///< MCAP file of `--record` ("" with the flag alone: the default path)
@@ -157,6 +160,18 @@ int run_distributed(int argc, char** argv) {
   app.add_option("--command-timeout-ms", s.command_timeout_ms,
                  "lockstep: simulator's wait for a joint command")
       ->capture_default_str();
+  app.add_option("--settle-ticks", s.settle_ticks,
+                 "start-up: simulator steps with the joints held by the safety layer before the "
+                 "first sensor frame (default: poise-sim's, 10)")
+      ->check(CLI::Range(0, 10000));
+  app.add_option("--watchdog-ms", s.watchdog_ms,
+                 "robot safety layer: HOLD after this long without a joint command (default: "
+                 "poise-sim's, 5)")
+      ->check(CLI::Range(0.1, 60000.0));
+  app.add_option("--hold-s", s.hold_s,
+                 "robot safety layer: hold the last targets this long, then damp (default: "
+                 "poise-sim's, 5)")
+      ->check(CLI::Range(0.0, 3600.0));
   app.add_option("--timeout", s.timeout_s,
                  "wall-clock bound of the whole run [s] "
                  "(default: 60 + 30 x duration lockstep, 60 + duration real time)");
@@ -229,6 +244,11 @@ int run_distributed(int argc, char** argv) {
                                      s.realtime ? "--realtime" : "--lockstep",
                                      "--command-timeout-ms", std::to_string(s.command_timeout_ms)});
     if (s.duration > 0) sim_args.insert(sim_args.end(), {"--duration", std::to_string(s.duration)});
+    if (s.settle_ticks >= 0)
+      sim_args.insert(sim_args.end(), {"--settle-ticks", std::to_string(s.settle_ticks)});
+    if (s.watchdog_ms > 0)
+      sim_args.insert(sim_args.end(), {"--watchdog-ms", std::to_string(s.watchdog_ms)});
+    if (s.hold_s >= 0) sim_args.insert(sim_args.end(), {"--hold-s", std::to_string(s.hold_s)});
     // With a recorder, the simulator waits for its readers too, so that the file holds the run
     // from its first tick (sensors: estimator + recorder; ground truth: recorder).
     // It also waits for a start file, made once the recorder has matched every writer of the
@@ -467,7 +487,8 @@ int run_distributed(int argc, char** argv) {
     for (const char* k :
          {"com_error_max_m", "com_error_final_m", "foot_slip_max_m", "non_foot_contacts",
           "min_base_height_m", "tick_latency_us", "realtime_factor", "sim_time_s", "wall_time_s",
-          "command_timeouts", "damping_ticks", "watchdog_stale_events"})
+          "command_timeouts", "damping_ticks", "watchdog_stale_events", "hold_ticks",
+          "estop_ticks", "safety", "max_joint_speed"})
       r[k] = sim_r.value(k, Json());
     const std::uint64_t misses_sim = diag(sim_r, "deadline_misses");
     const std::uint64_t misses_ctrl = diag(ctrl_r, "deadline_misses");

@@ -91,6 +91,8 @@ struct Figures {
   std::uint64_t overruns = 0, pushes = 0, refused_pushes = 0,
                 total_other_contacts = 0;
   double wall_s = 0.0;
+  double max_joint_speed = 0.0;  ///< largest |qd| of any joint over the run [rad/s | m/s]
+  int fastest_joint = -1;
   bool aborted = false;
 };
 
@@ -219,6 +221,11 @@ class SimNode {
                    {"damp_events", sc.damp_events},
                    {"estop_events", sc.estop_events}};
     j["overruns"] = figures_.overruns;
+    j["max_joint_speed"] = {
+        {"joint", figures_.fastest_joint >= 0 ? sim_.joint_names()[static_cast<std::size_t>(
+                                                    figures_.fastest_joint)]
+                                              : std::string()},
+        {"speed", figures_.max_joint_speed}};
     j["pushes_received"] = figures_.pushes;
     j["pushes_refused"] = figures_.refused_pushes;
     j["sim_time_s"] = sim_s;
@@ -376,6 +383,11 @@ class SimNode {
   /// progress.
   void observe() noexcept {
     if (truth_.num_non_foot_contacts > 0) ++figures_.total_other_contacts;
+    for (Eigen::Index j = 0; j < sensors_.qd.size(); ++j)  // an exploding joint shows here
+      if (std::abs(sensors_.qd[j]) > figures_.max_joint_speed) {
+        figures_.max_joint_speed = std::abs(sensors_.qd[j]);
+        figures_.fastest_joint = static_cast<int>(j);
+      }
     monitor_.update(truth_);
     slip_.update(truth_);
     ++figures_.ticks;
