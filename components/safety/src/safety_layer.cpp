@@ -19,6 +19,19 @@ const char* to_string(Mode mode) noexcept {
   return "?";
 }
 
+ModeReport report(Mode mode) noexcept {
+  switch (mode) {
+    case Mode::kHold:
+      return {msg::HEALTH_DEGRADED, "safety layer HOLD: no fresh joint command"};
+    case Mode::kDamp:
+      return {msg::HEALTH_FAULT, "safety layer DAMP: no joint command for the hold time"};
+    case Mode::kEStop:
+      return {msg::HEALTH_FAULT, "safety layer ESTOP: e-stop engaged (poise/estop)"};
+    default:
+      return {msg::HEALTH_OK, nullptr};
+  }
+}
+
 void Command::resize(int n) {
   tau_ff = q_ref = qd_ref = kp = kd = Eigen::VectorXd::Zero(n);
 }

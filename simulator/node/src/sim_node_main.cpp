@@ -304,20 +304,8 @@ class SimNode {
     if (mode == noted_mode_) return;
     noted_mode_ = mode;
     ++mode_transitions_;
-    switch (mode) {
-      case safety::Mode::kHold:
-        node_.set_condition(msg::HEALTH_DEGRADED, "safety layer HOLD: no fresh joint command");
-        break;
-      case safety::Mode::kDamp:
-        node_.set_condition(msg::HEALTH_FAULT, "safety layer DAMP: no joint command for --hold-s");
-        break;
-      case safety::Mode::kEStop:
-        node_.set_condition(msg::HEALTH_FAULT, "safety layer ESTOP: e-stop engaged (poise/estop)");
-        break;
-      default:
-        node_.set_condition(msg::HEALTH_OK, nullptr);
-        break;
-    }
+    const safety::ModeReport report = safety::report(mode);
+    node_.set_condition(report.health, report.text);
     const std::int64_t now = node::now_ns();
     if (now - last_mode_log_ns_ < 100'000'000) return;
     last_mode_log_ns_ = now;

@@ -39,6 +39,7 @@
 #include <string>
 #include <vector>
 
+#include <poise/msg/diagnostics.h>
 #include <poise/msg/joint_command.h>
 
 #include "poise/model/model.hpp"
@@ -48,6 +49,14 @@ namespace poise::safety {
 
 enum class Mode : std::uint8_t { kStartup, kActive, kHold, kDamp, kEStop };
 const char* to_string(Mode mode) noexcept;
+
+/// How a backend reports a mode in its diagnostics (Node::set_condition): HOLD is DEGRADED,
+/// DAMP and ESTOP are FAULT; STARTUP and ACTIVE clear the condition (text nullptr).
+struct ModeReport {
+  msg::NodeHealth health;
+  const char* text;  ///< a literal
+};
+ModeReport report(Mode mode) noexcept;
 
 /// What the robot applies in one tick: tau = tau_ff + kp (q_ref - q) + kd (qd_ref - qd),
 /// clamped to the effort limits (damping: tau_ff = 0, kp = 0, qd_ref = 0). Robot joint order.
