@@ -225,6 +225,13 @@ TEST_F(RestartTest, EachComponentKilledAndRestartedWithinASecondLeavesTheRobotSt
   for (const auto& e : w.errors["controller"])
     controller_saw_contact_loss |= e.find("contact optimiser silent") != std::string::npos;
   EXPECT_TRUE(controller_saw_contact_loss);
+  bool controller_saw_state_loss = false, contact_saw_problem_loss = false;
+  for (const auto& e : w.errors["controller"])
+    controller_saw_state_loss |= e.find("no poise/state for") != std::string::npos;
+  for (const auto& e : w.errors["contact"])
+    contact_saw_problem_loss |= e.find("no poise/contact_problem for") != std::string::npos;
+  EXPECT_TRUE(controller_saw_state_loss);  // the estimator's kill
+  EXPECT_TRUE(contact_saw_problem_loss);   // the controller's kill
   for (const auto& [node, errors] : w.errors)
     for (const auto& e : errors)
       std::printf("diagnostics %s: %s\n", node.c_str(), e.c_str());

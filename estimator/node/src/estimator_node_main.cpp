@@ -65,6 +65,13 @@ int run(int argc, char** argv) {
                  "still for the first 2 s (IMU calibration); see estimator.hpp")
       ->check(CLI::IsMember({"fixed", "moving", "translating"}))
       ->capture_default_str();
+  int frozen_imu_ticks = 100;
+  app.add_option("--frozen-imu-ticks", frozen_imu_ticks,
+                 "bit-identical IMU samples in a row that count as a frozen IMU (kinematics-only "
+                 "fallback, health DEGRADED); 100 = 0.1 s keeps a still, coarsely quantised IMU "
+                 "from being taken for a dead one")
+      ->check(CLI::Range(2, 1000000))
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   node::Node node(options);
@@ -78,6 +85,7 @@ int run(int argc, char** argv) {
 
   estimator::EstimatorConfig config;
   config.supports = estimator::parse_support_model(supports);
+  config.frozen_imu_ticks = frozen_imu_ticks;
   estimator::Estimator estimator(model, robot, config);
   if (config.supports != estimator::SupportModel::kFixed)
     dds::log(dds::LogLevel::info,

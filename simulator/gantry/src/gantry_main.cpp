@@ -270,15 +270,26 @@ class Gantry {
     node_.publish(sensors_pub_, s);
   }
 
+  /// The mode in the diagnostics at once; in the log at most every 100 ms (the newest mode).
   void report_mode() noexcept {
-    if (safety_.mode() == reported_) return;
-    reported_ = safety_.mode();
-    const safety::ModeReport r = safety::report(reported_);
-    node_.set_condition(r.health, r.text);
-    dds::log(reported_ == safety::Mode::kActive ? dds::LogLevel::info : dds::LogLevel::warn,
-             "safety: %s at tick %lld (%s)", safety::to_string(reported_),
-             static_cast<long long>(tick_),
-             reported_ == safety::Mode::kActive ? "commands fresh" : safety_.last_error());
+    const safety::Mode mode = safety_.mode();
+    if (mode != reported_) {
+      reported_ = mode;
+      ++transitions_;
+      const safety::ModeReport r = safety::report(mode);
+      node_.set_condition(r.health, r.text);
+    }
+    if (mode == logged_) return;
+    const std::int64_t now = node::now_ns();
+    if (now - last_log_ns_ < 100'000'000) return;
+    last_log_ns_ = now;
+    logged_ = mode;
+    dds::log(mode == safety::Mode::kActive ? dds::LogLevel::info : dds::LogLevel::warn,
+             "safety: %s at tick %lld (%s; %llu transitions since the last line)",
+             safety::to_string(mode), static_cast<long long>(tick_),
+             mode == safety::Mode::kActive ? "commands fresh" : safety_.last_error(),
+             static_cast<unsigned long long>(transitions_));
+    transitions_ = 0;
   }
 
   node::Node& node_;
@@ -303,7 +314,9 @@ class Gantry {
   msg::EStop estop_;
   std::uint64_t seen_ = 0, rejected_ = 0, overruns_ = 0;
   std::int64_t tick_ = 0, ticks_ = 0;
-  safety::Mode reported_ = safety::Mode::kStartup;
+  safety::Mode reported_ = safety::Mode::kStartup, logged_ = safety::Mode::kStartup;
+  std::uint64_t transitions_ = 0;
+  std::int64_t last_log_ns_ = 0;
 };
 
 int run(int argc, char** argv) {

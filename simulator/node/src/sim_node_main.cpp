@@ -297,18 +297,22 @@ class SimNode {
     return c;
   }
 
-  /// Logs a mode change (at most one line per 100 ms, with the count in between) and sets the
-  /// node's health condition.
+  /// Reports the safety layer's mode: the node's health condition at once, and a log line at
+  /// most every 100 ms with the newest mode and the transitions in between (flapping cannot
+  /// flood the log; the mode that lasts is always logged). Called every tick.
   void note_safety_mode() noexcept {
     const safety::Mode mode = safety_.mode();
-    if (mode == noted_mode_) return;
-    noted_mode_ = mode;
-    ++mode_transitions_;
-    const safety::ModeReport report = safety::report(mode);
-    node_.set_condition(report.health, report.text);
+    if (mode != noted_mode_) {
+      noted_mode_ = mode;
+      ++mode_transitions_;
+      const safety::ModeReport report = safety::report(mode);
+      node_.set_condition(report.health, report.text);
+    }
+    if (mode == logged_mode_) return;
     const std::int64_t now = node::now_ns();
     if (now - last_mode_log_ns_ < 100'000'000) return;
     last_mode_log_ns_ = now;
+    logged_mode_ = mode;
     dds::log(mode == safety::Mode::kActive ? dds::LogLevel::info : dds::LogLevel::warn,
              "safety: %s at t=%.3f s (%s; %llu transitions since the last line)",
              safety::to_string(mode), sensors_.time,
@@ -599,7 +603,7 @@ class SimNode {
   sim::GroundTruth truth_;
   sim::JointCommand applied_;
   safety::SafetyLayer safety_;
-  safety::Mode noted_mode_ = safety::Mode::kStartup;
+  safety::Mode noted_mode_ = safety::Mode::kStartup, logged_mode_ = safety::Mode::kStartup;
   std::uint64_t mode_transitions_ = 0;
   std::int64_t last_mode_log_ns_ = 0;
   sim::Push push_;

@@ -216,7 +216,7 @@ function encDiagnostics(m) {
 function encRobotDescription(m) {
   const w = new Xcdr1();
   encHeader(w, m.header);
-  w.str(m.robot_name); w.str(m.urdf);
+  w.str(m.robot_name); w.str(m.urdf); w.str(m.robot_config);
   w.u32(m.joint_names.length);
   for (const n of m.joint_names) w.str(n);
   w.str(m.imu_frame);
@@ -268,6 +268,7 @@ function robotDescription(unicode = false) {
     header: { tick: 0n, stamp_ns: 0n },
     robot_name: "poise_humanoid",
     urdf: `<?xml version="1.0"?>\n<robot name="poise${unicode ? " µ" : ""}">\n${links.join("\n").repeat(40)}\n</robot>\n`,
+    robot_config: `name: poise_humanoid\nurdf: poise_humanoid.urdf\nimu_frame: imu_link${unicode ? "  # µ" : ""}\n`,
     joint_names: joints,
     imu_frame: "imu_link",
     feet: [sole("r_foot", 1), sole("l_foot", -1)],
