@@ -236,6 +236,41 @@ TEST(Launch, ABadDeploymentFileIsRefusedWithEveryProblemNamed) {
   EXPECT_NE(out2.find("not valid YAML"), std::string::npos) << out2;
 }
 
+// A desk host needs the scenario file but no robot files: its nodes take the robot from
+// poise/robot_description. The scenario here names a robot configuration that does not exist:
+// the desk's share is valid (and its nodes get the scenario's support model), the robot's share
+// (the simulator loads the robot) and a whole-file --check name the missing file.
+TEST(Launch, ADeskHostNeedsNoRobotFiles) {
+  const fs::path dir = work_dir("desk_without_robot");
+  std::ofstream(dir / "scenario.yaml") << "name: far_robot\n"
+                                          "robot:\n  config: /nonexistent/robots/far/robot.yaml\n"
+                                          "duration: 1.0\n"
+                                          "estimator: {supports: translating}\n"
+                                          "contact: {method: qp}\n";
+  std::ofstream(dir / "deployment.yaml") << "domain: 44\n"
+                                            "scenario: scenario.yaml\n"
+                                            "hosts:\n"
+                                            "  robot: {address: 10.0.0.1}\n"
+                                            "  desk: {address: 10.0.0.2}\n"
+                                            "components:\n"
+                                            "  sim: {host: robot}\n"
+                                            "  estimator: {host: desk}\n"
+                                            "  contact: {host: desk}\n"
+                                            "  controller: {host: desk}\n";
+  const std::string file = (dir / "deployment.yaml").string();
+  auto [desk_code, desk] = run_cmd({bin("poise"), "launch", file, "--check", "--host", "desk"}, 30s);
+  EXPECT_EQ(desk_code, 0) << desk;
+  EXPECT_NE(desk.find("--supports translating"), std::string::npos) << desk;
+  EXPECT_NE(desk.find("--method qp"), std::string::npos) << desk;
+  EXPECT_EQ(desk.find("--robot"), std::string::npos) << desk;
+  auto [robot_code, robot] =
+      run_cmd({bin("poise"), "launch", file, "--check", "--host", "robot"}, 30s);
+  EXPECT_EQ(robot_code, 2) << robot;
+  EXPECT_NE(robot.find("/nonexistent/robots/far/robot.yaml"), std::string::npos) << robot;
+  auto [all_code, all] = run_cmd({bin("poise"), "launch", file, "--check"}, 30s);
+  EXPECT_EQ(all_code, 2) << all;
+}
+
 // A component that dies is restarted by its policy, and the run goes on to the verdict: kill -9
 // of the contact optimiser (restart: on-failure) in a lockstep run on one machine.
 TEST(Launch, AKilledComponentIsRestartedByItsPolicy) {

@@ -133,7 +133,20 @@ std::vector<const Component*> Deployment::components_on(const std::string& host)
   return out;
 }
 
-Deployment load_deployment(const fs::path& file) {
+/// estimator.supports and contact.method of a scenario file, by YAML alone (no robot loaded).
+void read_scenario_hints(const std::string& path, Deployment& d, Problems& p) {
+  try {
+    const YAML::Node root = YAML::LoadFile(path);
+    if (root["estimator"] && root["estimator"]["supports"])
+      d.estimator_supports = root["estimator"]["supports"].as<std::string>();
+    if (root["contact"] && root["contact"]["method"])
+      d.contact_method = root["contact"]["method"].as<std::string>();
+  } catch (const YAML::Exception& e) {
+    p.add("scenario", path + ": " + e.what());
+  }
+}
+
+Deployment load_deployment(const fs::path& file, const std::string& host) {
   Deployment d;
   d.file = file;
   Problems p(file);
@@ -310,10 +323,19 @@ Deployment load_deployment(const fs::path& file) {
         if (!fs::exists(d.scenario)) {
           p.add("scenario", "no such file or scenario name: " + s);
         } else {
-          try {
-            (void)sim::load_scenario(d.scenario);
-          } catch (const std::exception& e) {
-            p.add("scenario", e.what());
+          bool sim_here = host.empty();
+          for (const auto& c : d.components)
+            sim_here = sim_here || (c.kind == "sim" && c.host == host);
+          if (sim_here) {
+            try {
+              const sim::Scenario sc = sim::load_scenario(d.scenario);
+              d.estimator_supports = sc.estimator.supports;
+              d.contact_method = sc.contact_method;
+            } catch (const std::exception& e) {
+              p.add("scenario", e.what());
+            }
+          } else {
+            read_scenario_hints(d.scenario, d, p);
           }
         }
       }
@@ -420,15 +442,13 @@ std::vector<std::string> command_line(const Deployment& d, const Component& c,
   if (c.kind == "sim") {
     a.insert(a.end(), {d.scenario, "--progress", d.realtime ? "--realtime" : "--lockstep"});
   } else {
-    sim::Scenario s;
-    if (!d.scenario.empty()) s = sim::load_scenario(d.scenario);
     // The nodes take the robot from poise/robot_description; `robot:` of the file is an explicit
     // override, which each node checks against the description (and refuses on a difference).
     if (!d.robot.empty()) a.insert(a.end(), {"--robot", d.robot});
-    if (c.kind == "estimator" && !s.estimator.supports.empty())
-      a.insert(a.end(), {"--supports", s.estimator.supports});
-    if (c.kind == "contact" && !s.contact_method.empty())
-      a.insert(a.end(), {"--method", s.contact_method});
+    if (c.kind == "estimator" && !d.estimator_supports.empty())
+      a.insert(a.end(), {"--supports", d.estimator_supports});
+    if (c.kind == "contact" && !d.contact_method.empty())
+      a.insert(a.end(), {"--method", d.contact_method});
     if (c.kind == "controller")
       a.insert(a.end(), {"--contact-deadline-us", d.realtime ? "400" : "1000000"});
   }

@@ -125,7 +125,7 @@ int launch_main(int argc, char** argv) {
 
   Deployment d;
   try {
-    d = load_deployment(file);
+    d = load_deployment(file, host_name);
   } catch (const DeploymentError& e) {
     std::fprintf(stderr, "poise launch: %s\n", e.what());
     return 2;

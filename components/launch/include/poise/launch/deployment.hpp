@@ -60,6 +60,9 @@ struct Deployment {
   std::string name;
   int domain = 0;
   std::string scenario;  ///< resolved path of the scenario file ("" without a simulator)
+  /// What the nodes take from the scenario (its estimator.supports and contact.method; "" =
+  /// the nodes' defaults), read without loading the scenario's robot.
+  std::string estimator_supports, contact_method;
   std::string robot;     ///< --robot for the nodes ("" = none: the robot of the description)
   bool realtime = false;
   std::string security;  ///< DDS Security directory (poise security init), "" = none
@@ -82,7 +85,12 @@ std::string resolve_scenario(const std::string& file_or_name,
 
 /// Reads and validates a deployment file. Relative paths (scenario, robot, outputs) are taken
 /// relative to the working directory if they exist there, else to the file's directory.
-Deployment load_deployment(const std::filesystem::path& file);
+/// `host` (--host): the machine this launcher starts. The scenario (and the robot files it names)
+/// is loaded and validated in full where the simulator runs, or for every host when `host` is
+/// empty (--check of the whole file); on a host without the simulator only the scenario file's
+/// estimator.supports and contact.method are read: its nodes take the robot from
+/// poise/robot_description, so that host needs no robot files.
+Deployment load_deployment(const std::filesystem::path& file, const std::string& host = "");
 
 /// The DDS configuration of `host` for `vendor` ("cyclone" or "fastdds"): unicast discovery to
 /// every host of the deployment, bound to this host's address only, no multicast.
