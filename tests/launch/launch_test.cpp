@@ -236,6 +236,48 @@ TEST(Launch, ABadDeploymentFileIsRefusedWithEveryProblemNamed) {
   EXPECT_NE(out2.find("not valid YAML"), std::string::npos) << out2;
 }
 
+// Honest accounting: the result names every kind of miss and splits each node's compute time
+// into its library call and its own overhead; a run whose robot damped (no command for the
+// safety layer's whole hold time) fails above the scenario's tolerance (default 0 ticks).
+TEST(Launch, TheResultCountsEveryMissAndDampingFailsTheRun) {
+  const fs::path dir = work_dir("accounting");
+  const std::string ok_json = (dir / "lockstep.json").string();
+  auto [ok_code, ok_out] = run_cmd({bin("poise"), "run", "standing", "--duration", "1", "-o",
+                                    ok_json, "--log-dir", (dir / "lockstep.logs").string()},
+                                   120s);
+  ASSERT_EQ(ok_code, 0) << ok_out;
+  const Json ok = Json::parse(std::ifstream(ok_json));
+  for (const char* key : {"controller_contact_wait", "sim_overruns", "robot_hold_ticks",
+                          "robot_damping_ticks", "robot_late_commands", "samples_rejected"})
+    EXPECT_TRUE(ok["misses"].contains(key)) << key << "\n" << ok.dump(2);
+  EXPECT_EQ(ok["misses"]["robot_damping_ticks"], 0);
+  for (const char* node : {"estimator", "controller", "contact"}) {
+    SCOPED_TRACE(node);
+    ASSERT_TRUE(ok["library_us"].contains(node)) << ok.dump(2);
+    EXPECT_GT(ok["library_us"][node]["count"].get<int>(), 900);
+    // library + overhead = compute, per tick; so their means add up (1 us bins)
+    EXPECT_NEAR(ok["library_us"][node]["mean"].get<double>() +
+                    ok["overhead_us"][node]["mean"].get<double>(),
+                ok["compute_us"][node]["mean"].get<double>(), 1.5);
+  }
+  EXPECT_NE(ok_out.find("  misses: contact wait"), std::string::npos) << ok_out;
+
+  // A watchdog of 0.2 ms and no hold: the robot damps between commands -> the run fails.
+  const std::string bad_json = (dir / "damping.json").string();
+  auto [bad_code, bad_out] =
+      run_cmd({bin("poise"), "run", "standing", "--realtime", "--duration", "1", "--watchdog-ms",
+               "0.2", "--hold-s", "0", "-o", bad_json, "--log-dir",
+               (dir / "damping.logs").string()},
+              120s);
+  EXPECT_EQ(bad_code, 1) << bad_out;
+  const Json bad = Json::parse(std::ifstream(bad_json));
+  EXPECT_FALSE(bad["survived"].get<bool>());
+  EXPECT_GT(bad["misses"]["robot_damping_ticks"].get<int>(), 0);
+  EXPECT_NE(bad.value("failure", std::string()).find("damping ticks (tolerance 0)"),
+            std::string::npos)
+      << bad.dump(2);
+}
+
 // A desk host needs the scenario file but no robot files: its nodes take the robot from
 // poise/robot_description. The scenario here names a robot configuration that does not exist:
 // the desk's share is valid (and its nodes get the scenario's support model), the robot's share

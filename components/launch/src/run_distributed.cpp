@@ -1,4 +1,5 @@
 // `poise run SCENARIO` in its distributed form: four processes over loopback DDS.
+#include <algorithm>
 #include <signal.h>
 #include <unistd.h>
 #include <CLI/CLI.hpp>
@@ -501,11 +502,51 @@ int run_distributed(int argc, char** argv) {
                    {"contact", diag(con_r, "errors")},
                    {"controller", diag(ctrl_r, "errors")}};
     r["compute_us"] = Json::object();  // per node, whole run: sim = step, controller = own
+    r["library_us"] = Json::object();   // the library call alone (estimator, controller, contact)
+    r["overhead_us"] = Json::object();  // the node's own work around it
     for (const auto& [name, j] : {std::pair<std::string, const Json*>{"sim", &sim_r},
                                   {"estimator", &est_r},
                                   {"contact", &con_r},
-                                  {"controller", &ctrl_r}})
+                                  {"controller", &ctrl_r}}) {
       r["compute_us"][name] = j->is_object() ? j->value("compute_us_run", Json()) : Json();
+      if (j->is_object() && j->contains("library_us_run")) {
+        r["library_us"][name] = (*j)["library_us_run"];
+        r["overhead_us"][name] = (*j)["overhead_us_run"];
+      }
+    }
+    // Every kind of miss, per node and for the loop (a miss = a tick not handled as designed).
+    auto num = [](const Json& j, const char* key) -> std::uint64_t {
+      return j.is_object() && j.contains(key) && j[key].is_number_unsigned()
+                 ? j[key].get<std::uint64_t>()
+                 : (j.is_object() && j.contains(key) && j[key].is_number_integer()
+                        ? static_cast<std::uint64_t>(std::max<std::int64_t>(0, j[key].get<std::int64_t>()))
+                        : 0ULL);
+    };
+    const Json safety = sim_r.value("safety", Json::object());
+    Json misses;
+    misses["controller_contact_wait"] = misses_ctrl;
+    misses["controller_commands_withheld"] = num(ctrl_r, "commands_withheld");
+    misses["sim_overruns"] = num(sim_r, "overruns");
+    misses["sim_command_timeouts"] = num(sim_r, "command_timeouts");
+    misses["robot_hold_ticks"] = num(sim_r, "hold_ticks");
+    misses["robot_damping_ticks"] = num(sim_r, "damping_ticks");
+    misses["robot_late_commands"] = num(safety, "rejected_tick");
+    misses["robot_refused_commands"] = num(safety, "rejected") - num(safety, "rejected_tick");
+    misses["estimator_dropped_frames"] = num(est_r, "dropped_frames");
+    misses["out_of_sequence"] = num(est_r, "out_of_sequence") + num(ctrl_r, "out_of_sequence");
+    misses["samples_rejected"] = r["rejected_samples"];
+    r["misses"] = misses;
+    // A damping tick is a lost tick of balance control: the run fails above the scenario's
+    // tolerance (success.max_damping_ticks, default 0).
+    const long long damping_tolerance = scenario.success.max_damping_ticks;
+    r["max_damping_ticks"] = damping_tolerance;
+    std::string verdict_reason;
+    if (static_cast<long long>(num(sim_r, "damping_ticks")) > damping_tolerance) {
+      verdict_reason = std::to_string(num(sim_r, "damping_ticks")) +
+                       " damping ticks (tolerance " + std::to_string(damping_tolerance) + ")";
+      r["survived"] = false;
+      r["failure"] = verdict_reason;
+    }
     r["state_source"] = s.ground_truth_state ? "ground_truth" : "estimator";
     r["dds"] = vendor;
     r["domain"] = domain;
@@ -525,6 +566,28 @@ int run_distributed(int argc, char** argv) {
       out << r.dump(2) << "\n";
     }
     const Json& lat = r["tick_latency_us"];
+    if (!s.quiet) std::printf(
+        "  misses: contact wait %llu, commands withheld %llu, sim overruns %llu, hold ticks %llu, "
+        "damping ticks %llu, late commands %llu, refused commands %llu, dropped frames %llu, "
+        "out of sequence %llu, rejected samples %llu%s%s\n",
+        static_cast<unsigned long long>(misses["controller_contact_wait"].get<std::uint64_t>()),
+        static_cast<unsigned long long>(misses["controller_commands_withheld"].get<std::uint64_t>()),
+        static_cast<unsigned long long>(misses["sim_overruns"].get<std::uint64_t>()),
+        static_cast<unsigned long long>(misses["robot_hold_ticks"].get<std::uint64_t>()),
+        static_cast<unsigned long long>(misses["robot_damping_ticks"].get<std::uint64_t>()),
+        static_cast<unsigned long long>(misses["robot_late_commands"].get<std::uint64_t>()),
+        static_cast<unsigned long long>(misses["robot_refused_commands"].get<std::uint64_t>()),
+        static_cast<unsigned long long>(misses["estimator_dropped_frames"].get<std::uint64_t>()),
+        static_cast<unsigned long long>(misses["out_of_sequence"].get<std::uint64_t>()),
+        static_cast<unsigned long long>(misses["samples_rejected"].get<std::uint64_t>()),
+        verdict_reason.empty() ? "" : ": FAILED on ", verdict_reason.c_str());
+    for (const char* node : {"estimator", "controller", "contact"})
+      if (!s.quiet && r["library_us"].contains(node))
+        std::printf("  %s compute p50/p99 %.0f/%.0f us = library %.0f/%.0f us + node %.0f/%.0f us\n",
+                    node, r["compute_us"][node].value("p50", 0.0),
+                    r["compute_us"][node].value("p99", 0.0), r["library_us"][node].value("p50", 0.0),
+                    r["library_us"][node].value("p99", 0.0), r["overhead_us"][node].value("p50", 0.0),
+                    r["overhead_us"][node].value("p99", 0.0));
     std::printf(
         "%s %s (%s, %s): com_error max %.3f m final %.3f m, foot slip %.4f m, non-foot contacts "
         "%d, tick latency p50/p99/max %.0f/%.0f/%.0f us, deadline misses %llu, %.2fx real time "

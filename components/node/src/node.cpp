@@ -108,6 +108,13 @@ void Node::tick_done(std::uint64_t tick, std::int64_t compute_ns) noexcept {
   compute_run_.add(static_cast<double>(compute_ns) * 1e-3);
 }
 
+void Node::tick_done(std::uint64_t tick, std::int64_t compute_ns,
+                     std::int64_t library_ns) noexcept {
+  tick_done(tick, compute_ns);
+  library_run_.add(static_cast<double>(library_ns) * 1e-3);
+  overhead_run_.add(static_cast<double>(compute_ns - library_ns) * 1e-3);
+}
+
 void Node::error(const char* format, ...) noexcept {
   ++errors_;
   va_list args;
@@ -262,6 +269,15 @@ void Node::write_summary(const std::string& extra_json) {
                            {"max", compute_run_.max()},
                            {"mean", compute_run_.mean()},
                            {"count", compute_run_.count()}};
+    if (library_run_.count() > 0) {
+      auto hist = [](const LatencyHistogram& h) {
+        return nlohmann::json{{"p50", h.percentile(0.5)}, {"p99", h.percentile(0.99)},
+                              {"max", h.max()},           {"mean", h.mean()},
+                              {"count", h.count()}};
+      };
+      j["library_us_run"] = hist(library_run_);
+      j["overhead_us_run"] = hist(overhead_run_);
+    }
     j["non_finite_refused"] = non_finite_;
     if (!extra_json.empty()) {
       const auto extra = nlohmann::json::parse(extra_json);

@@ -82,13 +82,16 @@ int run(int argc, char** argv) {
     }
     node.input_seen(problem_input, in.problem.header().tick());
     const std::int64_t t_solve = node::now_ns();
+    std::int64_t lib_ns = 0;  // the library's solve alone
     const char* bad_geometry = in.valid ? contact_node::from_msg(in.problem, problem) : nullptr;
     if (bad_geometry) {
       node.error("tick %llu: invalid contact problem: %s",
                  static_cast<unsigned long long>(in.problem.header().tick()), bad_geometry);
       contact::set_safe_solution(contact::ContactStatus::kInvalidInput, solution);
     } else if (in.valid) {
+      const std::int64_t t_lib = node::now_ns();
       optimizer.solve(problem, solution);
+      lib_ns = node::now_ns() - t_lib;
       if (solution.status == contact::ContactStatus::kInvalidInput ||
           solution.status == contact::ContactStatus::kSolverFailure)
         node.error("tick %llu: %s problem (%s)",
@@ -109,7 +112,7 @@ int run(int argc, char** argv) {
       contact_node::to_msg(solution, in.problem.header(), solve_us, method, out);
     }
     node.publish(solutions, out);
-    node.tick_done(in.problem.header().tick(), node::now_ns() - t0);
+    node.tick_done(in.problem.header().tick(), node::now_ns() - t0, lib_ns);
   };
   std::mutex state_mutex;
   node.wait_for_output_readers(solutions);

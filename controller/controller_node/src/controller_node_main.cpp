@@ -153,6 +153,7 @@ int run(int argc, char** argv) {
     bool active = false;  ///< problem k sent, command k not yet
     std::uint64_t k = 0;
     std::int64_t t0 = 0, t_sent = 0, deadline = 0;
+    std::int64_t lib_ns = 0;  ///< library time of the tick (phases A and B)
     msg::Header header;
   } pending;
   bool started = false;  // setup complete: states are handled
@@ -230,13 +231,16 @@ int run(int argc, char** argv) {
       }
     }
     controller_node::from_msg(in, model_to_wire, state);
+    const std::int64_t t_lib = node::now_ns();
     ctrl.prepare(state, reference, problem);
+    const std::int64_t lib_a = node::now_ns() - t_lib;
     contact_node::to_msg(problem, problem_out);
     problem_out.header(in.header());
     pending.active = true;
     pending.k = k;
     pending.t0 = t0;
     pending.header = in.header();
+    pending.lib_ns = lib_a;
     const bool sent = node.publish(problems, problem_out);
     pending.t_sent = node::now_ns();
     pending.deadline = pending.t_sent + deadline_ns;
@@ -252,7 +256,9 @@ int run(int argc, char** argv) {
       contact_misses = 0;
       node.set_condition(msg::HEALTH_OK, nullptr);
       contact_node::from_msg(*answer, solution);
+      const std::int64_t t_lib = node::now_ns();
       ctrl.finish(solution, command);
+      pending.lib_ns += node::now_ns() - t_lib;
     } else {
       node.deadline_miss();
       if (++contact_misses >= contact_stale_ticks) {
@@ -278,7 +284,8 @@ int run(int argc, char** argv) {
     have_last = true;
     last_tick = pending.k;
     // Own compute, not the wait for the contact optimiser.
-    node.tick_done(pending.k, (pending.t_sent - pending.t0) + (node::now_ns() - t_back));
+    node.tick_done(pending.k, (pending.t_sent - pending.t0) + (node::now_ns() - t_back),
+                   pending.lib_ns);
     if (have_held) {
       have_held = false;
       handle_state(*held_state);

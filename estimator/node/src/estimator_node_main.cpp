@@ -145,7 +145,9 @@ int run(int argc, char** argv) {
     }
     node.input_seen(sensors_input, k);
     estimator_node::from_msg(in, model_to_wire, frame);
+    const std::int64_t t_lib = node::now_ns();
     const estimator::StatusFlags flags = estimator.update(frame, state);
+    const std::int64_t lib_ns = node::now_ns() - t_lib;
     if (estimator.diagnostics().rejected_frames != library_rejected) {
       library_rejected = estimator.diagnostics().rejected_frames;
       node.error("tick %llu: sensor frame rejected: %s: no state sent",
@@ -170,7 +172,7 @@ int run(int argc, char** argv) {
                    static_cast<unsigned long long>(k));
     }
     node.publish(states, out);
-    node.tick_done(k, node::now_ns() - t0);
+    node.tick_done(k, node::now_ns() - t0, lib_ns);
   };
 
   std::mutex state_mutex;

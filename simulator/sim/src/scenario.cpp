@@ -401,7 +401,7 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
   if (const YAML::Node s = root["success"]) {
     c.allow(s, "success",
             {"com_error_max_m", "com_error_final_m", "foot_slip_max_m", "recovery_time_s",
-             "allow_non_foot_contacts", "min_base_height_m"});
+             "allow_non_foot_contacts", "min_base_height_m", "max_damping_ticks"});
     SuccessCriteria& k = sc.success;
     k.com_error_max_m = c.num(s, "com_error_max_m", "success", k.com_error_max_m);
     k.com_error_final_m = c.num(s, "com_error_final_m", "success", k.com_error_final_m);
@@ -409,6 +409,12 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
     k.recovery_time_s = c.num(s, "recovery_time_s", "success", k.recovery_time_s);
     k.allow_non_foot_contacts = c.boolean(s, "allow_non_foot_contacts", "success", false);
     k.min_base_height_m = c.num(s, "min_base_height_m", "success", k.min_base_height_m);
+    const double damping = c.num(s, "max_damping_ticks", "success",
+                                 static_cast<double>(k.max_damping_ticks));
+    if (!(damping >= 0.0) || damping != std::floor(damping))
+      c.fail("success.max_damping_ticks", "must be a whole number >= 0");
+    else
+      k.max_damping_ticks = static_cast<long long>(damping);
   }
 
   // dds hints

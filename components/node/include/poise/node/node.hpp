@@ -164,6 +164,10 @@ class Node {
 
   /// One handled tick: its number and the node's compute time for it [ns].
   void tick_done(std::uint64_t tick, std::int64_t compute_ns) noexcept;
+  /// The same, with the part of compute_ns spent in the node's library call (estimator update,
+  /// controller phases, contact solve): the summary then splits the compute time into
+  /// "library_us_run" and "overhead_us_run" (conversion, validation, publication, locking).
+  void tick_done(std::uint64_t tick, std::int64_t compute_ns, std::int64_t library_ns) noexcept;
   /// A tick that missed its deadline (counted; the caller logs via error() if it wants).
   void deadline_miss() noexcept { ++deadline_misses_; }
   std::uint64_t deadline_misses() const noexcept { return deadline_misses_; }
@@ -248,6 +252,7 @@ class Node {
   msg::Diagnostics diag_;
   ComputeStats compute_;
   LatencyHistogram compute_run_{20000};  ///< whole run, 1 us bins up to 20 ms
+  LatencyHistogram library_run_{20000}, overhead_run_{20000};
   msg::NodeHealth health_ = msg::HEALTH_OK;
   std::uint64_t last_tick_ = 0;
   std::uint64_t ticks_ = 0;

@@ -20,6 +20,10 @@ struct SuccessCriteria {
   double recovery_time_s = std::numeric_limits<double>::infinity();    ///< after the last push
   bool allow_non_foot_contacts = false;  ///< a knee / hand / trunk touching = fall
   double min_base_height_m = 0.0;        ///< base below this height = fall
+  /// Distributed runs (`poise run`): ticks the robot's safety layer may spend damping (no joint
+  /// command for its whole hold time) before the run fails. A damping tick is a lost tick of
+  /// balance control.
+  long long max_damping_ticks = 0;
 };
 
 /// Optional hints for `poise run` (which DDS vendor each component uses).
