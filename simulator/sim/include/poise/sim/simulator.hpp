@@ -5,7 +5,8 @@
 //   in : JointCommand for tick k (mode torque / PD / damping; PD evaluated here at 1 kHz)
 //   out: SensorFrame of tick k+1 (only what a real robot measures) and GroundTruth of tick k+1
 // Lockstep: call step() once per received command. Real time: call step() every 1 ms with the
-// newest command and let CommandWatchdog (watchdog.hpp) decide when to damp instead.
+// newest command, through the robot-side safety layer (components/safety), which decides when
+// to hold or damp instead.
 //
 // Physics: double-precision Bullet (BT_USE_DOUBLE_PRECISION, the -float64 libraries) behind a
 // pimpl; floating base; revolute / continuous / prismatic joints under torque control; URDF
