@@ -239,8 +239,8 @@ TEST_P(FaultInjection, AForgedFutureTickIsRejectedAndTheStreamGoesOn) {
 
 TEST_P(FaultInjection, ADriverRestartIsSeenStaleThenFollowedFromItsNewTicks) {
   driver_->stream(2, 400);
-  const std::size_t before = driver_->states().size();
   std::this_thread::sleep_for(400ms);  // the driver is down: stale
+  const std::size_t before = driver_->states().size();  // every state of the old stream is in
   EXPECT_TRUE(driver_->diagnostics_said("no poise/sensors for", msg::HEALTH_FAULT))
       << estimator_->output();
   driver_->stream(1, 300);  // back, counting from 1 again
