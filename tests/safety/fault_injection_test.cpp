@@ -26,6 +26,7 @@
 
 #include "poise/dds/dds.hpp"
 #include "poise/model/robot_config.hpp"
+#include "poise/node/robot_description.hpp"
 #include "support/child_process.hpp"
 
 namespace {
@@ -75,28 +76,8 @@ class Driver {
           std::lock_guard lock(mutex_);
           diag_rec_.push_back({static_cast<int>(d.health()), d.last_error().to_string()});
         }) {
-    msg::RobotDescription d;
-    d.robot_name(robot_.name);
-    d.urdf(read_file(robot_.urdf_path.string()));
-    d.robot_config(read_file(kRobotYaml));
-    for (const auto& j : model_.joint_names)
-      d.joint_names().push_back(j);
-    d.imu_frame(robot_.imu_frame);
-    for (std::size_t f = 0; f < 2; ++f) {
-      const auto& fc = robot_.feet[f];
-      msg::SoleGeometry& s = d.feet()[f];
-      s.foot_frame(fc.frame);
-      s.x_min(fc.sole.x_min);
-      s.x_max(fc.sole.x_max);
-      s.y_min(fc.sole.y_min);
-      s.y_max(fc.sole.y_max);
-      s.sole_height(fc.sole.height);
-      s.safety_margin(robot_.safety_margin);
-      s.mu(robot_.friction_mu);
-      s.mu_torsion(robot_.torsional_mu);
-    }
-    d.control_period_s(0.001);
-    description_pub_.publish(d);
+    description_pub_.publish(
+        poise::node::describe_robot(robot_, model_, read_file(kRobotYaml), 0.001));
     // A standing robot: nominal posture, IMU at rest, half the weight on each foot.
     frame_.joint_count(static_cast<std::uint32_t>(model_.njoints));
     for (int j = 0; j < model_.njoints; ++j)

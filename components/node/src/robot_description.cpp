@@ -4,6 +4,7 @@
 #include <cmath>
 #include <set>
 #include <sstream>
+#include <fstream>
 #include <stdexcept>
 #include <thread>
 
@@ -147,6 +148,40 @@ RobotFromDescription resolve_robot(Node& node, const msg::RobotDescription& desc
   dds::log(dds::LogLevel::info, "robot from %s (checked against %s: the same robot): %s",
            override_path.c_str(), kTopic, r.config.name.c_str());
   return r;
+}
+
+msg::RobotDescription describe_robot(const model::RobotConfig& robot, const model::Model& model,
+                                     const std::string& robot_yaml, double control_period_s) {
+  msg::RobotDescription d;
+  d.robot_name(robot.name);
+  std::string urdf = robot.urdf_xml;
+  if (urdf.empty()) {
+    std::ifstream in(robot.urdf_path);
+    if (!in) throw std::runtime_error("cannot read the URDF " + robot.urdf_path.string());
+    std::stringstream text;
+    text << in.rdbuf();
+    urdf = text.str();
+  }
+  d.urdf(urdf);
+  d.robot_config(robot_yaml);
+  for (const auto& name : model.joint_names)
+    d.joint_names().push_back(name);
+  d.imu_frame(robot.imu_frame);
+  for (std::size_t f = 0; f < 2; ++f) {
+    const model::FootConfig& fc = robot.feet[f];
+    msg::SoleGeometry& s = d.feet()[f];
+    s.foot_frame(fc.frame);
+    s.x_min(fc.sole.x_min);
+    s.x_max(fc.sole.x_max);
+    s.y_min(fc.sole.y_min);
+    s.y_max(fc.sole.y_max);
+    s.sole_height(fc.sole.height);
+    s.safety_margin(robot.safety_margin);
+    s.mu(robot.friction_mu);
+    s.mu_torsion(robot.torsional_mu);
+  }
+  d.control_period_s(control_period_s);
+  return d;
 }
 
 msg::RobotDescription wait_for_robot_description(Node& node, std::chrono::milliseconds timeout) {

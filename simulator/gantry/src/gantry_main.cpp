@@ -45,6 +45,7 @@
 #include "poise/model/robot_config.hpp"
 #include "poise/node/mailbox.hpp"
 #include "poise/node/node.hpp"
+#include "poise/node/robot_description.hpp"
 #include "poise/safety/safety_layer.hpp"
 
 namespace {
@@ -177,28 +178,7 @@ class Gantry {
   }
 
   void publish_description(const std::string& robot_path) {
-    msg::RobotDescription d;
-    d.robot_name(robot_.name);
-    d.urdf(robot_.urdf_xml.empty() ? read_text(robot_.urdf_path.string()) : robot_.urdf_xml);
-    d.robot_config(read_text(robot_path));
-    for (const auto& name : model_.joint_names)
-      d.joint_names().push_back(name);
-    d.imu_frame(robot_.imu_frame);
-    for (std::size_t f = 0; f < 2; ++f) {
-      const model::FootConfig& fc = robot_.feet[f];
-      msg::SoleGeometry& s = d.feet()[f];
-      s.foot_frame(fc.frame);
-      s.x_min(fc.sole.x_min);
-      s.x_max(fc.sole.x_max);
-      s.y_min(fc.sole.y_min);
-      s.y_max(fc.sole.y_max);
-      s.sole_height(fc.sole.height);
-      s.safety_margin(robot_.safety_margin);
-      s.mu(robot_.friction_mu);
-      s.mu_torsion(robot_.torsional_mu);
-    }
-    d.control_period_s(0.001);
-    description_pub_.publish(d);
+    description_pub_.publish(node::describe_robot(robot_, model_, read_text(robot_path), 0.001));
   }
 
   /// The plate force at the sole centre of foot f, for the dynamics and the F/T reading.

@@ -44,6 +44,13 @@ std::vector<std::string> description_differences(const RobotFromDescription& rob
 RobotFromDescription resolve_robot(Node& node, const msg::RobotDescription& description,
                                    const std::string& override_path);
 
+/// The description a robot side publishes for `robot` (what a driver with robot files sends):
+/// name, the URDF text (`robot.urdf_xml`, else the file), `robot_yaml` as robot_config, the
+/// model's joint order, the IMU frame, each foot's sole and contact parameters, the control
+/// period. Throws std::runtime_error when the URDF cannot be read. Configuration time.
+msg::RobotDescription describe_robot(const model::RobotConfig& robot, const model::Model& model,
+                                     const std::string& robot_yaml, double control_period_s);
+
 /// Waits for the robot description (reliable, transient-local). Throws std::runtime_error after
 /// `timeout` or on shutdown. Configuration time.
 msg::RobotDescription wait_for_robot_description(Node& node, std::chrono::milliseconds timeout);
