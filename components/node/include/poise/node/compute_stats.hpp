@@ -65,16 +65,22 @@ class ComputeStats {
   double max_all_ = 0.0;
 };
 
-/// Histogram of durations with 1 us bins up to `max_us` (larger values go to the last bin, and
-/// the exact maximum is kept): percentiles over a whole run at O(1) per sample, no allocation
-/// after construction. Used for the sensor-to-command tick latency.
+/// Histogram of durations with `bin_us` bins (default 1 us) up to `max_us` (larger values go to
+/// the last bin, and the exact maximum is kept): percentiles over a whole run at O(1) per sample,
+/// no allocation after construction. Used for the sensor-to-command tick latency (1 us bins) and
+/// the per-tick split of a node's compute time (0.1 us bins: parts of a few microseconds).
 class LatencyHistogram {
  public:
-  explicit LatencyHistogram(std::size_t max_us = 100000) : bins_(max_us + 1, 0) {}
+  explicit LatencyHistogram(std::size_t max_us = 100000, double bin_us = 1.0)
+      : bin_us_(bin_us > 0.0 ? bin_us : 1.0),
+        bins_(static_cast<std::size_t>(static_cast<double>(max_us) / bin_us_) + 1, 0) {}
 
   void add(double us) noexcept {
     if (!(us >= 0.0)) us = 0.0;
-    const std::size_t i = std::min(bins_.size() - 1, static_cast<std::size_t>(us));
+    const double bin = us / bin_us_;
+    const std::size_t i = bin >= static_cast<double>(bins_.size() - 1)
+                              ? bins_.size() - 1
+                              : static_cast<std::size_t>(bin);
     ++bins_[i];
     ++count_;
     if (us > max_) max_ = us;
@@ -83,7 +89,7 @@ class LatencyHistogram {
   std::size_t count() const noexcept { return count_; }
   double max() const noexcept { return max_; }
   double mean() const noexcept { return count_ ? sum_ / static_cast<double>(count_) : 0.0; }
-  /// Nearest-rank percentile; values are the upper edge of their 1 us bin (capped at max()).
+  /// Nearest-rank percentile; values are the upper edge of their bin (capped at max()).
   double percentile(double p) const noexcept {
     if (count_ == 0) return 0.0;
     std::size_t rank = static_cast<std::size_t>(p * static_cast<double>(count_) + 0.999999);
@@ -91,12 +97,13 @@ class LatencyHistogram {
     std::size_t seen = 0;
     for (std::size_t i = 0; i < bins_.size(); ++i) {
       seen += bins_[i];
-      if (seen >= rank) return std::min(static_cast<double>(i + 1), max_);
+      if (seen >= rank) return std::min(static_cast<double>(i + 1) * bin_us_, max_);
     }
     return max_;
   }
 
  private:
+  double bin_us_;
   std::vector<std::uint32_t> bins_;
   std::size_t count_ = 0;
   double max_ = 0.0;
