@@ -1,4 +1,5 @@
 // poise-bench-loop [SCENARIO] [--duration S] [--skip-distributed] [--verbose]
+// poise-bench-loop --realtime ...   (real time, distributed, against the targets: realtime_bench.cpp)
 //
 // Measures, in one run:
 //  1. the in-process loop: simulator -> estimator -> controller phase A -> contact optimiser ->
@@ -29,6 +30,7 @@
 #include "poise/node/robot_description.hpp"
 #include "poise/node/tick_timer.hpp"
 #include "poise/sim_node/sim_messages.hpp"
+#include "realtime_bench.hpp"
 
 namespace {
 
@@ -134,6 +136,15 @@ fs::path self_dir() {
 }  // namespace
 
 int main(int argc, char** argv) {
+  for (int i = 1; i < argc; ++i)
+    if (std::string(argv[i]) == "--realtime") {
+      try {
+        return poise::bench::run_realtime_bench(argc, argv, self_dir());
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "poise-bench-loop --realtime: %s\n", e.what());
+        return 2;
+      }
+    }
   std::string scenario;
   double duration = 3.0;
   bool skip_distributed = false, verbose = false;
@@ -151,7 +162,9 @@ int main(int argc, char** argv) {
     else if (a == "--help" || a == "-h") {
       std::printf(
           "usage: poise-bench-loop [SCENARIO] [--duration S] [--skip-distributed] "
-          "[--verbose]\n");
+          "[--verbose]\n"
+          "       poise-bench-loop --realtime [--help] ...  (the real-time targets: see "
+          "--realtime --help)\n");
       return 0;
     } else
       scenario = a;

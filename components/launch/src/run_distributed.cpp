@@ -67,7 +67,22 @@ struct Settings {
   bool quiet = false;
   std::string record;  ///< MCAP file of `--record` ("" with the flag alone: the default path)
   std::string security;  ///< DDS Security directory (poise security init), "" = none
+  int rt_priority = 0;   ///< SCHED_FIFO base priority of the processes (0: normal scheduling)
+  bool lock_memory = false;  ///< every process locks its memory (mlockall)
 };
+
+/// SCHED_FIFO priority of a component for `poise run --rt-priority P`: the simulator (the robot
+/// side, its safety layer and the clock) at P; the controller chain below it, each stage above
+/// the one that feeds it (estimator P-3 < controller P-2 < contact P-1), so that a stage woken
+/// by its input preempts whatever fed it and the tick drains without waiting.
+int rt_priority_of(const std::string& component, int base) {
+  if (base <= 0) return 0;
+  const int below = component == "sim" ? 0
+                    : component == "contact" ? 1
+                    : component == "controller" ? 2
+                                                : 3;
+  return std::max(1, base - below);
+}
 
 /// Waits until the recorder child says it is recording (its subscribers exist), it exits, or
 /// `timeout_s` passes. Returns "" when ready, else what went wrong.
@@ -186,6 +201,15 @@ int run_distributed(int argc, char** argv) {
                  "DDS Security for every process of the run: the directory `poise security "
                  "init` made (each node authenticates as its name, the recorder as recorder)")
       ->check(CLI::ExistingDirectory);
+  app.add_option("--rt-priority", s.rt_priority,
+                 "real-time scheduling: SCHED_FIFO for every process, the simulator at this "
+                 "priority and the estimator, controller and contact optimiser at 3, 2 and 1 "
+                 "below (0: normal scheduling; refused without root or CAP_SYS_NICE, each "
+                 "process says so and runs normally)")
+      ->check(CLI::Range(0, 99))
+      ->capture_default_str();
+  app.add_flag("--lock-memory", s.lock_memory,
+               "every process locks its memory (mlockall) and pre-faults its stack");
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -238,6 +262,9 @@ int run_distributed(int argc, char** argv) {
                                  "--summary",
                                  (logs / (name + ".summary.json")).string()};
       if (!s.security.empty()) a.insert(a.end(), {"--security", s.security});
+      if (s.rt_priority > 0)
+        a.insert(a.end(), {"--rt-priority", std::to_string(rt_priority_of(name, s.rt_priority))});
+      if (s.lock_memory) a.push_back("--lock-memory");
       return a;
     };
     std::vector<std::string> sim_args = common("sim");
@@ -549,6 +576,14 @@ int run_distributed(int argc, char** argv) {
     }
     r["state_source"] = s.ground_truth_state ? "ground_truth" : "estimator";
     r["dds"] = vendor;
+    // What each process got of the real-time settings (applied or refused, thread policies,
+    // page faults after its first tick).
+    r["realtime_settings"] = Json::object();
+    for (const auto& [name, j] : {std::pair<std::string, const Json*>{"sim", &sim_r},
+                                  {"estimator", &est_r},
+                                  {"contact", &con_r},
+                                  {"controller", &ctrl_r}})
+      if (j->is_object() && j->contains("realtime")) r["realtime_settings"][name] = (*j)["realtime"];
     r["domain"] = domain;
     r["mode"] = s.realtime ? "realtime" : "lockstep";
     r["contact_method"] = s.method;
@@ -583,6 +618,18 @@ int run_distributed(int argc, char** argv) {
         verdict_reason.empty() ? "" : ": FAILED on ", verdict_reason.c_str());
     for (const char* node : {"estimator", "controller", "contact"})
       if (!s.quiet && r["library_us"].contains(node))
+    if (s.rt_priority > 0 || s.lock_memory) {
+      // One line per process: what it got, and any refusal in full (never silent).
+      for (auto it = r["realtime_settings"].begin(); it != r["realtime_settings"].end(); ++it) {
+        std::string got;
+        for (const auto& a : it.value().value("applied", Json::array()))
+          got += (got.empty() ? "" : ", ") + a.get<std::string>();
+        if (!s.quiet)
+          std::printf("  real time %s: %s\n", it.key().c_str(), got.empty() ? "nothing applied" : got.c_str());
+        for (const auto& a : it.value().value("refused", Json::array()))
+          std::printf("  real time %s: %s\n", it.key().c_str(), a.get<std::string>().c_str());
+      }
+    }
         std::printf("  %s compute p50/p99 %.0f/%.0f us = library %.0f/%.0f us + node %.0f/%.0f us\n",
                     node, r["compute_us"][node].value("p50", 0.0),
                     r["compute_us"][node].value("p99", 0.0), r["library_us"][node].value("p50", 0.0),

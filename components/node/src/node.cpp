@@ -55,6 +55,7 @@ void add_node_options(CLI::App& app, NodeOptions& options, const std::string& ki
       ->check(CLI::Range(0, 600000))
       ->capture_default_str();
   dds::add_dds_options(app, options.dds);
+  add_realtime_options(app, options.rt);
 }
 
 void add_input_options(CLI::App& app, NodeOptions& options) {
@@ -89,7 +90,21 @@ Node::Node(const NodeOptions& options) : options_(options) {
   // Under DDS Security a node authenticates as its name unless told otherwise.
   if (!options_.dds.security_dir.empty() && options_.dds.identity.empty())
     options_.dds.identity = options_.name;
+  // Real-time settings first: the participant's threads inherit policy and affinity.
+  const RealtimeReport rt = apply_process_realtime(options_.rt);
+  for (const std::string& line : rt.applied) dds::log(dds::LogLevel::info, "real time: %s", line.c_str());
+  for (const std::string& line : rt.refused) dds::log(dds::LogLevel::warn, "real time: %s", line.c_str());
+  rt_applied_ = rt.applied;
+  rt_refused_ = rt.refused;
   participant_ = std::make_unique<dds::Participant>(options_.dds);
+  if (rt.priority_applied) {
+    const int demoted = demote_housekeeping_threads(
+        options_.rt, participant_->vendor() == dds::Vendor::cyclone ? 2 : 0);
+    if (demoted > 0)
+      dds::log(dds::LogLevel::info,
+               "real time: %d DDS housekeeping thread(s) (discovery, garbage collection) back to "
+               "normal scheduling", demoted);
+  }
   diag_pub_ = std::make_unique<dds::Publisher<msg::Diagnostics>>(*participant_);
   diag_.node(options_.name.substr(0, 32));
   diag_.dds_vendor(std::string(dds::to_string(participant_->vendor())));
@@ -102,6 +117,10 @@ Node::Node(const NodeOptions& options) : options_(options) {
 Node::~Node() = default;
 
 void Node::tick_done(std::uint64_t tick, std::int64_t compute_ns) noexcept {
+  // Page faults in the loop: sampled at the first tick and then once every 1000 ticks (one
+  // getrusage call a second at 1 kHz), so that the summary's own allocations are not counted.
+  if (ticks_ == 0) faults_at_first_tick_ = page_faults();
+  if (ticks_ % 1000 == 0) faults_in_loop_ = page_faults();
   last_tick_ = tick;
   ++ticks_;
   compute_.add(static_cast<double>(compute_ns) * 1e-3);
@@ -283,6 +302,22 @@ void Node::write_summary(const std::string& extra_json) {
       const auto extra = nlohmann::json::parse(extra_json);
       for (auto it = extra.begin(); it != extra.end(); ++it)
         j[it.key()] = it.value();
+    {
+      nlohmann::json rt;
+      rt["priority"] = options_.rt.priority;
+      rt["cpus"] = options_.rt.cpus;
+      rt["lock_memory"] = options_.rt.lock_memory;
+      rt["applied"] = rt_applied_;
+      rt["refused"] = rt_refused_;
+      rt["threads"] = describe_threads();
+      if (ticks_ > 1000) {
+        rt["page_faults_in_loop"] = {
+            {"minor", faults_in_loop_.minor - faults_at_first_tick_.minor},
+            {"major", faults_in_loop_.major - faults_at_first_tick_.major},
+            {"ticks", (ticks_ - 1) / 1000 * 1000}};
+      }
+      j["realtime"] = rt;
+    }
     }
     const std::string tmp = options_.summary + ".tmp";
     {

@@ -45,6 +45,7 @@
 #include "poise/reflect/validate.hpp"
 
 namespace poise::node {
+#include "poise/node/realtime.hpp"
 
 /// Options common to every node.
 struct NodeOptions {
@@ -69,8 +70,11 @@ struct NodeOptions {
 /// of this build, or relative to the executable). Not the nodes' default any more (they take the
 /// robot from poise/robot_description): for tools and benchmarks that need the project humanoid.
 std::string default_robot_config();
+  /// --rt-priority, --cpus, --lock-memory: applied by Node before the DDS participant exists.
+  RealtimeOptions rt;
 
-/// Adds --name, --robot, --summary and the DDS options (--dds, --domain, --dds-config).
+/// Adds --name, --robot, --summary, the DDS options (--dds, --domain, --dds-config) and the
+/// real-time options (--rt-priority, --cpus, --lock-memory).
 /// `kind` is the default name ("sim", "estimator", ...).
 void add_node_options(CLI::App& app, NodeOptions& options, const std::string& kind);
 
@@ -267,3 +271,5 @@ class Node {
 };
 
 }  // namespace poise::node
+  std::vector<std::string> rt_applied_, rt_refused_;  ///< what apply_process_realtime() did
+  PageFaults faults_at_first_tick_, faults_in_loop_;  ///< see tick_done()
