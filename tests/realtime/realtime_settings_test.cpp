@@ -142,7 +142,7 @@ TEST(RealtimeSettings, AppliedAndInheritedByLaterThreads) {
       while (!stop) std::this_thread::sleep_for(1ms);
     });
     while (gc_tid == 0) std::this_thread::sleep_for(1ms);
-    const int demoted = poise::node::demote_housekeeping_threads(o);
+    const int demoted = poise::node::demote_housekeeping_threads();
     gc_policy = policy_of(gc_tid);
     const auto threads = poise::node::describe_threads();
     stop = true;
@@ -151,6 +151,35 @@ TEST(RealtimeSettings, AppliedAndInheritedByLaterThreads) {
     if (gc_policy != "other/0") return "the gc thread is " + gc_policy;
     if (!contains(threads, "gc:other/0") || !contains(threads, ":fifo/11"))
       return "describe_threads() does not show them";
+    return "";
+  });
+  EXPECT_EQ(failure, "");
+}
+
+// A process started SCHED_FIFO by someone else (poise launch's per-component priority, chrt)
+// reports it as inherited, and its housekeeping threads are demoted the same way.
+TEST(RealtimeSettings, InheritedRealTimeIsReported) {
+  if (::geteuid() != 0) GTEST_SKIP() << "needs root (CI runs as root)";
+  const std::string failure = in_child([]() -> std::string {
+    sched_param sp{};
+    sp.sched_priority = 12;
+    if (::sched_setscheduler(0, SCHED_FIFO, &sp) != 0) return "cannot set SCHED_FIFO";
+    const auto r = poise::node::apply_process_realtime(RealtimeOptions{});
+    if (!r.priority_applied || !contains(r.applied, "SCHED_FIFO 12 (inherited)"))
+      return "not reported as inherited";
+    std::atomic<bool> stop{false};
+    std::atomic<pid_t> tid{0};
+    std::thread builtins([&] {
+      ::pthread_setname_np(::pthread_self(), "dq.builtins");
+      tid = ::gettid();
+      while (!stop) std::this_thread::sleep_for(1ms);
+    });
+    while (tid == 0) std::this_thread::sleep_for(1ms);
+    const int demoted = poise::node::demote_housekeeping_threads(1);
+    const std::string policy = policy_of(tid);
+    stop = true;
+    builtins.join();
+    if (demoted != 1 || policy != "other/0") return "dq.builtins is " + policy;
     return "";
   });
   EXPECT_EQ(failure, "");

@@ -98,8 +98,8 @@ Node::Node(const NodeOptions& options) : options_(options) {
   rt_refused_ = rt.refused;
   participant_ = std::make_unique<dds::Participant>(options_.dds);
   if (rt.priority_applied) {
-    const int demoted = demote_housekeeping_threads(
-        options_.rt, participant_->vendor() == dds::Vendor::cyclone ? 2 : 0);
+    const int demoted =
+        demote_housekeeping_threads(participant_->vendor() == dds::Vendor::cyclone ? 2 : 0);
     if (demoted > 0)
       dds::log(dds::LogLevel::info,
                "real time: %d DDS housekeeping thread(s) (discovery, garbage collection) back to "

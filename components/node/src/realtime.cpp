@@ -151,6 +151,18 @@ RealtimeReport apply_process_realtime(const RealtimeOptions& options) {
                           "may page-fault in the loop");
     }
   }
+  if (options.priority == 0) {
+    // Started real-time by someone else (poise launch's deployment priority, chrt): say so, and
+    // the housekeeping threads are demoted as with --rt-priority.
+    const int policy = ::sched_getscheduler(0);
+    sched_param sp{};
+    ::sched_getparam(0, &sp);
+    if (policy == SCHED_FIFO || policy == SCHED_RR) {
+      r.priority_applied = true;
+      r.applied.push_back(std::string(policy == SCHED_FIFO ? "SCHED_FIFO " : "SCHED_RR ") +
+                          std::to_string(sp.sched_priority) + " (inherited)");
+    }
+  }
   if (options.priority > 0) {
     sched_param sp{};
     sp.sched_priority = options.priority;
@@ -168,8 +180,9 @@ RealtimeReport apply_process_realtime(const RealtimeOptions& options) {
   return r;
 }
 
-int demote_housekeeping_threads(const RealtimeOptions& options, int expected) {
-  if (options.priority <= 0) return 0;
+int demote_housekeeping_threads(int expected) {
+  const int own = ::sched_getscheduler(0);
+  if (own != SCHED_FIFO && own != SCHED_RR) return 0;
   // A vendor's thread names itself once it runs, shortly after the participant is created:
   // scan again (at most 200 ms) until the expected number is found.
   int demoted = 0;

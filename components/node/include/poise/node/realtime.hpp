@@ -5,7 +5,7 @@
 //   RealtimeOptions rt{.priority = 70, .cpus = "1", .lock_memory = true};
 //   RealtimeReport r = apply_process_realtime(rt);   // before any thread is created
 //   ... create the DDS participant (its threads inherit policy, priority and affinity) ...
-//   demote_housekeeping_threads(rt);                  // discovery / garbage collection: normal
+//   demote_housekeeping_threads();                    // discovery / garbage collection: normal
 //
 // Everything degrades gracefully: a setting the process is not permitted to make (no root, no
 // CAP_SYS_NICE / CAP_IPC_LOCK, no rtprio limit) is reported with the reason and the fix, and the
@@ -43,7 +43,8 @@ void add_realtime_options(CLI::App& app, RealtimeOptions& options);
 /// (empty item, bad number, reversed range, CPU beyond the machine's configured CPUs).
 std::vector<int> parse_cpu_list(const std::string& list);
 
-/// Applies `options` to the calling process: SCHED_FIFO for the calling thread (threads created
+/// Applies `options` to the calling process (a process started SCHED_FIFO/RR by a launcher or
+/// chrt with priority 0 is reported as "SCHED_FIFO N (inherited)"): SCHED_FIFO for the calling thread (threads created
 /// later inherit it), affinity of the calling thread (inherited likewise), and with lock_memory
 /// mlockall(MCL_CURRENT | MCL_FUTURE), M_TRIM_THRESHOLD/M_MMAP_MAX so that freed heap is kept,
 /// and a pre-faulted stack. Call before creating threads. Never throws for a refusal.
@@ -55,8 +56,8 @@ RealtimeReport apply_process_realtime(const RealtimeOptions& options);
 /// node's own threads). Fast DDS 2.9 does not name its threads: all keep the process priority.
 /// A thread names itself once it runs: the scan is repeated (at most 200 ms) until `expected`
 /// threads were demoted (2 for Cyclone DDS; 0: one scan). Returns the number demoted. Does
-/// nothing when `options.priority` is 0.
-int demote_housekeeping_threads(const RealtimeOptions& options, int expected = 0);
+/// nothing unless the calling thread runs SCHED_FIFO or SCHED_RR.
+int demote_housekeeping_threads(int expected = 0);
 
 /// The scheduling of each thread of this process, "name:policy/priority" (policy "fifo", "rr",
 /// "other", "batch", "idle"), for summaries and tests.
