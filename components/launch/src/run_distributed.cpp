@@ -574,8 +574,6 @@ int run_distributed(int argc, char** argv) {
       r["survived"] = false;
       r["failure"] = verdict_reason;
     }
-    r["state_source"] = s.ground_truth_state ? "ground_truth" : "estimator";
-    r["dds"] = vendor;
     // What each process got of the real-time settings (applied or refused, thread policies,
     // page faults after its first tick).
     r["realtime_settings"] = Json::object();
@@ -584,6 +582,8 @@ int run_distributed(int argc, char** argv) {
                                   {"contact", &con_r},
                                   {"controller", &ctrl_r}})
       if (j->is_object() && j->contains("realtime")) r["realtime_settings"][name] = (*j)["realtime"];
+    r["state_source"] = s.ground_truth_state ? "ground_truth" : "estimator";
+    r["dds"] = vendor;
     r["domain"] = domain;
     r["mode"] = s.realtime ? "realtime" : "lockstep";
     r["contact_method"] = s.method;
@@ -616,8 +616,6 @@ int run_distributed(int argc, char** argv) {
         static_cast<unsigned long long>(misses["out_of_sequence"].get<std::uint64_t>()),
         static_cast<unsigned long long>(misses["samples_rejected"].get<std::uint64_t>()),
         verdict_reason.empty() ? "" : ": FAILED on ", verdict_reason.c_str());
-    for (const char* node : {"estimator", "controller", "contact"})
-      if (!s.quiet && r["library_us"].contains(node))
     if (s.rt_priority > 0 || s.lock_memory) {
       // One line per process: what it got, and any refusal in full (never silent).
       for (auto it = r["realtime_settings"].begin(); it != r["realtime_settings"].end(); ++it) {
@@ -630,6 +628,8 @@ int run_distributed(int argc, char** argv) {
           std::printf("  real time %s: %s\n", it.key().c_str(), a.get<std::string>().c_str());
       }
     }
+    for (const char* node : {"estimator", "controller", "contact"})
+      if (!s.quiet && r["library_us"].contains(node))
         std::printf("  %s compute p50/p99 %.0f/%.0f us = library %.0f/%.0f us + node %.0f/%.0f us\n",
                     node, r["compute_us"][node].value("p50", 0.0),
                     r["compute_us"][node].value("p99", 0.0), r["library_us"][node].value("p50", 0.0),

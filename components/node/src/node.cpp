@@ -298,10 +298,6 @@ void Node::write_summary(const std::string& extra_json) {
       j["overhead_us_run"] = hist(overhead_run_);
     }
     j["non_finite_refused"] = non_finite_;
-    if (!extra_json.empty()) {
-      const auto extra = nlohmann::json::parse(extra_json);
-      for (auto it = extra.begin(); it != extra.end(); ++it)
-        j[it.key()] = it.value();
     {
       nlohmann::json rt;
       rt["priority"] = options_.rt.priority;
@@ -318,6 +314,10 @@ void Node::write_summary(const std::string& extra_json) {
       }
       j["realtime"] = rt;
     }
+    if (!extra_json.empty()) {
+      const auto extra = nlohmann::json::parse(extra_json);
+      for (auto it = extra.begin(); it != extra.end(); ++it)
+        j[it.key()] = it.value();
     }
     const std::string tmp = options_.summary + ".tmp";
     {

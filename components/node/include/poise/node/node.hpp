@@ -39,13 +39,13 @@
 #include "poise/dds/cli.hpp"
 #include "poise/dds/dds.hpp"
 #include "poise/node/compute_stats.hpp"
+#include "poise/node/realtime.hpp"
 #include "poise/node/shutdown.hpp"
 #include "poise/node/tick_sequencer.hpp"
 #include "poise/node/tick_timer.hpp"
 #include "poise/reflect/validate.hpp"
 
 namespace poise::node {
-#include "poise/node/realtime.hpp"
 
 /// Options common to every node.
 struct NodeOptions {
@@ -64,14 +64,14 @@ struct NodeOptions {
   /// (fault semantics table: idl/README.md).
   double input_stale_ms = 50.0;
   TickSequencer::Config ticks;
+  /// --rt-priority, --cpus, --lock-memory: applied by Node before the DDS participant exists.
+  RealtimeOptions rt;
 };
 
 /// deploy/robots/poise_humanoid/robot.yaml, located like the DDS configurations (source tree
 /// of this build, or relative to the executable). Not the nodes' default any more (they take the
 /// robot from poise/robot_description): for tools and benchmarks that need the project humanoid.
 std::string default_robot_config();
-  /// --rt-priority, --cpus, --lock-memory: applied by Node before the DDS participant exists.
-  RealtimeOptions rt;
 
 /// Adds --name, --robot, --summary, the DDS options (--dds, --domain, --dds-config) and the
 /// real-time options (--rt-priority, --cpus, --lock-memory).
@@ -263,6 +263,8 @@ class Node {
   std::uint64_t deadline_misses_ = 0;
   std::uint64_t errors_ = 0;
   std::uint64_t non_finite_ = 0;
+  std::vector<std::string> rt_applied_, rt_refused_;  ///< what apply_process_realtime() did
+  PageFaults faults_at_first_tick_, faults_in_loop_;  ///< see tick_done()
   std::uint64_t suppressed_logs_ = 0;
   std::int64_t last_log_ns_ = 0;
   std::int64_t period_ns_ = 100'000'000;
@@ -271,5 +273,3 @@ class Node {
 };
 
 }  // namespace poise::node
-  std::vector<std::string> rt_applied_, rt_refused_;  ///< what apply_process_realtime() did
-  PageFaults faults_at_first_tick_, faults_in_loop_;  ///< see tick_done()
