@@ -237,8 +237,9 @@ TEST(Launch, ABadDeploymentFileIsRefusedWithEveryProblemNamed) {
 }
 
 // Honest accounting: the result names every kind of miss and splits each node's compute time
-// into its library call and its own overhead; a run whose robot damped (no command for the
-// safety layer's whole hold time) fails above the scenario's tolerance (default 0 ticks).
+// into its library call, its own overhead and its DDS writes; a run whose robot damped (no
+// command for the safety layer's whole hold time) fails above the scenario's tolerance (default
+// 0 ticks).
 TEST(Launch, TheResultCountsEveryMissAndDampingFailsTheRun) {
   const fs::path dir = work_dir("accounting");
   const std::string ok_json = (dir / "lockstep.json").string();
@@ -255,9 +256,14 @@ TEST(Launch, TheResultCountsEveryMissAndDampingFailsTheRun) {
     SCOPED_TRACE(node);
     ASSERT_TRUE(ok["library_us"].contains(node)) << ok.dump(2);
     EXPECT_GT(ok["library_us"][node]["count"].get<int>(), 900);
-    // library + overhead = compute, per tick; so their means add up (1 us bins)
+    // library + overhead (the node's own work) + dds write = compute, per tick; so their means
+    // add up (exact sums, whatever the bins)
+    ASSERT_TRUE(ok["dds_write_us"].contains(node)) << ok.dump(2);
+    EXPECT_EQ(ok["dds_write_us"][node]["count"], ok["library_us"][node]["count"]);
+    EXPECT_GT(ok["dds_write_us"][node]["mean"].get<double>(), 0.0);
     EXPECT_NEAR(ok["library_us"][node]["mean"].get<double>() +
-                    ok["overhead_us"][node]["mean"].get<double>(),
+                    ok["overhead_us"][node]["mean"].get<double>() +
+                    ok["dds_write_us"][node]["mean"].get<double>(),
                 ok["compute_us"][node]["mean"].get<double>(), 1.5);
   }
   EXPECT_NE(ok_out.find("  misses: contact wait"), std::string::npos) << ok_out;

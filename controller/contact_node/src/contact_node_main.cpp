@@ -73,6 +73,7 @@ int run(int argc, char** argv) {
   // sample arrives (no hand-off to a loop thread), under state_mutex (diagnostics: Node::serve).
   auto handle = [&](const std::vector<std::uint8_t>& bytes) noexcept {
     const std::int64_t t0 = node::now_ns();
+    node.tick_begin();
     in.readable = ts.deserialize(bytes.data(), bytes.size(), &in.problem, in.why, sizeof(in.why));
     in.valid = in.readable && ts.validate(&in.problem, in.why, sizeof(in.why));
     if (!in.readable) {

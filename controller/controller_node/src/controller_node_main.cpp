@@ -182,6 +182,7 @@ int run(int argc, char** argv) {
       return;
     }
     const std::int64_t t0 = node::now_ns();
+    node.tick_begin();  // both writes of the tick (problem, command) count until tick_done
     switch (sequencer.accept(k, t0)) {
       case node::TickSequencer::Verdict::kRepeat:  // repeated state: same answer
         node.input_seen(state_input, k);

@@ -122,6 +122,7 @@ int run(int argc, char** argv) {
       return;
     }
     const std::int64_t t0 = node::now_ns();
+    node.tick_begin();
     switch (sequencer.accept(k, t0)) {
       case node::TickSequencer::Verdict::kRepeat:  // repeated sample: same answer
         node.input_seen(sensors_input, k);

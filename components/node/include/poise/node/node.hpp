@@ -9,6 +9,12 @@
 //   ... subscribers, publishers; node.watch(subscriber);
 //   while (node.running()) { ...; node.tick_done(k, compute_ns); node.poll(); }
 //
+// Per-tick accounting (the summary's figures): a tick's compute time splits into the library
+// call, the node's own work (conversions, validation, sequencing, diagnostics) and the DDS write
+// (serialisation and the vendor's write, loopback send included): node.tick_begin() at the start
+// of the tick, node.publish() for its outputs (it times the write), then
+// node.tick_done(k, compute_ns, library_ns).
+//
 // Diagnostics ("poise/diagnostics", best-effort keep-last 1, ~10 Hz): node name, vendor, health,
 // heartbeat, ticks, compute time p50/p99/max over the window since the previous publication,
 // deadline misses, rejected samples (sum over the watched subscribers), type mismatches, errors
@@ -166,11 +172,17 @@ class Node {
   /// False once a shutdown was requested (signal or request_shutdown()).
   bool running() const noexcept { return !shutdown_requested(); }
 
+  /// Starts a tick's accounting: the DDS writes of publish() from here to tick_done() are the
+  /// tick's "dds write" time. Call it where the tick's compute time starts (publications outside
+  /// a tick, such as the answer to a repeated input, then count for no tick).
+  void tick_begin() noexcept { tick_dds_write_ns_ = 0; }
   /// One handled tick: its number and the node's compute time for it [ns].
   void tick_done(std::uint64_t tick, std::int64_t compute_ns) noexcept;
   /// The same, with the part of compute_ns spent in the node's library call (estimator update,
   /// controller phases, contact solve): the summary then splits the compute time into
-  /// "library_us_run" and "overhead_us_run" (conversion, validation, publication, locking).
+  /// "library_us_run", "dds_write_us_run" (publish()'s serialisation and vendor write since
+  /// tick_begin()) and "overhead_us_run", the rest: the node's own work (conversions,
+  /// validation, sequencing, diagnostics, locking). library + overhead + dds write = compute.
   void tick_done(std::uint64_t tick, std::int64_t compute_ns, std::int64_t library_ns) noexcept;
   /// A tick that missed its deadline (counted; the caller logs via error() if it wants).
   void deadline_miss() noexcept { ++deadline_misses_; }
@@ -187,7 +199,8 @@ class Node {
 
   /// Publishes `sample` unless it holds a non-finite number or an out-of-range length (the same
   /// check receivers make): then nothing is sent, the error is counted and logged with the
-  /// field, and false is returned. Never throws, no allocation.
+  /// field, and false is returned. The write (serialisation + vendor write) is timed for the
+  /// tick's "dds write" figure (tick_begin()). Never throws, no allocation.
   template <class P, class T>
   bool publish(P& publisher, const T& sample) noexcept {
     reflect::ValidationError why;
@@ -196,7 +209,10 @@ class Node {
       error("not publishing %s: %s: %s", publisher.topic_name().c_str(), why.path, why.reason);
       return false;
     }
-    if (!publisher.publish(sample)) {
+    const std::int64_t t_write = now_ns();
+    const bool sent = publisher.publish(sample);
+    tick_dds_write_ns_ += now_ns() - t_write;
+    if (!sent) {
       error("publish on %s failed", publisher.topic_name().c_str());
       return false;
     }
@@ -256,7 +272,9 @@ class Node {
   msg::Diagnostics diag_;
   ComputeStats compute_;
   LatencyHistogram compute_run_{20000};  ///< whole run, 1 us bins up to 20 ms
-  LatencyHistogram library_run_{20000}, overhead_run_{20000};
+  /// The split of compute_run_ (tick_done with library time): 0.1 us bins up to 20 ms.
+  LatencyHistogram library_run_{20000, 0.1}, overhead_run_{20000, 0.1}, dds_write_run_{20000, 0.1};
+  std::int64_t tick_dds_write_ns_ = 0;  ///< publish() writes since tick_begin()
   msg::NodeHealth health_ = msg::HEALTH_OK;
   std::uint64_t last_tick_ = 0;
   std::uint64_t ticks_ = 0;
