@@ -236,12 +236,14 @@ TEST(RealtimeSettings, PoiseRunAppliesThemToEveryProcess) {
   const fs::path dir = work_dir("root");
   const int domain = poise::testing::unique_domain_id();
   ChildProcess run({bin("poise"), "run", "standing", "--realtime", "--duration", "2",
-                    "--rt-priority", "20", "--lock-memory", "--domain", std::to_string(domain),
-                    "-o", (dir / "run.json").string(), "--log-dir", (dir / "logs").string()},
+                    "--rt-priority", "20", "--lock-memory", "--cpus", "0", "--domain",
+                    std::to_string(domain), "-o", (dir / "run.json").string(), "--log-dir",
+                    (dir / "logs").string()},
                    {}, false, true);
   const auto code = run.wait_for(120s);
   ASSERT_EQ(code.value_or(-1), 0) << run.output();
-  EXPECT_NE(run.output().find("real time sim: memory locked"), std::string::npos) << run.output();
+  EXPECT_NE(run.output().find("real time sim: CPUs 0, memory locked"), std::string::npos)
+      << run.output();
   const auto r = read_json(dir / "run.json");
   ASSERT_TRUE(r.contains("realtime_settings")) << r.dump(2);
   const std::map<std::string, int> expected{
@@ -254,6 +256,7 @@ TEST(RealtimeSettings, PoiseRunAppliesThemToEveryProcess) {
     const auto applied = s["applied"].get<std::vector<std::string>>();
     EXPECT_TRUE(contains(applied, "SCHED_FIFO " + std::to_string(prio))) << s.dump(2);
     EXPECT_TRUE(contains(applied, "memory locked")) << s.dump(2);
+    EXPECT_TRUE(contains(applied, "CPUs 0")) << s.dump(2);
     int fifo = 0;
     for (const auto& t : s["threads"].get<std::vector<std::string>>()) {
       const bool housekeeping = t.rfind("gc:", 0) == 0 || t.rfind("dq.builtins:", 0) == 0;
@@ -297,4 +300,12 @@ TEST(RealtimeSettings, PoiseRunWithoutPrivilegeSaysSoAndStillBalances) {
       EXPECT_NE(t.find(":other/0"), std::string::npos) << t;
   }
   EXPECT_TRUE(r.value("survived", false)) << r.dump(2);
+}
+
+// A bad CPU list is refused before anything starts, naming the problem.
+TEST(RealtimeSettings, PoiseRunRefusesABadCpuList) {
+  ChildProcess run({bin("poise"), "run", "standing", "--cpus", "1-0"}, {}, false, true);
+  const auto code = run.wait_for(30s);
+  EXPECT_NE(code.value_or(0), 0) << run.output();
+  EXPECT_NE(run.output().find("range '1-0' is reversed"), std::string::npos) << run.output();
 }

@@ -25,7 +25,10 @@
 #include <string>
 #include <vector>
 
+#include "poise/node/compute_stats.hpp"
+#include "poise/node/realtime.hpp"
 #include "poise/node/robot_description.hpp"
+#include "poise/node/tick_timer.hpp"
 
 namespace poise::bench {
 
@@ -42,6 +45,8 @@ struct Options {
   int rt_priority = 80;
   bool lock_memory = true;
   std::string dds = "cyclone";
+  std::string cpus;
+  double floor_s = 10.0;
   std::string output;
   std::string keep_dir;
 };
@@ -50,11 +55,14 @@ void usage() {
   std::printf(
       "usage: poise-bench-loop --realtime [--duration S] [--push-every S] [--push-force N]\n"
       "                        [--hog N] [--rt-priority P] [--no-lock-memory] [--dds V]\n"
-      "                        [--output FILE] [--keep DIR]\n"
+      "                        [--cpus LIST] [--floor S] [--output FILE] [--keep DIR]\n"
       "  Real time, distributed: stand for --duration seconds (600) with a --push-force N (60)\n"
       "  push of 0.1 s every --push-every seconds (10), directions rotating; --hog N starts N\n"
       "  busy processes at normal priority for the run; --rt-priority P (80, 0: normal\n"
-      "  scheduling) and locked memory (default) for the stack. Prints every miss, the tick\n"
+      "  scheduling) and locked memory (default) for the stack, --cpus LIST their affinity.\n"
+      "  First, for --floor S seconds (10; 0: skip), the platform's floor: a bare 1 kHz timer\n"
+      "  thread's wake-up lateness with the simulator's priority and CPUs (what no software\n"
+      "  above the kernel can beat). Prints every miss, the tick\n"
       "  latency and each node's compute split, against the issue #19 targets; --output writes\n"
       "  them as JSON; --keep DIR keeps the scenario, the result and the logs.\n");
 }
@@ -105,6 +113,49 @@ void stop_hogs(const std::vector<pid_t>& pids) {
   for (pid_t p : pids) ::waitpid(p, nullptr, 0);
 }
 
+/// The platform's floor: a bare thread sleeping to absolute 1 ms deadlines (as the simulator's
+/// loop does) with the given priority and CPUs, in a child process; its wake-up lateness.
+Json measure_floor(double seconds, int priority, const std::string& cpus) {
+  int fds[2];
+  if (::pipe(fds) != 0) return Json();
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    ::close(fds[0]);
+    node::RealtimeOptions rt;
+    rt.priority = priority;
+    rt.cpus = cpus;
+    rt.lock_memory = priority > 0;
+    node::apply_process_realtime(rt);
+    const long n = static_cast<long>(seconds * 1000.0);
+    node::LatencyHistogram late(100000);
+    std::uint64_t over_period = 0;
+    std::int64_t next = node::now_ns();
+    for (long i = 0; i < n; ++i) {
+      next += 1'000'000;
+      node::sleep_until_ns(next);
+      const double us = static_cast<double>(node::now_ns() - next) * 1e-3;
+      late.add(us);
+      if (us > 1000.0) ++over_period;
+    }
+    char buf[256];
+    const int len = std::snprintf(
+        buf, sizeof(buf),
+        "{\"wakes\": %ld, \"p50_us\": %.1f, \"p99_us\": %.1f, \"max_us\": %.1f, "
+        "\"later_than_1ms\": %llu}",
+        n, late.percentile(0.5), late.percentile(0.99), late.max(),
+        static_cast<unsigned long long>(over_period));
+    (void)!::write(fds[1], buf, static_cast<std::size_t>(len));
+    ::_exit(0);
+  }
+  ::close(fds[1]);
+  std::string text;
+  char buf[256];
+  for (ssize_t n; (n = ::read(fds[0], buf, sizeof(buf))) > 0;) text.append(buf, static_cast<std::size_t>(n));
+  ::close(fds[0]);
+  ::waitpid(pid, nullptr, 0);
+  return Json::parse(text, nullptr, false);
+}
+
 std::uint64_t u64(const Json& j, const char* key) {
   return j.is_object() && j.contains(key) && j[key].is_number() ? j[key].get<std::uint64_t>() : 0;
 }
@@ -127,6 +178,8 @@ int run_realtime_bench(int argc, char** argv, const fs::path& bin_dir) {
     else if (a == "--rt-priority") o.rt_priority = std::stoi(value("--rt-priority"));
     else if (a == "--no-lock-memory") o.lock_memory = false;
     else if (a == "--dds") o.dds = value("--dds");
+    else if (a == "--cpus") o.cpus = value("--cpus");
+    else if (a == "--floor") o.floor_s = std::stod(value("--floor"));
     else if (a == "--output") o.output = value("--output");
     else if (a == "--keep") o.keep_dir = value("--keep");
     else if (a == "--help" || a == "-h") {
@@ -152,6 +205,7 @@ int run_realtime_bench(int argc, char** argv, const fs::path& bin_dir) {
                     " --log-dir " + (dir / "logs").string();
   if (o.rt_priority > 0) cmd += " --rt-priority " + std::to_string(o.rt_priority);
   if (o.lock_memory) cmd += " --lock-memory";
+  if (!o.cpus.empty()) cmd += " --cpus " + o.cpus;
   std::printf("poise-bench-loop --realtime: %.0f s standing, %.0f N push every %.0f s, %d CPU "
               "hog(s), %s, %s\n  %s\n",
               o.duration, o.push_force, o.push_every, o.hogs,
@@ -160,6 +214,16 @@ int run_realtime_bench(int argc, char** argv, const fs::path& bin_dir) {
               o.lock_memory ? "memory locked" : "memory not locked", cmd.c_str());
   std::fflush(stdout);
   const std::vector<pid_t> hogs = start_hogs(o.hogs);
+  Json floor;
+  if (o.floor_s > 0) {
+    floor = measure_floor(o.floor_s, o.rt_priority, o.cpus);
+    std::printf("platform floor (%.0f s, a bare 1 kHz timer thread%s): wake-up lateness "
+                "p50/p99/max %.0f/%.0f/%.0f us, %llu wake-ups later than 1 ms\n",
+                o.floor_s, o.hogs > 0 ? ", hogs running" : "", floor.value("p50_us", 0.0),
+                floor.value("p99_us", 0.0), floor.value("max_us", 0.0),
+                static_cast<unsigned long long>(floor.value("later_than_1ms", 0)));
+    std::fflush(stdout);
+  }
   const int code = std::system(cmd.c_str());
   stop_hogs(hogs);
   std::ifstream f(result);
@@ -220,6 +284,7 @@ int run_realtime_bench(int argc, char** argv, const fs::path& bin_dir) {
     out["bench"] = {{"duration_s", o.duration},  {"push_every_s", o.push_every},
                     {"push_force_n", o.push_force}, {"hogs", o.hogs},
                     {"rt_priority", o.rt_priority}, {"lock_memory", o.lock_memory},
+                    {"cpus", o.cpus},               {"platform_floor", floor},
                     {"ticks", ticks},              {"deadline_miss_pct", miss_pct},
                     {"command", cmd}};
     std::ofstream(o.output) << out.dump(2) << "\n";

@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "child.hpp"
+#include "poise/node/realtime.hpp"
 #include "poise/dds/domain_claim.hpp"
 #include "poise/dds/vendor.hpp"
 #include "poise/launch/deployment.hpp"
@@ -69,6 +70,7 @@ struct Settings {
   std::string security;  ///< DDS Security directory (poise security init), "" = none
   int rt_priority = 0;   ///< SCHED_FIFO base priority of the processes (0: normal scheduling)
   bool lock_memory = false;  ///< every process locks its memory (mlockall)
+  std::string cpus;          ///< CPU affinity of every process ("": any CPU)
 };
 
 /// SCHED_FIFO priority of a component for `poise run --rt-priority P`: the simulator (the robot
@@ -210,6 +212,18 @@ int run_distributed(int argc, char** argv) {
       ->capture_default_str();
   app.add_flag("--lock-memory", s.lock_memory,
                "every process locks its memory (mlockall) and pre-faults its stack");
+  app.add_option("--cpus", s.cpus,
+                 "CPU affinity of every process, a CPU list (1, 0-1, 0,2). One tick is a "
+                 "chain of processes of which one works at a time: on one CPU a hand-off is a "
+                 "context switch, not a cross-CPU wake-up (deploy/realtime/README.md)")
+      ->check([](const std::string& v) -> std::string {
+        try {
+          poise::node::parse_cpu_list(v);
+          return {};
+        } catch (const std::exception& e) {
+          return e.what();
+        }
+      });
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -265,6 +279,7 @@ int run_distributed(int argc, char** argv) {
       if (s.rt_priority > 0)
         a.insert(a.end(), {"--rt-priority", std::to_string(rt_priority_of(name, s.rt_priority))});
       if (s.lock_memory) a.push_back("--lock-memory");
+      if (!s.cpus.empty()) a.insert(a.end(), {"--cpus", s.cpus});
       return a;
     };
     std::vector<std::string> sim_args = common("sim");
@@ -618,7 +633,7 @@ int run_distributed(int argc, char** argv) {
         static_cast<unsigned long long>(misses["out_of_sequence"].get<std::uint64_t>()),
         static_cast<unsigned long long>(misses["samples_rejected"].get<std::uint64_t>()),
         verdict_reason.empty() ? "" : ": FAILED on ", verdict_reason.c_str());
-    if (s.rt_priority > 0 || s.lock_memory) {
+    if (s.rt_priority > 0 || s.lock_memory || !s.cpus.empty()) {
       // One line per process: what it got, and any refusal in full (never silent).
       for (auto it = r["realtime_settings"].begin(); it != r["realtime_settings"].end(); ++it) {
         std::string got;
