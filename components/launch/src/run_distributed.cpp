@@ -216,14 +216,7 @@ int run_distributed(int argc, char** argv) {
                  "CPU affinity of every process, a CPU list (1, 0-1, 0,2). One tick is a "
                  "chain of processes of which one works at a time: on one CPU a hand-off is a "
                  "context switch, not a cross-CPU wake-up (deploy/realtime/README.md)")
-      ->check([](const std::string& v) -> std::string {
-        try {
-          poise::node::parse_cpu_list(v);
-          return {};
-        } catch (const std::exception& e) {
-          return e.what();
-        }
-      });
+      ->check(poise::node::cpu_list_check);
   CLI11_PARSE(app, argc, argv);
 
   try {

@@ -75,17 +75,19 @@ void add_realtime_options(CLI::App& app, RealtimeOptions& options) {
       ->capture_default_str();
   app.add_option("--cpus", options.cpus,
                  "CPU affinity of the node's threads, a CPU list: 1, 0-1, 0,2 (default: any)")
-      ->check([](const std::string& s) -> std::string {
-        try {
-          parse_cpu_list(s);
-          return {};
-        } catch (const std::exception& e) {
-          return e.what();
-        }
-      });
+      ->check(cpu_list_check);
   app.add_flag("--lock-memory", options.lock_memory,
                "lock the node's memory (mlockall), pre-fault its stack and keep freed heap, so "
                "that no page fault happens in the loop");
+}
+
+std::string cpu_list_check(const std::string& list) {
+  try {
+    parse_cpu_list(list);
+    return {};
+  } catch (const std::exception& e) {
+    return e.what();
+  }
 }
 
 std::vector<int> parse_cpu_list(const std::string& list) {

@@ -42,6 +42,8 @@ void add_realtime_options(CLI::App& app, RealtimeOptions& options);
 /// Parses a CPU list ("0", "0-3", "0,2-3"). Throws std::invalid_argument naming the problem
 /// (empty item, bad number, reversed range, CPU beyond the machine's configured CPUs).
 std::vector<int> parse_cpu_list(const std::string& list);
+/// The check of a --cpus option (CLI11 validator form): "" when `list` parses, else the error.
+std::string cpu_list_check(const std::string& list);
 
 /// Applies `options` to the calling process (a process started SCHED_FIFO/RR by a launcher or
 /// chrt with priority 0 is reported as "SCHED_FIFO N (inherited)"): SCHED_FIFO for the calling thread (threads created
