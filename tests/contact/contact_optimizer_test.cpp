@@ -172,6 +172,7 @@ TEST(ContactOptimizer, QpReproducesFeasibleRateWithSmallRegularisation) {
       comparable = comparable && (!p.feet[i].in_contact || in_qp_torsion_model(p.feet[i], w[i]));
     if (!comparable) continue;
     ++checked;
+    p.weights.priority = Priority::kWeighted;  // tiny eps: the weighted objective itself
     p.weights.eps_f = 1e-10;
     p.weights.eps_tau = 1e-12;
     ContactSolution s;
@@ -283,7 +284,8 @@ TEST(SequentialOptimizer, NnlsStageMinimisesObjective21) {
   std::mt19937 rng(7);
   SequentialOptimizer seq;
   for (int trial = 0; trial < 200; ++trial) {
-    const ContactProblem p = random_arbitrary(rng, true, true);
+    ContactProblem p = random_arbitrary(rng, true, true);
+    p.weights.priority = Priority::kWeighted;  // (21) as the paper writes it
     ContactSolution s;
     seq.solve(p, s);
     const SequentialStages& st = seq.stages();
@@ -318,6 +320,7 @@ TEST(SequentialOptimizer, NormalEquationStagesMatchDenseStages) {
     ContactProblem p =
         trial % 2 ? random_feasible(rng, true, true) : random_arbitrary(rng, true, true);
     if (trial % 7 == 0) p.weights.eps_f = p.weights.eps_cop = 1e-9;  // ill-conditioned stages
+    if (trial % 3 == 0) p.weights.priority = Priority::kWeighted;
     ContactSolution a, b;
     fast.solve(p, a);
     dense.solve(p, b);

@@ -1,4 +1,5 @@
 #include "poise/contact/contact_json.hpp"
+#include "poise/contact/contact_optimizer.hpp"
 
 #include <cmath>
 #include <stdexcept>
@@ -106,6 +107,12 @@ ContactProblem problem_from_json(const json& j, std::array<bool, kMaxFeet>* pres
     if (w.contains("eps_f")) p.weights.eps_f = number_field(w, "weights", "eps_f");
     if (w.contains("eps_cop")) p.weights.eps_cop = number_field(w, "weights", "eps_cop");
     if (w.contains("eps_tau")) p.weights.eps_tau = number_field(w, "weights", "eps_tau");
+    if (w.contains("priority")) {
+      const json& pr = w.at("priority");
+      const auto parsed = pr.is_string() ? parse_priority(pr.get<std::string>()) : std::nullopt;
+      if (!parsed) fail("weights.priority", "expected \"lexicographic\" or \"weighted\"");
+      p.weights.priority = *parsed;
+    }
   }
   return p;
 }

@@ -12,4 +12,14 @@ std::optional<Method> parse_method(std::string_view name) {
   return std::nullopt;
 }
 
+const char* to_string(Priority p) {
+  return p == Priority::kWeighted ? "weighted" : "lexicographic";
+}
+
+std::optional<Priority> parse_priority(std::string_view name) {
+  if (name == "lexicographic") return Priority::kLexicographic;
+  if (name == "weighted") return Priority::kWeighted;
+  return std::nullopt;
+}
+
 }  // namespace poise::contact

@@ -153,11 +153,13 @@ double tracking_cost(const ContactProblem& p, const ContactSolution& s) {
 
 double qp_objective(const ContactProblem& p, const ContactSolution& s,
                     const Eigen::Matrix<double, 4 * kMaxFeet, 1>& rho) {
-  double j = tracking_cost(p, s);
+  const double sc = p.weights.scale();
+  double j = (p.l_dot_desired - s.l_dot_admissible).squaredNorm() +
+             sc * p.weights.w_k * (p.k_dot_desired - s.k_dot_admissible).squaredNorm();
   for (int i = 0; i < kMaxFeet; ++i) {
     if (!p.feet[i].in_contact) continue;
-    j += p.weights.eps_f * rho.segment<4>(4 * i).squaredNorm() +
-         p.weights.eps_tau * s.feet[i].torque_ankle_W.squaredNorm();
+    j += sc * (p.weights.eps_f * rho.segment<4>(4 * i).squaredNorm() +
+               p.weights.eps_tau * s.feet[i].torque_ankle_W.squaredNorm());
   }
   return j;
 }
@@ -207,7 +209,10 @@ void finish(const ContactProblem& p, ContactStatus status, ContactSolution& s) {
                                (p.l_dot_desired - s.l_dot_admissible).squaredNorm());
   const double scale = p.mass * p.gravity.norm() +
                        std::sqrt(p.k_dot_desired.squaredNorm() + p.l_dot_desired.squaredNorm());
-  s.status = err <= kRateTolerance * scale ? ContactStatus::kOk : ContactStatus::kCompromised;
+  const double linear_err = (p.l_dot_desired - s.l_dot_admissible).norm();
+  s.status = err <= kRateTolerance * scale && linear_err <= kLinearTolerance * p.mass * p.gravity.norm()
+                 ? ContactStatus::kOk
+                 : ContactStatus::kCompromised;
 }
 
 }  // namespace detail

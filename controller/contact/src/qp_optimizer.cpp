@@ -23,9 +23,11 @@ void QpOptimizer::solve(const ContactProblem& p, ContactSolution& solution) {
   n_ = 0;
   if (!detail::prepare(p, solution)) return;
 
-  const double sw_k = std::sqrt(p.weights.w_k);
-  const double se_f = std::sqrt(p.weights.eps_f);
-  const double se_t = std::sqrt(p.weights.eps_tau);
+  // Priority::kLexicographic: the angular and regularisation rows scaled down together (see
+  // ContactWeights::scale()), so the linear rows rule and the rest is optimised given them.
+  const double sw_k = std::sqrt(p.weights.w_k * p.weights.scale());
+  const double se_f = std::sqrt(p.weights.eps_f * p.weights.scale());
+  const double se_t = std::sqrt(p.weights.eps_tau * p.weights.scale());
   int slots[kMaxFeet];
   int nf = 0;
   for (int i = 0; i < kMaxFeet; ++i)

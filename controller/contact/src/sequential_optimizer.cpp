@@ -14,6 +14,17 @@ double unloaded_threshold(const ContactProblem& p) {
 
 }  // namespace
 
+Eigen::Vector3d project_on_friction_cone(const Eigen::Vector3d& f, double mu) {
+  const double f_n = f.z();
+  const double f_t = std::hypot(f.x(), f.y());
+  if (f_t <= mu * f_n) return f;                            // inside the cone
+  if (mu * f_t <= -f_n) return Eigen::Vector3d::Zero();      // inside the polar cone
+  // Onto the cone's surface, in the plane of f and the normal.
+  const double n = (f_n + mu * f_t) / (1.0 + mu * mu);
+  const double t = mu * n;
+  return Eigen::Vector3d(f.x() * t / f_t, f.y() * t / f_t, n);
+}
+
 SequentialOptimizer::SequentialOptimizer() : nnls_(14, 8), bvls_(9, 6) {}
 
 void SequentialOptimizer::solve(const ContactProblem& problem, ContactSolution& solution) {
@@ -37,20 +48,18 @@ ContactStatus SequentialOptimizer::solve_single(const ContactProblem& p, int i,
 
   // (12): the force that produces l_dot_d, in the foot frame.
   Eigen::Vector3d f_F = R.transpose() * (p.l_dot_desired - p.mass * p.gravity);
-  if (!(f_F.z() > unloaded_threshold(p))) {
-    // The foot cannot pull: no force, CoP at the centre of the safe region.
+  // A force the foot cannot give at all (inside the polar cone, e.g. any pull) projects to zero:
+  // no force, CoP at the centre of the safe region; finish() reports kCompromised.
+  // Friction cone: the closest admissible force (Euclidean projection onto |f_t| <= mu f_n),
+  // which keeps the most of l_dot_d. Scaling the tangential part alone, as (12) reads, is not
+  // the closest point when the cone is narrow or the force points sideways.
+  f_F = project_on_friction_cone(f_F, foot.mu);
+  const double f_n = f_F.z();
+  if (!(f_n > unloaded_threshold(p))) {
     solution.feet[i] =
         make_foot_wrench(foot, Eigen::Vector3d::Zero(), 0.5 * (region[0] + region[1]),
                          0.5 * (region[2] + region[3]), 0.0);
-    return ContactStatus::kOk;  // finish() reports kCompromised from the rate error
-  }
-  // Friction cone: keep the normal component, scale the tangential one.
-  const double f_n = f_F.z();
-  const double f_t = std::hypot(f_F.x(), f_F.y());
-  if (f_t > foot.mu * f_n) {
-    const double scale = foot.mu * f_n / f_t;
-    f_F.x() *= scale;
-    f_F.y() *= scale;
+    return ContactStatus::kOk;
   }
   const Eigen::Vector3d f_W = R * f_F;
   // (13)-(14) generalised: CoP from the ankle torque needed for k_dot_d.
@@ -101,8 +110,8 @@ ContactStatus SequentialOptimizer::solve_double(const ContactProblem& p,
                                                 ContactSolution& solution) {
   SequentialStages& st = stages_;
   st.double_support = true;
-  const double sw_k = std::sqrt(p.weights.w_k);
-  const double se_f = std::sqrt(p.weights.eps_f);
+  const double sw_k = std::sqrt(p.weights.w_k * p.weights.scale());
+  const double se_f = std::sqrt(p.weights.eps_f * p.weights.scale());
   const double se_c = std::sqrt(p.weights.eps_cop);
 
   // ---- (21)-(26): foot GRFs by NNLS over rho.

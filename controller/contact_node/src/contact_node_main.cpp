@@ -7,6 +7,9 @@
 //                                                         reliable, keep-last 1
 //               poise/diagnostics       Diagnostics      ~10 Hz best-effort, keep-last 1
 //   method      --method sequential (paper: NNLS + BVLS) | qp (one Goldfarb-Idnani QP)
+//   priority    --priority lexicographic (linear momentum first, strictly) | weighted (eq. (21)
+//               as written); not in the problem message, so `poise run` passes the controller
+//               configuration's contact.priority here
 //   bad input   a problem with a non-finite number, a bad length or an inconsistent geometry is
 //               answered with status CONTACT_INVALID_INPUT and the library's safe answer (every
 //               wrench zero), and counted (diagnostics errors / rejected_samples). A sample too
@@ -43,10 +46,16 @@ struct Incoming {
 int run(int argc, char** argv) {
   node::NodeOptions options;
   std::string method_name = "sequential";
+  std::string priority_name = "lexicographic";
   CLI::App app{"Contact-force optimiser node: contact problem k in, contact solution k out."};
   node::add_node_options(app, options, "contact");
   app.add_option("--method", method_name, "sequential (paper) or qp")
       ->check(CLI::IsMember({"sequential", "qp"}))
+      ->capture_default_str();
+  app.add_option("--priority", priority_name,
+                 "lexicographic: the best achievable linear momentum rate, then the best angular "
+                 "rate given it; weighted: the paper's eq. (21), w_k trading one for the other")
+      ->check(CLI::IsMember({"lexicographic", "weighted"}))
       ->capture_default_str();
   app.add_option("--input-stale-ms", options.input_stale_ms,
                  "report poise/contact_problem stale (health FAULT) after this long without one")
@@ -55,6 +64,7 @@ int run(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   const contact::Method method = *contact::parse_method(method_name);
+  const contact::Priority priority = *contact::parse_priority(priority_name);
   node::Node node(options);
   if (!options.robot.empty())  // the optimiser needs nothing of the robot: --robot is only checked
     node::resolve_robot(node, node::wait_for_robot_description(node, std::chrono::seconds(30)),
@@ -90,6 +100,7 @@ int run(int argc, char** argv) {
                  static_cast<unsigned long long>(in.problem.header().tick()), bad_geometry);
       contact::set_safe_solution(contact::ContactStatus::kInvalidInput, solution);
     } else if (in.valid) {
+      problem.weights.priority = priority;
       const std::int64_t t_lib = node::now_ns();
       optimizer.solve(problem, solution);
       lib_ns = node::now_ns() - t_lib;
@@ -127,9 +138,11 @@ int run(int argc, char** argv) {
   node.expect_one_writer(std::string(dds::TopicTraits<msg::ContactProblem>::topic_name));
   node.serve(state_mutex);
   std::lock_guard lock(state_mutex);
-  char extra[128];
-  std::snprintf(extra, sizeof(extra), "{\"method\": \"%s\", \"unreadable_problems\": %llu}",
-                contact::to_string(method), static_cast<unsigned long long>(bad_cdr));
+  char extra[160];
+  std::snprintf(extra, sizeof(extra),
+                "{\"method\": \"%s\", \"priority\": \"%s\", \"unreadable_problems\": %llu}",
+                contact::to_string(method), contact::to_string(priority),
+                static_cast<unsigned long long>(bad_cdr));
   node.write_summary(extra);
   return 0;
 }

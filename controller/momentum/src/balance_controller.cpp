@@ -146,6 +146,7 @@ BalanceController::BalanceController(const model::Model& model, const model::Rob
   problem_.weights.w_k = config_.contact.w_k;
   problem_.weights.eps_f = config_.contact.eps_f;
   problem_.weights.eps_cop = config_.contact.eps_cop;
+  problem_.weights.priority = config_.contact.priority;
   problem_.mass = model_.total_mass;
 }
 

@@ -2,6 +2,8 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "poise/contact/contact_optimizer.hpp"
+
 #include <cmath>
 #include <set>
 #include <string>
@@ -106,16 +108,9 @@ void ControllerConfig::validate() const {
   require(std::isfinite(com_height), "com_height", "must be finite");
 }
 
-ControllerConfig load_controller_config(const std::filesystem::path& path) {
-  const std::string file = path.string();
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(file);
-  } catch (const YAML::BadFile&) {
-    throw ConfigError(file + ": cannot open the controller config");
-  } catch (const YAML::Exception& e) {
-    throw ConfigError(file + ": YAML error: " + e.what());
-  }
+namespace {
+
+ControllerConfig from_yaml(const YAML::Node& root, const std::string& file) {
   ControllerConfig c;
   Reader r(file);
   if (root.IsNull()) return c;
@@ -132,7 +127,13 @@ ControllerConfig load_controller_config(const std::filesystem::path& path) {
     r.vec3(m, "gamma22", "momentum.", c.momentum.gamma22);
   }
   if (const auto m = root["contact"]) {
-    r.keys(m, "contact", {"w_k", "eps_f", "eps_cop"});
+    r.keys(m, "contact", {"w_k", "eps_f", "eps_cop", "priority"});
+    if (const YAML::Node pr = m["priority"]) {
+      const std::string name = pr.IsScalar() ? pr.as<std::string>() : std::string();
+      const auto parsed = contact::parse_priority(name);
+      if (!parsed) r.fail("contact.priority", "must be 'lexicographic' or 'weighted', got '" + name + "'");
+      c.contact.priority = *parsed;
+    }
     r.number(m, "w_k", "contact.", c.contact.w_k);
     r.number(m, "eps_f", "contact.", c.contact.eps_f);
     r.number(m, "eps_cop", "contact.", c.contact.eps_cop);
@@ -173,6 +174,31 @@ ControllerConfig load_controller_config(const std::filesystem::path& path) {
     throw ConfigError(file + ": " + e.what());
   }
   return c;
+}
+
+}  // namespace
+
+ControllerConfig load_controller_config(const std::filesystem::path& path) {
+  const std::string file = path.string();
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(file);
+  } catch (const YAML::BadFile&) {
+    throw ConfigError(file + ": cannot open the controller config");
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(file + ": YAML error: " + e.what());
+  }
+  return from_yaml(root, file);
+}
+
+ControllerConfig parse_controller_config(const std::string& yaml_text, const std::string& origin) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(origin + ": YAML error: " + e.what());
+  }
+  return from_yaml(root, origin);
 }
 
 }  // namespace poise::controller

@@ -23,6 +23,9 @@ const char* to_string(Method m);
 /// Parses "sequential" / "qp"; std::nullopt otherwise.
 std::optional<Method> parse_method(std::string_view name);
 
+/// Parses "lexicographic" / "weighted"; std::nullopt otherwise.
+std::optional<Priority> parse_priority(std::string_view name);
+
 /// Facade selecting one method at construction. Construct once (allocates); solve() never
 /// allocates, never throws and never outputs a non-finite number.
 class ContactOptimizer {

@@ -4,8 +4,10 @@
 //
 // Single support (one foot in contact), eqs. (12)-(14) generalised to any foot orientation, linear
 // momentum first (Fig. 3 left):
-//   f = l_dot_d - m g. In the foot frame F: if f_n <= 0 the foot cannot push (zero force);
-//   if the tangential part exceeds mu f_n it is scaled down onto the friction cone (f_n kept).
+//   f = l_dot_d - m g. In the foot frame F, f is replaced by its Euclidean projection onto the
+//   friction cone |f_t| <= mu f_n (project_on_friction_cone): the closest admissible force, so the
+//   linear rate is the best one this foot can give (zero when f points into the polar cone, e.g.
+//   a pull).
 //   The ankle torque needed for k_dot_d, tau = k_dot_d - (r - r_G) x f, fixes the CoP in the sole
 //   plane, (d_x, d_y) = ((-tau_y - h f_x) / f_n, (tau_x - h f_y) / f_n) in F; the CoP is moved to
 //   the nearest point of the safe rectangle (the force is kept); the normal torque is the residual
@@ -13,7 +15,10 @@
 //
 // Double support, two bounded least-squares problems:
 //   (21)-(26) NNLS over the 8 friction-pyramid magnitudes rho:
-//     min |l_dot_d - m g - sum f_i|^2 + w_k |k_dot_d - k_dot_f|^2 + eps_f |rho|^2, rho >= 0,
+//     min |l_dot_d - m g - sum f_i|^2 + s w_k |k_dot_d - k_dot_f|^2 + s eps_f |rho|^2, rho >= 0,
+//     s = ContactWeights::scale(): 1 for Priority::kWeighted (the paper's (21) as written),
+//     kLexicographicScale for Priority::kLexicographic (linear first strictly: the penalty form
+//     of the two-stage problem "best linear rate, then best angular rate given it"),
 //     f_i = beta_i rho_i, k_dot_f = sum (r_i - r_G) x f_i. Rows scaled by sqrt(w_k), sqrt(eps_f).
 //     Note: (21) writes eps_f |f|^2; (24) regularises rho, which is what is implemented (it keeps
 //     Phi of full column rank, so the solution is unique).
@@ -36,6 +41,11 @@
 #include "poise/contact/nnls.hpp"
 
 namespace poise::contact {
+
+/// Euclidean projection of a force given in the foot frame (z = sole normal) onto the friction
+/// cone |f_t| <= mu f_n: f itself inside, zero inside the polar cone, else the nearest point of the
+/// cone's surface.
+Eigen::Vector3d project_on_friction_cone(const Eigen::Vector3d& f_F, double mu);
 
 /// Intermediate data of the last double-support solve (for tests and the stage benchmark).
 struct SequentialStages {

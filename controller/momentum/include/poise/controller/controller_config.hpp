@@ -9,6 +9,9 @@
 #include <Eigen/Core>
 #include <filesystem>
 #include <stdexcept>
+#include <string>
+
+#include "poise/contact/contact_problem.hpp"
 
 namespace poise::controller {
 
@@ -37,6 +40,9 @@ struct ContactWeights {
   double w_k = 0.1;       ///< angular momentum weight in (21) (paper: 0.1)
   double eps_f = 1e-4;    ///< force regularisation in (21) (paper: 0.01 as a row scale)
   double eps_cop = 1e-4;  ///< CoP / normal torque regularisation in (29) (same reading)
+  /// Linear momentum first strictly (lexicographic, the paper's stated priority) or eq. (21)'s
+  /// weighted sum. Not on the wire: `poise run` passes it to poise-contact as --priority.
+  contact::Priority priority = contact::Priority::kLexicographic;
 };
 
 /// Eq (36): a_d = kp log(T^-1 T_d) + kd (v_d - v) for each foot.
@@ -117,5 +123,9 @@ struct ControllerConfig {
 /// Loads a YAML file (schema: controller/momentum/config/balance_controller.yaml); missing keys
 /// keep their defaults, unknown keys are an error. Throws ConfigError naming the file and key.
 ControllerConfig load_controller_config(const std::filesystem::path& path);
+
+/// Same from YAML text (e.g. a scenario's `controller:` section); `origin` names the source in
+/// error messages ("scenario 'x.yaml', controller"). Empty or null text: the defaults.
+ControllerConfig parse_controller_config(const std::string& yaml_text, const std::string& origin);
 
 }  // namespace poise::controller
