@@ -1,8 +1,10 @@
 #include "poise/sim/scenario.hpp"
+#include "poise/sim/simulator.hpp"
 
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <fstream>
 #include <set>
@@ -41,11 +43,12 @@ struct Ctx {
   }
   double num(const YAML::Node& n, const std::string& key) const {
     try {
+      if (!n.IsScalar()) fail(key, "must be a number");
       const double v = n.as<double>();
       if (!std::isfinite(v)) fail(key, "must be a finite number");
       return v;
     } catch (const YAML::Exception&) {
-      fail(key, "must be a number");
+      fail(key, "must be a finite number, got '" + n.Scalar().substr(0, 40) + "'");
     }
   }
   double num(const YAML::Node& parent, const char* k, const std::string& key, double dflt) const {
@@ -184,6 +187,8 @@ void load_robot(const Ctx& c, const YAML::Node& n, Scenario& sc,
   }
   r.self_collision = c.boolean(n, "self_collision", key, false);
   r.damping_mode_kd = c.num(n, "damping_mode_kd", key, r.damping_mode_kd);
+  // A negative damping gain would turn the safety damping into an energy source.
+  if (r.damping_mode_kd < 0.0) c.fail(key + ".damping_mode_kd", "must be >= 0");
 }
 
 void load_world(const Ctx& c, const YAML::Node& n, Scenario& sc) {
@@ -255,10 +260,21 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
   Scenario sc;
   if (!root["name"]) c.fail("name", "is required");
   sc.name = c.str(root["name"], "name");
+  // The name is a file name under results/ (poise run): no directories, no '..'.
+  if (sc.name.empty() || sc.name.size() > 100 || sc.name == "." ||
+      sc.name.find("..") != std::string::npos ||
+      !std::all_of(sc.name.begin(), sc.name.end(), [](char ch) {
+        return std::isalnum(static_cast<unsigned char>(ch)) || ch == '.' || ch == '_' || ch == '-';
+      }))
+    c.fail("name",
+           "'" + sc.name.substr(0, 100) +
+               "' is not a plain file name (1 to 100 of A-Z a-z 0-9 . _ -, no '..'): it names "
+               "the result files");
   if (root["description"]) sc.description = c.str(root["description"], "description");
   if (!root["duration"]) c.fail("duration", "is required");
   sc.duration = c.num(root["duration"], "duration");
   if (!(sc.duration > 0.0)) c.fail("duration", "must be > 0");
+  if (sc.duration > 1e6) c.fail("duration", "must be at most 1e6 s");
 
   std::vector<std::pair<std::string, double>> nominal;
   load_robot(c, root["robot"], sc, nominal);
@@ -302,6 +318,9 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
         !(n["base_height"].IsScalar() && n["base_height"].as<std::string>() == "auto")) {
       ini.auto_base_height = false;
       ini.base_position.z() = c.num(n["base_height"], "initial.base_height");
+      const double ground = sc.sim.world.ground.height;
+      if (ini.base_position.z() < ground || ini.base_position.z() > ground + 100.0)
+        c.fail("initial.base_height", "must be between the ground height and 100 m above it");
     }
     if (n["base_rpy_deg"]) {
       const Eigen::Vector3d rpy = c.vec3(n["base_rpy_deg"], "initial.base_rpy_deg") * kDeg;
@@ -348,9 +367,22 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
     }
   }
 
-  // sensors
+  // sensors: a file without this section gets the industrial defaults (SENSORS.md).
+  sc.sim.imu = industrial_mems_imu();
+  sc.sim.encoders = industrial_encoder();
+  sc.sim.foot_ft = industrial_foot_ft();
   if (const YAML::Node s = root["sensors"]) {
-    c.allow(s, "sensors", {"imu", "seed"});
+    c.allow(s, "sensors", {"preset", "imu", "encoders", "foot_ft", "seed"});
+    if (s["preset"]) {
+      const std::string p = c.str(s["preset"], "sensors.preset");
+      if (p == "ideal") {
+        sc.sim.imu = ImuNoiseConfig{};
+        sc.sim.encoders = EncoderConfig{};
+        sc.sim.foot_ft = ForceTorqueSensorConfig{};
+      } else if (p != "industrial_mems") {
+        c.fail("sensors.preset", "must be industrial_mems or ideal (got '" + p + "')");
+      }
+    }
     ImuNoiseConfig& imu = sc.sim.imu;
     if (s["seed"]) {
       const double seed = c.num(s["seed"], "sensors.seed");
@@ -358,14 +390,72 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
         c.fail("sensors.seed", "must be a non-negative integer");
       imu.seed = static_cast<std::uint64_t>(seed);
     }
+    const auto nonneg = [&](const YAML::Node& n, const char* k, const std::string& key,
+                            double& v) {
+      if (!n[k]) return;
+      v = c.num(n[k], key + "." + k);
+      if (v < 0.0) c.fail(key + "." + k, "must be >= 0");
+    };
+    const auto vec = [&](const YAML::Node& n, const char* k, const std::string& key,
+                         Eigen::Vector3d& v, double scale) {
+      if (n[k]) v = scale * c.vec3(n[k], key + "." + k);
+    };
     if (const YAML::Node i = s["imu"]) {
-      c.allow(i, "sensors.imu", {"gyro_noise_std", "gyro_bias", "accel_noise_std", "accel_bias"});
-      imu.gyro_noise_std = c.num(i, "gyro_noise_std", "sensors.imu", 0.0);
-      imu.accel_noise_std = c.num(i, "accel_noise_std", "sensors.imu", 0.0);
-      if (imu.gyro_noise_std < 0.0) c.fail("sensors.imu.gyro_noise_std", "must be >= 0");
-      if (imu.accel_noise_std < 0.0) c.fail("sensors.imu.accel_noise_std", "must be >= 0");
-      if (i["gyro_bias"]) imu.gyro_bias = c.vec3(i["gyro_bias"], "sensors.imu.gyro_bias");
-      if (i["accel_bias"]) imu.accel_bias = c.vec3(i["accel_bias"], "sensors.imu.accel_bias");
+      const std::string key = "sensors.imu";
+      c.allow(i, key,
+              {"orientation", "gyro_noise_std", "gyro_noise_density", "gyro_bias",
+               "gyro_bias_walk", "gyro_scale_error", "gyro_misalignment_deg", "gyro_range",
+               "accel_noise_std", "accel_noise_density", "accel_bias", "accel_bias_walk",
+               "accel_scale_error", "accel_misalignment_deg", "accel_range", "rate_hz",
+               "delay_ticks", "filter_gain", "filter_accel_gate"});
+      if (i["orientation"]) {
+        const std::string o = c.str(i["orientation"], key + ".orientation");
+        if (o == "off")
+          imu.orientation = ImuOrientationOutput::kOff;
+        else if (o == "filter")
+          imu.orientation = ImuOrientationOutput::kFilter;
+        else if (o == "truth")
+          imu.orientation = ImuOrientationOutput::kTruth;
+        else
+          c.fail(key + ".orientation", "must be off, filter or truth (got '" + o + "')");
+      }
+      nonneg(i, "gyro_noise_std", key, imu.gyro_noise_std);
+      nonneg(i, "gyro_noise_density", key, imu.gyro_noise_density);
+      nonneg(i, "gyro_bias_walk", key, imu.gyro_bias_walk);
+      nonneg(i, "gyro_range", key, imu.gyro_range);
+      nonneg(i, "accel_noise_std", key, imu.accel_noise_std);
+      nonneg(i, "accel_noise_density", key, imu.accel_noise_density);
+      nonneg(i, "accel_bias_walk", key, imu.accel_bias_walk);
+      nonneg(i, "accel_range", key, imu.accel_range);
+      nonneg(i, "rate_hz", key, imu.rate_hz);
+      nonneg(i, "filter_gain", key, imu.filter_gain);
+      nonneg(i, "filter_accel_gate", key, imu.filter_accel_gate);
+      if (i["filter_accel_gate"] && imu.filter_accel_gate <= 0.0)
+        c.fail(key + ".filter_accel_gate", "must be > 0");
+      vec(i, "gyro_bias", key, imu.gyro_bias, 1.0);
+      vec(i, "gyro_scale_error", key, imu.gyro_scale_error, 1.0);
+      vec(i, "gyro_misalignment_deg", key, imu.gyro_misalignment, kDeg);
+      vec(i, "accel_bias", key, imu.accel_bias, 1.0);
+      vec(i, "accel_scale_error", key, imu.accel_scale_error, 1.0);
+      vec(i, "accel_misalignment_deg", key, imu.accel_misalignment, kDeg);
+      if (i["delay_ticks"]) {
+        const double d = c.num(i["delay_ticks"], key + ".delay_ticks");
+        if (d < 0.0 || d > 1000.0 || d != std::floor(d))
+          c.fail(key + ".delay_ticks", "must be an integer in [0, 1000]");
+        imu.delay_ticks = static_cast<int>(d);
+      }
+    }
+    if (const YAML::Node e = s["encoders"]) {
+      c.allow(e, "sensors.encoders", {"counts_per_rev"});
+      nonneg(e, "counts_per_rev", "sensors.encoders", sc.sim.encoders.counts_per_rev);
+    }
+    if (const YAML::Node f = s["foot_ft"]) {
+      const std::string key = "sensors.foot_ft";
+      c.allow(f, key, {"force_noise_std", "torque_noise_std", "force_offset", "torque_offset"});
+      nonneg(f, "force_noise_std", key, sc.sim.foot_ft.force_noise_std);
+      nonneg(f, "torque_noise_std", key, sc.sim.foot_ft.torque_noise_std);
+      vec(f, "force_offset", key, sc.sim.foot_ft.force_offset, 1.0);
+      vec(f, "torque_offset", key, sc.sim.foot_ft.torque_offset, 1.0);
     }
   }
 
@@ -379,7 +469,8 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
     sv.dt = c.num(s, "dt", "solver", sv.dt);
     if (!(sv.dt > 0.0 && sv.dt <= 0.01)) c.fail("solver.dt", "must be in (0, 0.01] s");
     const double it = c.num(s, "iterations", "solver", sv.iterations);
-    if (it < 1 || it != std::floor(it)) c.fail("solver.iterations", "must be an integer >= 1");
+    if (!(it >= 1 && it <= 10000) || it != std::floor(it))
+      c.fail("solver.iterations", "must be an integer in [1, 10000]");
     sv.iterations = static_cast<int>(it);
     sv.contact_erp = c.num(s, "contact_erp", "solver", sv.contact_erp);
     sv.contact_cfm = c.num(s, "contact_cfm", "solver", sv.contact_cfm);
@@ -440,7 +531,25 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
 
   // estimator setting
   if (const YAML::Node e = root["estimator"]) {
-    c.allow(e, "estimator", {"supports"});
+    c.allow(e, "estimator", {"type", "supports", "ground_height", "support_height"});
+    if (e["type"]) {
+      sc.estimator.type = c.str(e["type"], "estimator.type");
+      if (sc.estimator.type != "invariant-ekf" && sc.estimator.type != "leg-odometry")
+        c.fail("estimator.type", "must be 'invariant-ekf' or 'leg-odometry'");
+    }
+    if (e["ground_height"]) sc.estimator.ground_height = c.num(e["ground_height"], "estimator.ground_height");
+    if (const YAML::Node sh = e["support_height"]) {
+      if (!sh.IsMap()) c.fail("estimator.support_height", "must be a mapping foot -> height (m)");
+      for (const auto& kv : sh) {
+        const std::string foot = kv.first.as<std::string>();
+        bool known = false;
+        for (const auto& f : sc.sim.robot.feet)
+          known = known || f.name == foot;
+        if (!known) c.fail("estimator.support_height." + foot, "is not a foot of the robot");
+        sc.estimator.support_height.emplace_back(
+            foot, c.num(kv.second, "estimator.support_height." + foot));
+      }
+    }
     if (e["supports"]) {
       sc.estimator.supports = c.str(e["supports"], "estimator.supports");
       if (sc.estimator.supports != "fixed" && sc.estimator.supports != "moving" &&
@@ -474,14 +583,68 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
 }
 
 Scenario load_scenario(const fs::path& path) {
-  std::ifstream in(path);
+  std::error_code ec;
+  if (fs::is_directory(path, ec))
+    throw std::runtime_error("scenario '" + path.string() + "' is a directory, not a file");
+  std::ifstream in(path, std::ios::binary);
   if (!in) throw std::runtime_error("scenario file '" + path.string() + "' cannot be opened");
-  std::stringstream ss;
-  ss << in.rdbuf();
+  // Read at most 16 MB (a scenario is a few kB; /dev/zero must not fill the memory).
+  constexpr std::size_t kMaxBytes = std::size_t{16} << 20;
+  std::string text;
+  char buf[65536];
+  while (in) {
+    in.read(buf, sizeof buf);
+    const auto got = static_cast<std::size_t>(in.gcount());
+    if (got == 0) break;
+    if (text.size() + got > kMaxBytes)
+      throw std::runtime_error("scenario file '" + path.string() +
+                               "' is larger than the limit of 16 MB; refused");
+    text.append(buf, got);
+  }
   const fs::path abs = fs::absolute(path);
-  Scenario sc = parse_scenario(ss.str(), abs.parent_path(), "scenario '" + path.string() + "'");
+  Scenario sc = parse_scenario(text, abs.parent_path(), "scenario '" + path.string() + "'");
   sc.file = abs;
   return sc;
+}
+
+EstimatorStart estimator_start(const Scenario& sc) {
+  EstimatorStart out;
+  out.ground_height = sc.sim.world.ground.height;
+  const char* side_name[2] = {"right", "left"};
+  if (!sc.estimator.support_height.empty()) {
+    if (std::isfinite(sc.estimator.ground_height)) out.ground_height = sc.estimator.ground_height;
+    for (const auto& [foot, h] : sc.estimator.support_height)
+      for (int s = 0; s < 2; ++s)
+        if (foot == side_name[s]) out.support_height[static_cast<std::size_t>(s)] = h;
+    out.per_foot = true;
+    out.source = "scenario support_height";
+    return out;
+  }
+  if (std::isfinite(sc.estimator.ground_height)) {
+    out.ground_height = sc.estimator.ground_height;
+    out.source = "scenario ground_height";
+    return out;
+  }
+  if (sc.sim.world.platforms.empty()) {
+    out.source = "ground plane";
+    return out;
+  }
+  // Platforms: the simulator's own placement at t = 0 (no step taken).
+  Simulator sim(sc.sim);
+  SensorFrame sensors = sim.make_sensor_frame();
+  GroundTruth truth = sim.make_ground_truth();
+  sim.read(sensors, truth);
+  const auto& feet = sc.sim.robot.feet;
+  for (std::size_t f = 0; f < feet.size() && f < truth.feet.size(); ++f)
+    for (int s = 0; s < 2; ++s)
+      if (feet[f].name == side_name[s]) {
+        const double h = feet[f].has_sole ? feet[f].sole.height : 0.0;
+        out.support_height[static_cast<std::size_t>(s)] =
+            (truth.feet[f].X_WF * Eigen::Vector3d(0.0, 0.0, -h)).z();
+        out.per_foot = true;
+      }
+  out.source = "platforms at t = 0";
+  return out;
 }
 
 std::vector<int> platforms_of_feet(const Scenario& sc) {
