@@ -21,6 +21,8 @@
 #include "poise/dds/vendor.hpp"
 #include "poise/launch/deployment.hpp"
 #include "poise/launch/launch.hpp"
+#include "poise/contact/contact_optimizer.hpp"
+#include "poise/controller/controller_config.hpp"
 #include "poise/sim/scenario.hpp"
 
 namespace poise::launch {
@@ -59,6 +61,8 @@ struct Settings {
   double duration = -1.0;
   bool ground_truth_state = false;
   std::string method;  ///< "" = the scenario's contact.method, else sequential
+  std::string estimator;  ///< "" = the scenario's estimator.type, else invariant-ekf
+  std::string controller_config;  ///< "" = the scenario's controller: section, else defaults
   double contact_deadline_us = -1.0;
   int command_timeout_ms = 2000;
   int settle_ticks = -1;      ///< simulator start-up hold steps (-1: the simulator's default)
@@ -169,10 +173,20 @@ int run_distributed(int argc, char** argv) {
   app.add_option("--duration", s.duration, "override the scenario duration [s]");
   app.add_flag("--ground-truth-state", s.ground_truth_state,
                "DEBUG: the estimator sends the simulator's ground truth as the state");
+  app.add_option("--estimator", s.estimator,
+                 "estimator that publishes poise/state: invariant-ekf or leg-odometry (the "
+                 "baseline; default: the scenario's estimator.type, else invariant-ekf; "
+                 "estimator/README.md)")
+      ->check(CLI::IsMember({"invariant-ekf", "leg-odometry"}));
   app.add_option("--method,--contact-method", s.method,
                  "contact optimiser: sequential (paper) or qp (default: the scenario's "
                  "contact.method, else sequential)")
       ->check(CLI::IsMember({"sequential", "qp"}));
+  app.add_option("--controller-config", s.controller_config,
+                 "controller YAML (controller/momentum/config/balance_controller.yaml); replaces "
+                 "the scenario's controller: section (default: that section, else the built-in "
+                 "values). Its contact.priority goes to poise-contact as --priority")
+      ->check(CLI::ExistingFile);
   app.add_option("--contact-deadline-us", s.contact_deadline_us,
                  "controller's wait for a contact solution (default 400 real time, 1e6 lockstep)");
   app.add_option("--command-timeout-ms", s.command_timeout_ms,
@@ -299,12 +313,53 @@ int run_distributed(int argc, char** argv) {
     std::vector<std::string> est_args = common("estimator");
     if (s.ground_truth_state) est_args.push_back("--ground-truth-state");
     est_args.insert(est_args.end(), {"--supports", scenario.estimator.supports});
+    if (s.estimator.empty()) s.estimator = scenario.estimator.type;
+    est_args.insert(est_args.end(), {"--estimator", s.estimator});
+    // Where the soles start (scenario estimator section, or derived from the platforms' placement).
+    const sim::EstimatorStart start = sim::estimator_start(scenario);
+    est_args.insert(est_args.end(), {"--ground-height", std::to_string(start.ground_height)});
+    if (start.per_foot) {
+      // Feet without a given height stand on the ground.
+      const auto h = [&](std::size_t f) {
+        return std::isfinite(start.support_height[f]) ? start.support_height[f]
+                                                      : start.ground_height;
+      };
+      char r[32], l[32];
+      std::snprintf(r, sizeof r, "%.6f", h(0));
+      std::snprintf(l, sizeof l, "%.6f", h(1));
+      est_args.insert(est_args.end(), {"--support-heights", r, l});
+    }
+    {
+      char x[32], y[32];
+      std::snprintf(x, sizeof x, "%.6f", scenario.sim.initial.base_position.x());
+      std::snprintf(y, sizeof y, "%.6f", scenario.sim.initial.base_position.y());
+      est_args.insert(est_args.end(), {"--initial-xy", x, y});
+    }
     // Each node's outputs: their consumer and the recorder, matched before its first input.
     if (recording_run) est_args.insert(est_args.end(), {"--output-readers", "2"});
     std::vector<std::string> contact_args = common("contact");
     if (recording_run) contact_args.insert(contact_args.end(), {"--output-readers", "2"});
     contact_args.insert(contact_args.end(), {"--method", s.method});
+    // The controller configuration: --controller-config, else the scenario's section (written to
+    // the log directory for the controller node), checked here so a bad key fails before launch.
+    controller::ControllerConfig ccfg;
+    fs::path ctrl_config_file;
+    if (!s.controller_config.empty()) {
+      ccfg = controller::load_controller_config(s.controller_config);
+      ctrl_config_file = fs::absolute(s.controller_config);
+    } else if (!scenario.controller_yaml.empty()) {
+      ccfg = controller::parse_controller_config(scenario.controller_yaml,
+                                                 "scenario '" + scenario.name + "', controller");
+      ctrl_config_file = fs::absolute(logs / "controller.yaml");
+      std::ofstream cf(ctrl_config_file);
+      cf << "# the controller: section of " << s.scenario << "\n" << scenario.controller_yaml << "\n";
+      if (!cf) throw std::runtime_error("cannot write " + ctrl_config_file.string());
+    }
+    contact_args.insert(contact_args.end(),
+                        {"--priority", contact::to_string(ccfg.contact.priority)});
     std::vector<std::string> ctrl_args = common("controller");
+    if (!ctrl_config_file.empty())
+      ctrl_args.insert(ctrl_args.end(), {"--config", ctrl_config_file.string()});
     ctrl_args.insert(ctrl_args.end(), {"--contact-deadline-us", std::to_string(deadline_us)});
     if (recording_run) ctrl_args.insert(ctrl_args.end(), {"--output-readers", "2"});
 
@@ -315,6 +370,17 @@ int run_distributed(int argc, char** argv) {
           scenario.name.c_str(), s.realtime ? "real time" : "lockstep", duration, domain,
           vendor["sim"].c_str(), vendor["estimator"].c_str(), vendor["contact"].c_str(),
           vendor["controller"].c_str(), logs.c_str());
+    if (!s.quiet) {
+      if (start.per_foot)
+        std::printf("  estimator %s, supports %s, soles start at z right %.4f m, left %.4f m (%s)\n",
+                    s.estimator.c_str(), scenario.estimator.supports.c_str(),
+                    std::isfinite(start.support_height[0]) ? start.support_height[0] : start.ground_height,
+                    std::isfinite(start.support_height[1]) ? start.support_height[1] : start.ground_height,
+                    start.source.c_str());
+      else
+        std::printf("  estimator %s, supports %s, soles start at z %.4f m (%s)\n", s.estimator.c_str(),
+                    scenario.estimator.supports.c_str(), start.ground_height, start.source.c_str());
+    }
     std::fflush(stdout);
 
     struct sigaction sa {};
@@ -522,7 +588,8 @@ int run_distributed(int argc, char** argv) {
     r["completed"] = sim_r.value("completed", false);
     for (const char* k :
          {"com_error_max_m", "com_error_final_m", "foot_slip_max_m", "non_foot_contacts",
-          "min_base_height_m", "tick_latency_us", "realtime_factor", "sim_time_s", "wall_time_s",
+          "min_base_height_m", "recovery_time_s", "trunk_pitch_max_deg", "trunk_roll_max_deg",
+          "failed_criteria", "tick_latency_us", "realtime_factor", "sim_time_s", "wall_time_s",
           "command_timeouts", "damping_ticks", "watchdog_stale_events", "hold_ticks",
           "estop_ticks", "safety", "max_joint_speed"})
       r[k] = sim_r.value(k, Json());
@@ -578,12 +645,15 @@ int run_distributed(int argc, char** argv) {
     const long long damping_tolerance = scenario.success.max_damping_ticks;
     r["max_damping_ticks"] = damping_tolerance;
     std::string verdict_reason;
+    if (!r["failed_criteria"].is_array()) r["failed_criteria"] = Json::array();
     if (static_cast<long long>(num(sim_r, "damping_ticks")) > damping_tolerance) {
-      verdict_reason = std::to_string(num(sim_r, "damping_ticks")) +
-                       " damping ticks (tolerance " + std::to_string(damping_tolerance) + ")";
+      r["failed_criteria"].push_back(std::to_string(num(sim_r, "damping_ticks")) +
+                                     " damping ticks > " + std::to_string(damping_tolerance));
       r["survived"] = false;
-      r["failure"] = verdict_reason;
     }
+    for (const auto& f : r["failed_criteria"])
+      verdict_reason += (verdict_reason.empty() ? "" : "; ") + f.get<std::string>();
+    if (!verdict_reason.empty()) r["failure"] = verdict_reason;
     // What each process got of the real-time settings (applied or refused, thread policies,
     // page faults after its first tick).
     r["realtime_settings"] = Json::object();
@@ -597,7 +667,9 @@ int run_distributed(int argc, char** argv) {
     r["domain"] = domain;
     r["mode"] = s.realtime ? "realtime" : "lockstep";
     r["contact_method"] = s.method;
+    r["contact_priority"] = contact::to_string(ccfg.contact.priority);
     r["estimator_supports"] = scenario.estimator.supports;
+    r["estimator"] = s.estimator;
     if (recorder) {
       r["recording"] = recording.string();
       r["recording_ok"] = record_problem.empty();

@@ -59,6 +59,9 @@ InProcessLoop::InProcessLoop(const sim::Scenario& scenario, const LoopOptions& o
     ccfg = *options_.controller;
   } else if (!options_.controller_config_file.empty()) {
     ccfg = controller::load_controller_config(options_.controller_config_file);
+  } else if (!scenario_.controller_yaml.empty()) {
+    ccfg = controller::parse_controller_config(scenario_.controller_yaml,
+                                               "scenario '" + scenario_.name + "', controller");
   }
   ccfg.dt = sim_->dt();
   controller_ = std::make_unique<controller::BalanceController>(model_, robot_, ccfg);
@@ -86,8 +89,15 @@ InProcessLoop::InProcessLoop(const sim::Scenario& scenario, const LoopOptions& o
     ecfg.dt = sim_->dt();
     ecfg.init_base_x = scenario_.sim.initial.base_position.x();
     ecfg.init_base_y = scenario_.sim.initial.base_position.y();
-    ecfg.ground_height = scenario_.sim.world.ground.height;
     ecfg.supports = estimator::parse_support_model(scenario_.estimator.supports);
+    ecfg.kind = estimator::parse_estimator_kind(
+        options_.estimator.empty() ? scenario_.estimator.type : options_.estimator);
+    // Where the soles start: the scenario's estimator section, or the platforms at t = 0.
+    const sim::EstimatorStart start = sim::estimator_start(scenario_);
+    ecfg.ground_height = start.ground_height;
+    for (int side = 0; side < 2; ++side)
+      ecfg.support_height[static_cast<std::size_t>(side)] =
+          start.support_height[static_cast<std::size_t>(side)];
     estimator_ = std::make_unique<EstimatorParts>(model_, robot_, ecfg);
 #else
     throw std::runtime_error(
@@ -236,6 +246,9 @@ RunResult InProcessLoop::result() const {
   r.non_foot_contacts = m.non_foot_contacts;
   r.min_base_height_m = m.min_base_height_m;
   r.recovery_time_s = m.last_recovery_time_s;
+  r.trunk_pitch_max_deg = m.trunk_pitch_max_deg;
+  r.trunk_roll_max_deg = m.trunk_roll_max_deg;
+  r.failed = m.failed;
   std::vector<double> lat = latency_us_;
   if (!lat.empty()) {
     std::sort(lat.begin(), lat.end());

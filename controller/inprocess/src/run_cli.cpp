@@ -36,6 +36,14 @@ nlohmann::json to_json(const RunResult& r) {
   j["min_base_height_m"] = r.min_base_height_m;
   j["recovery_time_s"] = std::isfinite(r.recovery_time_s) ? nlohmann::json(r.recovery_time_s)
                                                           : nlohmann::json(nullptr);
+  j["trunk_pitch_max_deg"] = r.trunk_pitch_max_deg;
+  j["trunk_roll_max_deg"] = r.trunk_roll_max_deg;
+  j["failed_criteria"] = r.failed;
+  if (!r.failed.empty()) {
+    std::string why;
+    for (const auto& f : r.failed) why += (why.empty() ? "" : "; ") + f;
+    j["failure"] = why;
+  }
   j["contact_fallbacks"] = r.contact_fallbacks;
   j["qp_failures"] = r.qp_failures;
   j["rejected_commands"] = r.rejected_commands;
@@ -91,6 +99,11 @@ int cli_main(int argc, char** argv) {
                  "Controller YAML (default: built-in paper values, "
                  "controller/momentum/config/balance_controller.yaml)");
   app.add_option("--duration", duration, "Simulated time [s] (default: the scenario's)");
+  std::string estimator_kind;
+  app.add_option("--estimator", estimator_kind,
+                 "Estimator that makes the state: invariant-ekf or leg-odometry (default: the "
+                 "scenario's estimator.type, else invariant-ekf)")
+      ->check(CLI::IsMember({"invariant-ekf", "leg-odometry"}));
   app.add_flag("--quiet,-q", quiet, "No progress lines");
   try {
     app.parse(argc, argv);
@@ -111,10 +124,13 @@ int cli_main(int argc, char** argv) {
     opt.contact_method = *contact::parse_method(method);
     opt.controller_config_file = controller_config;
     opt.duration = duration;
+    opt.estimator = estimator_kind.empty() ? scenario.estimator.type : estimator_kind;
     InProcessLoop loop(scenario, opt);
     if (!quiet)
       std::cerr << "poise run: " << scenario.name << " in process, " << loop.duration()
-                << " s, state from " << to_string(opt.state_source) << ", contact method " << method
+                << " s, state from " << to_string(opt.state_source)
+                << (opt.state_source == StateSource::kEstimator ? " (" + opt.estimator + ")" : "")
+                << ", contact method " << method
                 << "\n";
     const RunResult r = loop.run([&](double t) {
       if (quiet) return;
@@ -122,13 +138,17 @@ int cli_main(int argc, char** argv) {
       std::fprintf(stderr, "  t = %5.1f s  CoM error %.4f m (max %.4f)  tick p50 %.1f us\n", t,
                    p.com_error_final_m, p.com_error_max_m, p.tick_latency_us.p50_us);
     });
+    std::string why;
+    for (const auto& f : r.failed) why += (why.empty() ? " on " : "; ") + f;
     std::printf(
-        "%s: %s  (CoM error max %.4f m, final %.4f m; foot slip %.4f m; non-foot contacts %d; "
-        "tick p50 %.1f us p99 %.1f us; %llu deadline misses; x%.2f real time; state %s)\n",
-        r.scenario.c_str(), r.survived ? "SURVIVED" : "FAILED", r.com_error_max_m,
-        r.com_error_final_m, r.foot_slip_max_m, r.non_foot_contacts, r.tick_latency_us.p50_us,
-        r.tick_latency_us.p99_us, static_cast<unsigned long long>(r.deadline_misses),
-        r.realtime_factor, to_string(r.state_source));
+        "%s: %s%s  (CoM error max %.4f m, final %.4f m; foot slip %.4f m; non-foot contacts %d; "
+        "trunk pitch/roll max %.1f/%.1f deg; tick p50 %.1f us p99 %.1f us; %llu deadline misses; "
+        "x%.2f real time; state %s)\n",
+        r.scenario.c_str(), r.survived ? "SURVIVED" : "FAILED", why.c_str(), r.com_error_max_m,
+        r.com_error_final_m, r.foot_slip_max_m, r.non_foot_contacts, r.trunk_pitch_max_deg,
+        r.trunk_roll_max_deg, r.tick_latency_us.p50_us, r.tick_latency_us.p99_us,
+        static_cast<unsigned long long>(r.deadline_misses), r.realtime_factor,
+        to_string(r.state_source));
     if (!output.empty()) {
       std::ofstream out(output);
       if (!out) {
@@ -137,7 +157,9 @@ int cli_main(int argc, char** argv) {
       }
       nlohmann::json j = to_json(r);
       j["contact_method"] = method;
+      j["contact_priority"] = contact::to_string(loop.controller().config().contact.priority);
       j["estimator_supports"] = scenario.estimator.supports;
+      j["estimator"] = opt.estimator;
       out << j.dump(2) << "\n";
     }
     return r.survived ? 0 : 1;

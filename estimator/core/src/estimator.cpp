@@ -31,6 +31,21 @@ bool finite(const SE3& X) {
 
 }  // namespace
 
+const char* to_string(EstimatorKind k) noexcept {
+  return k == EstimatorKind::kLegOdometry ? "leg-odometry" : "invariant-ekf";
+}
+
+EstimatorKind parse_estimator_kind(const std::string& text) {
+  if (text == "invariant-ekf") return EstimatorKind::kInvariantEkf;
+  if (text == "leg-odometry") return EstimatorKind::kLegOdometry;
+  throw EstimatorError("unknown estimator '" + text + "' (accepted: invariant-ekf, leg-odometry)");
+}
+
+bool imu_orientation_present(const Eigen::Quaterniond& q_WI) noexcept {
+  const double n = q_WI.norm();
+  return std::isfinite(n) && n >= 0.5;
+}
+
 const char* to_string(SupportModel s) noexcept {
   switch (s) {
     case SupportModel::kMoving:
@@ -73,6 +88,10 @@ Estimator::Estimator(const model::Model& model, const model::RobotConfig& robot,
               std::isfinite(config.init_base_x) && std::isfinite(config.init_base_y) &&
               std::isfinite(config.ground_height),
           "initial biases, base x/y and ground height must be finite");
+  for (double h : config.support_height)
+    require(!std::isinf(h), "support heights must be finite (or NaN: not given)");
+  require(config.kind == EstimatorKind::kInvariantEkf || config.kind == EstimatorKind::kLegOdometry,
+          "kind must be invariant-ekf or leg-odometry");
 
   const int imu = frame_of(model_, robot.imu_frame, "IMU");
   if (model_.frames[imu].body != 0) {
@@ -223,7 +242,7 @@ void Estimator::initialize(const SensorFrame& frame) noexcept {
   // the accelerometer (yaw 0).
   Matrix3 R_WI;
   const double qn = frame.imu_q_WI.norm();
-  if (qn > 0.5 && qn < 1.5) {
+  if (imu_orientation_present(frame.imu_q_WI) && qn < 1.5) {
     R_WI = frame.imu_q_WI.normalized().toRotationMatrix();
   } else {
     const Vector3 f = frame.imu_specific_force_I;
@@ -244,6 +263,16 @@ void Estimator::initialize(const SensorFrame& frame) noexcept {
     first = false;
   }
   X_WB.p = Vector3(config_.init_base_x, config_.init_base_y, config_.ground_height - z_min);
+  // Feet on supports of known height (platforms): each says where the base is; their mean.
+  double z_sum = 0.0;
+  int z_count = 0;
+  for (int f = 0; f < kNumFeet; ++f) {
+    if (!legs_.contact[f] || !std::isfinite(config_.support_height[f])) continue;
+    const Vector3 sole_B = legs_.X_BF[f].act(Vector3(0.0, 0.0, -sole_height_[f]));
+    z_sum += config_.support_height[f] - (X_WB.R * sole_B).z();
+    ++z_count;
+  }
+  if (z_count > 0) X_WB.p.z() = z_sum / z_count;
 
   InvariantEkf::Mean m;
   m.R_WI = R_WI;
@@ -262,6 +291,8 @@ void Estimator::initialize(const SensorFrame& frame) noexcept {
   omega_B_ = omega_B;
   baseline_.reset(X_WB, Vector3::Zero(), legs_);
   fallback_.reset(X_WB, Vector3::Zero(), legs_);
+  R_WB_gyro_ = X_WB.R;
+  omega_B_raw_ = X_BI_.R * frame.imu_omega_I;
   initialized_ = true;
   imu_frozen_ = false;
   time_since_init_ = 0.0;
@@ -435,15 +466,26 @@ StatusFlags Estimator::update(const SensorFrame& frame, EstimatorState& out) noe
     ekf_.set_pose_velocity(R_WI, v_WI, p_WI);
   }
 
-  // Baseline: IMU orientation, raw gyro, stance-foot kinematics, no filter.
-  {
+  // Baseline: IMU orientation (or the raw gyro integrated, when the IMU gives no orientation),
+  // raw gyro, stance-foot kinematics, no filter. Not on the tick that (re)started the filter
+  // (initialize() placed it there; only that tick has kInitializing at this point).
+  if (!(flags & kInitializing)) {
     LegKinematics legs_baseline = legs_;
     const Vector3 omega_B_raw = X_BI_.R * frame.imu_omega_I;
+    omega_B_raw_ = omega_B_raw;
     for (int f = 0; f < kNumFeet; ++f)
       legs_baseline.v_BF_B[f] = omega_B_raw.cross(legs_.X_BF[f].p) + v_F0_B_[f];
-    const Matrix3 R_WB_imu = frame.imu_q_WI.normalized().toRotationMatrix() * X_IB_.R;
-    if (!(flags & kInitializing))
-      baseline_.update(LegOdometry::OrientationSource::kImu, R_WB_imu, legs_baseline, dt);
+    if (imu_orientation_present(frame.imu_q_WI)) {
+      R_WB_gyro_ = frame.imu_q_WI.normalized().toRotationMatrix() * X_IB_.R;
+    } else {
+      // Integrate the body rate: R <- R exp([omega dt]x) (exact for a constant rate).
+      const double angle = omega_B_raw.norm() * dt;
+      if (angle > 0.0) {
+        R_WB_gyro_ = R_WB_gyro_ * Eigen::AngleAxisd(angle, omega_B_raw.normalized()).toRotationMatrix();
+        R_WB_gyro_ = Eigen::Quaterniond(R_WB_gyro_).normalized().toRotationMatrix();
+      }
+    }
+    baseline_.update(LegOdometry::OrientationSource::kImu, R_WB_gyro_, legs_baseline, dt);
   }
 
   time_since_init_ += dt;
@@ -465,23 +507,33 @@ void Estimator::write_output(const SensorFrame& frame, StatusFlags flags,
   const int n = model_.njoints;
   out.tick = frame.tick;
   out.stamp_ns = frame.stamp_ns;
-  out.X_WB = SE3(m.R_WI * X_IB_.R, m.R_WI * X_IB_.p + m.p_WI);
-  out.omega_WB = out.X_WB.R * omega_B_;
-  out.v_WB = m.v_WI + out.omega_WB.cross(out.X_WB.p - m.p_WI);
+  // Leg odometry as the published estimate: its pose and base velocity, the raw gyro (while the
+  // IMU is frozen both kinds publish the kinematics-only fallback, held in the filter's mean).
+  const bool leg_odometry = config_.kind == EstimatorKind::kLegOdometry && !imu_frozen_;
+  const Vector3 omega_B = leg_odometry ? omega_B_raw_ : omega_B_;
+  if (leg_odometry) {
+    out.X_WB = baseline_.X_WB();
+    out.omega_WB = out.X_WB.R * omega_B;
+    out.v_WB = baseline_.v_WB();
+  } else {
+    out.X_WB = SE3(m.R_WI * X_IB_.R, m.R_WI * X_IB_.p + m.p_WI);
+    out.omega_WB = out.X_WB.R * omega_B;
+    out.v_WB = m.v_WI + out.omega_WB.cross(out.X_WB.p - m.p_WI);
+  }
   out.q = frame.q;
   out.qd = frame.qd;
   out.q_model.head<3>() = out.X_WB.p;
   out.q_model.segment<4>(3) = Eigen::Quaterniond(out.X_WB.R).normalized().coeffs();
   out.q_model.tail(n) = frame.q;
   out.v_model.head<3>() = out.X_WB.R.transpose() * out.v_WB;
-  out.v_model.segment<3>(3) = omega_B_;
+  out.v_model.segment<3>(3) = omega_B;
   out.v_model.tail(n) = frame.qd;
   // CoM, momentum and feet from this tick's kinematics (compute_leg_kinematics: base at identity,
   // base twist zero) and the base pose and twist V_B = [v; omega] (base axes), instead of a second
   // forward kinematics: oMi = X_WB oMi_rel, v_b = v_b_rel + X_bB V_B (the twist is linear in v).
   Motion V_B;
   V_B.head<3>() = out.v_model.head<3>();
-  V_B.tail<3>() = omega_B_;
+  V_B.tail<3>() = omega_B;
   Vector3 mc_B = Vector3::Zero();
   double mass = 0.0;
   Force h_B = Force::Zero();  // [l; k about the base origin], base axes
@@ -502,8 +554,8 @@ void Estimator::write_output(const SensorFrame& frame, StatusFlags flags,
     const Force& w = frame.foot_wrench_Fo_F[f];
     foot.in_contact = legs_.contact[f];
     foot.X_WF = out.X_WB * legs_.X_BF[f];
-    foot.V_WF.head<3>() = out.v_WB + out.X_WB.R * (omega_B_.cross(legs_.X_BF[f].p) + v_F0_B_[f]);
-    foot.V_WF.tail<3>() = out.X_WB.R * (omega_B_ + omega_F0_B_[f]);
+    foot.V_WF.head<3>() = out.v_WB + out.X_WB.R * (omega_B.cross(legs_.X_BF[f].p) + v_F0_B_[f]);
+    foot.V_WF.tail<3>() = out.X_WB.R * (omega_B + omega_F0_B_[f]);
     foot.normal_force = w[2];
     Vector3 cop_F;
     if (foot.in_contact && center_of_pressure(w, sole_height_[f], 0.0, cop_F))
@@ -511,8 +563,9 @@ void Estimator::write_output(const SensorFrame& frame, StatusFlags flags,
     else
       foot.cop_W.setZero();
   }
-  out.gyro_bias_I = m.b_g;
-  out.accel_bias_I = m.b_a;
+  // Leg odometry estimates no bias.
+  out.gyro_bias_I = leg_odometry ? Vector3::Zero() : m.b_g;
+  out.accel_bias_I = leg_odometry ? Vector3::Zero() : m.b_a;
   out.status_flags = flags;
 
   bool ok = finite(out.X_WB) && out.v_WB.allFinite() && out.omega_WB.allFinite() &&

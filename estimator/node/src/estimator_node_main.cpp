@@ -1,4 +1,5 @@
-// poise-estimator: the state estimator (contact-aided invariant EKF, estimator/core) as a DDS node.
+// poise-estimator: the state estimator (contact-aided invariant EKF, estimator/core) as a DDS node;
+// --estimator leg-odometry publishes the leg-odometry baseline instead (estimator/README.md).
 //
 // ------------------------------------------------------------------------------------------------
 // Contract
@@ -23,11 +24,14 @@
 // ------------------------------------------------------------------------------------------------
 #include <CLI/CLI.hpp>
 
+#include <cmath>
 #include <cstdio>
 #include <exception>
 #include <memory>
 #include <mutex>
+#include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "poise/estimator/estimator.hpp"
 #include "poise/estimator_node/estimator_messages.hpp"
@@ -65,6 +69,29 @@ int run(int argc, char** argv) {
                  "still for the first 2 s (IMU calibration); see estimator.hpp")
       ->check(CLI::IsMember({"fixed", "moving", "translating"}))
       ->capture_default_str();
+  std::string kind = "invariant-ekf";
+  app.add_option("--estimator", kind,
+                 "which estimate the state carries: 'invariant-ekf' (contact-aided invariant EKF) "
+                 "or 'leg-odometry' (baseline: IMU orientation, or the integrated gyro when the "
+                 "IMU sends none, plus stance-foot kinematics; no filter, no bias estimate); "
+                 "estimator/README.md compares them")
+      ->check(CLI::IsMember({"invariant-ekf", "leg-odometry"}))
+      ->capture_default_str();
+  double ground_height = 0.0;
+  app.add_option("--ground-height", ground_height,
+                 "height in W of the ground the soles stand on at the start [m] (the lowest sole "
+                 "in contact is put there)")
+      ->check(CLI::Number)
+      ->capture_default_str();
+  std::vector<double> support_heights;
+  app.add_option("--support-heights", support_heights,
+                 "RIGHT LEFT: height in W of each foot's sole point at the start [m], for feet "
+                 "on supports of their own (platforms); overrides --ground-height for feet in "
+                 "contact")
+      ->expected(2);
+  std::vector<double> initial_xy;
+  app.add_option("--initial-xy", initial_xy, "X Y: the base's start position in W [m]")
+      ->expected(2);
   int frozen_imu_ticks = 100;
   app.add_option("--frozen-imu-ticks", frozen_imu_ticks,
                  "bit-identical IMU samples in a row that count as a frozen IMU (kinematics-only "
@@ -86,7 +113,23 @@ int run(int argc, char** argv) {
   estimator::EstimatorConfig config;
   config.supports = estimator::parse_support_model(supports);
   config.frozen_imu_ticks = frozen_imu_ticks;
+  config.kind = estimator::parse_estimator_kind(kind);
+  config.ground_height = ground_height;
+  if (support_heights.size() == 2) config.support_height = {support_heights[0], support_heights[1]};
+  if (initial_xy.size() == 2) {
+    config.init_base_x = initial_xy[0];
+    config.init_base_y = initial_xy[1];
+  }
+  for (double v : support_heights)
+    if (!std::isfinite(v)) throw std::runtime_error("--support-heights: values must be finite");
+  if (!std::isfinite(ground_height)) throw std::runtime_error("--ground-height must be finite");
   estimator::Estimator estimator(model, robot, config);
+  if (support_heights.size() == 2)
+    dds::log(dds::LogLevel::info, "estimator: %s, start: right sole at z %.4f m, left sole %.4f m",
+             estimator::to_string(config.kind), support_heights[0], support_heights[1]);
+  else
+    dds::log(dds::LogLevel::info, "estimator: %s, start: soles on the ground at z %.4f m",
+             estimator::to_string(config.kind), ground_height);
   if (config.supports != estimator::SupportModel::kFixed)
     dds::log(dds::LogLevel::info,
              "supports: %s (stance contact points free after %.1f s of IMU calibration on still "
@@ -209,12 +252,13 @@ int run(int argc, char** argv) {
   const estimator::EstimatorDiagnostics& d = estimator.diagnostics();
   char extra[1024];
   std::snprintf(extra, sizeof(extra),
-                "{\"state_source\": \"%s\", \"supports\": \"%s\", \"filter_resets\": %llu, "
+                "{\"state_source\": \"%s\", \"estimator\": \"%s\", \"supports\": \"%s\", "
+                "\"filter_resets\": %llu, "
                 "\"rejected_frames\": %llu, \"dropped_frames\": %llu, \"frozen_imu_ticks\": %llu, "
                 "\"orientation_rejections\": %llu, \"out_of_sequence\": %llu, \"stream_restarts\": %llu, "
                 "\"stale_events\": %llu}",
                 ground_truth_state ? "ground_truth" : "estimator",
-                estimator::to_string(config.supports), static_cast<unsigned long long>(d.resets),
+                estimator::to_string(config.kind), estimator::to_string(config.supports), static_cast<unsigned long long>(d.resets),
                 static_cast<unsigned long long>(d.rejected_frames),
                 static_cast<unsigned long long>(d.dropped_frames),
                 static_cast<unsigned long long>(d.frozen_imu_ticks),

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -256,7 +257,7 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
   if (!root.IsMap()) throw std::runtime_error(what + ": the top level must be a mapping");
   c.allow(root, "",
           {"name", "description", "robot", "world", "initial", "disturbances", "duration",
-           "success", "sensors", "solver", "dds", "estimator", "contact"});
+           "success", "sensors", "solver", "dds", "estimator", "contact", "controller"});
   Scenario sc;
   if (!root["name"]) c.fail("name", "is required");
   sc.name = c.str(root["name"], "name");
@@ -446,8 +447,9 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
       }
     }
     if (const YAML::Node e = s["encoders"]) {
-      c.allow(e, "sensors.encoders", {"counts_per_rev"});
+      c.allow(e, "sensors.encoders", {"counts_per_rev", "velocity_filter_hz"});
       nonneg(e, "counts_per_rev", "sensors.encoders", sc.sim.encoders.counts_per_rev);
+      nonneg(e, "velocity_filter_hz", "sensors.encoders", sc.sim.encoders.velocity_filter_hz);
     }
     if (const YAML::Node f = s["foot_ft"]) {
       const std::string key = "sensors.foot_ft";
@@ -566,6 +568,14 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
       if (sc.contact_method != "sequential" && sc.contact_method != "qp")
         c.fail("contact.method", "must be 'sequential' or 'qp'");
     }
+  }
+
+  // controller configuration: checked by the controller's parser when a run starts
+  if (const YAML::Node cn = root["controller"]) {
+    if (!cn.IsMap()) c.fail("controller", "must be a mapping (the controller configuration's keys)");
+    YAML::Emitter out;
+    out << cn;
+    sc.controller_yaml = out.c_str();
   }
 
   // platforms must name existing feet
@@ -697,6 +707,13 @@ void ScenarioMonitor::update(const GroundTruth& g) {
         r_.foot_slip_max_m, (p - foot_in_support_0_[static_cast<std::size_t>(f)]).head<2>().norm());
   }
   if (g.num_non_foot_contacts > 0) ++r_.non_foot_contacts;
+  {
+    const Eigen::Matrix3d R = g.X_WB.rotation();
+    const double pitch = std::asin(std::clamp(-R(2, 0), -1.0, 1.0)) * 180.0 / M_PI;
+    const double roll = std::atan2(R(2, 1), R(2, 2)) * 180.0 / M_PI;
+    r_.trunk_pitch_max_deg = std::max(r_.trunk_pitch_max_deg, std::abs(pitch));
+    r_.trunk_roll_max_deg = std::max(r_.trunk_roll_max_deg, std::abs(roll));
+  }
   r_.min_base_height_m = std::min(r_.min_base_height_m, g.X_WB.translation().z());
 }
 
@@ -712,6 +729,26 @@ ScenarioMonitor::Result ScenarioMonitor::result() const {
                (k.allow_non_foot_contacts || r.non_foot_contacts == 0) &&
                r.min_base_height_m >= k.min_base_height_m &&
                (std::isinf(k.recovery_time_s) || r.last_recovery_time_s <= k.recovery_time_s);
+  auto over = [&](const char* name, double value, double limit, const char* unit, bool bad) {
+    if (!bad) return;
+    char line[160];
+    std::snprintf(line, sizeof(line), "%s %.4g %s %s %.4g %s", name, value, unit,
+                  std::string(name) == "min_base_height" ? "<" : ">", limit, unit);
+    r.failed.emplace_back(line);
+  };
+  if (!initialised_) r.failed.emplace_back("no ground truth seen");
+  over("com_error_max", r.com_error_max_m, k.com_error_max_m, "m",
+       !(r.com_error_max_m <= k.com_error_max_m));
+  over("com_error_final", r.com_error_final_m, k.com_error_final_m, "m",
+       !(r.com_error_final_m <= k.com_error_final_m));
+  over("foot_slip_max", r.foot_slip_max_m, k.foot_slip_max_m, "m",
+       !(r.foot_slip_max_m <= k.foot_slip_max_m));
+  if (!k.allow_non_foot_contacts && r.non_foot_contacts > 0)
+    r.failed.push_back("non_foot_contacts on " + std::to_string(r.non_foot_contacts) + " ticks");
+  over("min_base_height", r.min_base_height_m, k.min_base_height_m, "m",
+       !(r.min_base_height_m >= k.min_base_height_m));
+  if (!std::isinf(k.recovery_time_s) && !(r.last_recovery_time_s <= k.recovery_time_s))
+    over("recovery_time", r.last_recovery_time_s, k.recovery_time_s, "s", true);
   return r;
 }
 

@@ -40,10 +40,14 @@ bool estimator_available();
 struct LoopOptions {
   StateSource state_source = StateSource::kEstimator;
   contact::Method contact_method = contact::Method::kSequential;
-  /// Controller tuning; unset: controller_config_file if given, else the defaults.
+  /// Controller tuning; unset: controller_config_file if given, else the scenario's `controller:`
+  /// section, else the defaults.
   std::optional<controller::ControllerConfig> controller;
   std::filesystem::path controller_config_file;
   double duration = 0.0;  ///< [s]; <= 0: the scenario's duration
+  /// Estimator that makes the state: "invariant-ekf" or "leg-odometry"; "": the scenario's
+  /// estimator.type.
+  std::string estimator;
 };
 
 struct LatencyStats {
@@ -62,6 +66,9 @@ struct RunResult {
   int non_foot_contacts = 0;  ///< ticks with a non-foot body touching something
   double min_base_height_m = 0.0;
   double recovery_time_s = 0.0;       ///< after the last push
+  double trunk_pitch_max_deg = 0.0;   ///< ScenarioMonitor::Result
+  double trunk_roll_max_deg = 0.0;
+  std::vector<std::string> failed;    ///< the success criteria that failed, readable
   LatencyStats tick_latency_us;       ///< compute time of state + controller + optimiser per tick
   std::uint64_t deadline_misses = 0;  ///< ticks whose latency exceeded the control period
   double realtime_factor = 0.0;       ///< simulated time / wall time (whole loop incl. simulator)

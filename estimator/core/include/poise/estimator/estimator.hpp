@@ -17,7 +17,8 @@
 //  5. outputs: base pose and twist, q/qd, CoM, its velocity and the centroidal momentum (k about
 //     the CoM, l), foot poses/twists, contact states, measured CoP per foot, IMU biases;
 //  6. a plain leg-odometry baseline (IMU orientation + stance-foot kinematics, no filter) runs
-//     alongside for comparison (leg_odometry()).
+//     alongside for comparison (leg_odometry()); EstimatorConfig::kind = kLegOdometry makes it the
+//     published estimate (step 5 then uses its base pose and twist).
 // Status bits are those of idl/state.idl (types.hpp). Yaw and absolute position are unobservable:
 // they drift slowly with the gyro bias and foot slip; roll, pitch and velocity are observable.
 // While standing still, the horizontal accelerometer bias and the tilt cannot be told apart
@@ -69,6 +70,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -91,12 +93,34 @@ class EstimatorError : public std::runtime_error {
 /// What the stance feet stand on (see the header comment).
 enum class SupportModel { kFixed, kMoving, kTranslating };
 
+/// Which estimate the state carries (`poise-estimator --estimator`). Both run on every tick;
+/// the choice says which one is published.
+///  - kInvariantEkf (default): the contact-aided invariant EKF (invariant_ekf.hpp).
+///  - kLegOdometry: the plain leg-odometry baseline (leg_odometry.hpp), no filter: base
+///    orientation from the IMU's own orientation output (from the gyro integrated from the
+///    start tilt when the IMU gives none: an all-zero quaternion), position and velocity from the
+///    stance feet's kinematics with each stance foot held still in W since its touch-down, angular
+///    velocity the raw gyro. It estimates no IMU bias (published as 0) and, with no foot in
+///    contact, propagates the base ballistically. While the IMU is frozen both use the same
+///    kinematics-only fallback.
+enum class EstimatorKind { kInvariantEkf, kLegOdometry };
+
+/// "invariant-ekf" / "leg-odometry".
+const char* to_string(EstimatorKind k) noexcept;
+/// Parses "invariant-ekf" / "leg-odometry"; throws EstimatorError naming the accepted values.
+EstimatorKind parse_estimator_kind(const std::string& text);
+
+/// An IMU orientation sample counts as absent (the IMU has no orientation output) when it is
+/// all zeros (any quaternion of norm < 0.5; a non-finite one is a bad frame and rejected).
+bool imu_orientation_present(const Eigen::Quaterniond& q_WI) noexcept;
+
 /// "fixed" / "moving" / "translating".
 const char* to_string(SupportModel s) noexcept;
 /// Parses "fixed" / "moving" / "translating"; throws EstimatorError naming the accepted values otherwise.
 SupportModel parse_support_model(const std::string& text);
 
 struct EstimatorConfig {
+  EstimatorKind kind = EstimatorKind::kInvariantEkf;  ///< which estimate the state carries
   double dt = 0.001;  ///< nominal sensor period [s]; a tick gap of g propagates over g * dt
   ImuNoise noise;     ///< process / measurement noise of the filter
   SupportModel supports = SupportModel::kFixed;
@@ -137,6 +161,12 @@ struct EstimatorConfig {
   double init_base_x = 0.0;
   double init_base_y = 0.0;
   double ground_height = 0.0;
+  /// Per foot (0 right, 1 left): height in W of the foot's sole point (the foot frame origin
+  /// moved sole.height down its z axis) at the start, when it stands on a support of its own (a
+  /// platform). NaN: not given, ground_height is used. With feet in contact that have a
+  /// height, the start z is the mean over them of what each one says; otherwise as above.
+  std::array<double, kNumFeet> support_height{std::numeric_limits<double>::quiet_NaN(),
+                                              std::numeric_limits<double>::quiet_NaN()};
 };
 
 class Estimator {
@@ -161,6 +191,7 @@ class Estimator {
   const EstimatorDiagnostics& diagnostics() const noexcept { return diag_; }
   /// Plain leg-odometry baseline of the same frames (base pose and velocity of the base origin).
   const LegOdometry& leg_odometry() const noexcept { return baseline_; }
+  EstimatorKind kind() const noexcept { return config_.kind; }
   const InvariantEkf& filter() const noexcept { return ekf_; }
   const model::Model& model() const noexcept { return model_; }
   bool initialized() const noexcept { return initialized_; }
@@ -192,6 +223,10 @@ class Estimator {
   InvariantEkf ekf_;
   LegOdometry baseline_;  ///< IMU orientation + kinematics (comparison)
   LegOdometry fallback_;  ///< stance-foot orientation + kinematics (IMU frozen)
+  /// Leg odometry's orientation when the IMU gives none: the raw gyro integrated from the
+  /// start orientation (or from the IMU's last orientation when it had one).
+  Matrix3 R_WB_gyro_ = Matrix3::Identity();
+  Vector3 omega_B_raw_ = Vector3::Zero();  ///< raw gyro in base axes, this tick
 
   // Workspaces (sized at construction).
   Eigen::VectorXd q_rel_, v_rel_;  ///< base at identity, base twist zero
