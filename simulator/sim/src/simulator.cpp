@@ -178,6 +178,264 @@ class RowCountingSolver : public btMultiBodyConstraintSolver {
 
 }  // namespace
 
+namespace {
+
+Eigen::Matrix3d exp_so3(const Eigen::Vector3d& w) {
+  const double a = w.norm();
+  if (a < 1e-12) return Eigen::Matrix3d::Identity();
+  return Eigen::AngleAxisd(a, w / a).toRotationMatrix();
+}
+
+double yaw_of(const Eigen::Matrix3d& R) {
+  return std::atan2(R(1, 0), R(0, 0));
+}
+
+/// Throws std::runtime_error naming the first bad sensor setting.
+void validate_sensors(const SimulatorConfig& c) {
+  const auto bad = [](const std::string& key, const std::string& msg) {
+    throw std::runtime_error("sensors: " + key + ": " + msg);
+  };
+  const auto nonneg = [&](double v, const char* key) {
+    if (!std::isfinite(v) || v < 0.0) bad(key, "must be a finite number >= 0");
+  };
+  const auto finite3 = [&](const Eigen::Vector3d& v, const char* key) {
+    if (!v.allFinite()) bad(key, "must be finite");
+  };
+  const ImuNoiseConfig& m = c.imu;
+  nonneg(m.gyro_noise_std, "imu.gyro_noise_std");
+  nonneg(m.gyro_noise_density, "imu.gyro_noise_density");
+  nonneg(m.gyro_bias_walk, "imu.gyro_bias_walk");
+  nonneg(m.gyro_range, "imu.gyro_range");
+  nonneg(m.accel_noise_std, "imu.accel_noise_std");
+  nonneg(m.accel_noise_density, "imu.accel_noise_density");
+  nonneg(m.accel_bias_walk, "imu.accel_bias_walk");
+  nonneg(m.accel_range, "imu.accel_range");
+  finite3(m.gyro_bias, "imu.gyro_bias");
+  finite3(m.gyro_scale_error, "imu.gyro_scale_error");
+  finite3(m.gyro_misalignment, "imu.gyro_misalignment");
+  finite3(m.accel_bias, "imu.accel_bias");
+  finite3(m.accel_scale_error, "imu.accel_scale_error");
+  finite3(m.accel_misalignment, "imu.accel_misalignment");
+  if ((m.gyro_scale_error.array() <= -1.0).any() || (m.accel_scale_error.array() <= -1.0).any())
+    bad("imu.*_scale_error", "must be > -1");
+  nonneg(m.rate_hz, "imu.rate_hz");
+  if (m.rate_hz > 1.0 / c.solver.dt + 1e-9)
+    bad("imu.rate_hz", "must not exceed the simulator rate 1 / solver.dt = " +
+                           std::to_string(1.0 / c.solver.dt) + " Hz");
+  if (m.delay_ticks < 0 || m.delay_ticks > 1000) bad("imu.delay_ticks", "must be in [0, 1000]");
+  if (static_cast<int>(m.orientation) > 2) bad("imu.orientation", "must be off, filter or truth");
+  nonneg(m.filter_gain, "imu.filter_gain");
+  if (!std::isfinite(m.filter_accel_gate) || m.filter_accel_gate <= 0.0)
+    bad("imu.filter_accel_gate", "must be a finite number > 0");
+  nonneg(c.encoders.counts_per_rev, "encoders.counts_per_rev");
+  nonneg(c.encoders.velocity_filter_hz, "encoders.velocity_filter_hz");
+  nonneg(c.foot_ft.force_noise_std, "foot_ft.force_noise_std");
+  nonneg(c.foot_ft.torque_noise_std, "foot_ft.torque_noise_std");
+  finite3(c.foot_ft.force_offset, "foot_ft.force_offset");
+  finite3(c.foot_ft.torque_offset, "foot_ft.torque_offset");
+}
+
+/// The robot's sensors as a real robot would report them: IMU (sampled, held, delayed, with its
+/// own attitude filter), encoders (quantised, differenced), foot F/T (noise, offset).
+/// configure() allocates; everything else is allocation-free.
+class SensorModel {
+ public:
+  void configure(const SimulatorConfig& c, int n, std::size_t num_feet) {
+    validate_sensors(c);
+    imu_ = c.imu;
+    enc_ = c.encoders;
+    ft_ = c.foot_ft;
+    dt_ = c.solver.dt;
+    gravity_ = c.world.gravity.norm();
+    const double rate = imu_.rate_hz > 0.0 ? imu_.rate_hz : 1.0 / dt_;
+    imu_dt_ = 1.0 / rate;
+    every_tick_ = imu_.rate_hz <= 0.0 || imu_.rate_hz * dt_ > 1.0 - 1e-9;
+    gyro_std_ = std::sqrt(imu_.gyro_noise_std * imu_.gyro_noise_std +
+                          imu_.gyro_noise_density * imu_.gyro_noise_density * rate / 2.0);
+    accel_std_ = std::sqrt(imu_.accel_noise_std * imu_.accel_noise_std +
+                           imu_.accel_noise_density * imu_.accel_noise_density * rate / 2.0);
+    M_g_ = (Eigen::Vector3d::Ones() + imu_.gyro_scale_error).asDiagonal() *
+           exp_so3(imu_.gyro_misalignment).transpose();
+    M_a_ = (Eigen::Vector3d::Ones() + imu_.accel_scale_error).asDiagonal() *
+           exp_so3(imu_.accel_misalignment).transpose();
+    ring_.assign(static_cast<std::size_t>(imu_.delay_ticks) + 1, Sample{});
+    q_meas_ = Eigen::VectorXd::Zero(n);
+    vel_alpha_ = enc_.velocity_filter_hz > 0.0
+                     ? dt_ / (dt_ + 1.0 / (2.0 * M_PI * enc_.velocity_filter_hz))
+                     : 1.0;
+    qd_meas_ = Eigen::VectorXd::Zero(n);
+    ft_noise_.assign(num_feet, Eigen::Matrix<double, 6, 1>::Zero());
+    rng_.seed(imu_.seed);
+    b_g_ = imu_.gyro_bias;
+    b_a_ = imu_.accel_bias;
+  }
+
+  /// After a state change (start, Simulator::set_state): the next reading is a fresh first
+  /// sample (the IMU's filter restarts), encoders restart from the true velocity.
+  void reset(const Eigen::VectorXd& q, const Eigen::VectorXd& qd) {
+    have_sample_ = false;
+    k_ = 0;
+    quantise(q, q_meas_);
+    qd_meas_ = qd;
+  }
+
+  /// IMU. advance: one simulator step was taken (else: a read of the current output, no draw
+  /// unless there was no sample yet).
+  void imu(bool advance, const Eigen::Matrix3d& R_WI, const Eigen::Vector3d& omega_I,
+           const Eigen::Vector3d& f_I, SensorFrame& s) {
+    if (!have_sample_) {
+      held_ = measure(R_WI, omega_I, f_I, true);
+      for (auto& r : ring_)
+        r = held_;
+      have_sample_ = true;
+      k_ = 0;
+    } else if (advance) {
+      ++k_;
+      const double a = static_cast<double>(k_) * dt_ * imu_.rate_hz;
+      const double b = static_cast<double>(k_ - 1) * dt_ * imu_.rate_hz;
+      if (every_tick_ || std::floor(a + 1e-9) > std::floor(b + 1e-9))
+        held_ = measure(R_WI, omega_I, f_I, false);
+      ring_[static_cast<std::size_t>(k_ % static_cast<std::int64_t>(ring_.size()))] = held_;
+    }
+    const Sample& out =
+        ring_[static_cast<std::size_t>((k_ + 1) % static_cast<std::int64_t>(ring_.size()))];
+    s.imu_omega_I = out.omega;
+    s.imu_specific_force_I = out.f;
+    s.imu_q_WI = out.q;
+  }
+
+  void encoders(bool advance, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                SensorFrame& s) {
+    if (enc_.counts_per_rev <= 0.0) {
+      s.q = q;
+      s.qd = qd;
+      return;
+    }
+    if (advance) {
+      for (Eigen::Index i = 0; i < q.size(); ++i) {
+        const double prev = q_meas_[i];
+        q_meas_[i] = quantise(q[i]);
+        const double raw = (q_meas_[i] - prev) / dt_;
+        qd_meas_[i] += vel_alpha_ * (raw - qd_meas_[i]);
+      }
+    }
+    s.q = q_meas_;
+    s.qd = qd_meas_;
+  }
+
+  /// Adds offset and noise to the exact wrench [torque; force] of foot f.
+  void foot_ft(bool advance, std::size_t f, Eigen::Matrix<double, 6, 1>& w) {
+    auto& nz = ft_noise_[f];
+    if (advance) {
+      for (int k = 0; k < 3; ++k) {
+        nz[k] = ft_.torque_noise_std > 0.0 ? ft_.torque_noise_std * normal_(rng_) : 0.0;
+        nz[3 + k] = ft_.force_noise_std > 0.0 ? ft_.force_noise_std * normal_(rng_) : 0.0;
+      }
+    }
+    w.head<3>() += ft_.torque_offset + nz.head<3>();
+    w.tail<3>() += ft_.force_offset + nz.tail<3>();
+  }
+
+ private:
+  struct Sample {
+    Eigen::Vector3d omega = Eigen::Vector3d::Zero();
+    Eigen::Vector3d f = Eigen::Vector3d::Zero();
+    Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+  };
+
+  double quantise(double x) const {
+    const double step = 2.0 * M_PI / enc_.counts_per_rev;
+    return std::round(x / step) * step;
+  }
+  void quantise(const Eigen::VectorXd& q, Eigen::VectorXd& out) const {
+    out = q;
+    if (enc_.counts_per_rev > 0.0)
+      for (Eigen::Index i = 0; i < q.size(); ++i)
+        out[i] = quantise(q[i]);
+  }
+
+  Sample measure(const Eigen::Matrix3d& R_WI, const Eigen::Vector3d& omega_I,
+                 const Eigen::Vector3d& f_I, bool first) {
+    if (!first) {
+      const double sq = std::sqrt(imu_dt_);
+      if (imu_.gyro_bias_walk > 0.0)
+        for (int k = 0; k < 3; ++k)
+          b_g_[k] += imu_.gyro_bias_walk * sq * normal_(rng_);
+      if (imu_.accel_bias_walk > 0.0)
+        for (int k = 0; k < 3; ++k)
+          b_a_[k] += imu_.accel_bias_walk * sq * normal_(rng_);
+    }
+    Sample s;
+    s.omega = M_g_ * omega_I + b_g_;
+    s.f = M_a_ * f_I + b_a_;
+    if (gyro_std_ > 0.0)
+      for (int k = 0; k < 3; ++k)
+        s.omega[k] += gyro_std_ * normal_(rng_);
+    if (accel_std_ > 0.0)
+      for (int k = 0; k < 3; ++k)
+        s.f[k] += accel_std_ * normal_(rng_);
+    if (imu_.gyro_range > 0.0)
+      s.omega = s.omega.cwiseMax(-imu_.gyro_range).cwiseMin(imu_.gyro_range);
+    if (imu_.accel_range > 0.0) s.f = s.f.cwiseMax(-imu_.accel_range).cwiseMin(imu_.accel_range);
+    switch (imu_.orientation) {
+      case ImuOrientationOutput::kOff:
+        s.q.coeffs().setZero();
+        break;
+      case ImuOrientationOutput::kTruth:
+        s.q = Eigen::Quaterniond(R_WI);
+        break;
+      case ImuOrientationOutput::kFilter:
+        s.q = attitude_filter(R_WI, s, first);
+        break;
+    }
+    return s;
+  }
+
+  /// The IMU's own attitude filter (complementary, Mahony-type without bias estimation): the
+  /// measured rate integrated, the tilt pulled toward the measured gravity direction with gain
+  /// filter_gain while the specific force is within filter_accel_gate of g. Starts with the
+  /// tilt of its first accelerometer sample and the true yaw (a heading reset at power-up).
+  Eigen::Quaterniond attitude_filter(const Eigen::Matrix3d& R_WI, const Sample& s, bool first) {
+    const double fn = s.f.norm();
+    if (first) {
+      Eigen::Quaterniond q = fn > 1e-6
+                                 ? Eigen::Quaterniond::FromTwoVectors(s.f, Eigen::Vector3d::UnitZ())
+                                 : Eigen::Quaterniond(R_WI);
+      const double dpsi = yaw_of(R_WI) - yaw_of(q.toRotationMatrix());
+      ahrs_q_ = (Eigen::AngleAxisd(dpsi, Eigen::Vector3d::UnitZ()) * q).normalized();
+      return ahrs_q_;
+    }
+    Eigen::Vector3d w = s.omega;
+    if (fn > 1e-6 && std::abs(fn - gravity_) < imu_.filter_accel_gate * gravity_) {
+      const Eigen::Vector3d v_est = ahrs_q_.toRotationMatrix().transpose().col(2);
+      w += imu_.filter_gain * (s.f / fn).cross(v_est);
+    }
+    ahrs_q_ = (ahrs_q_ * Eigen::Quaterniond(exp_so3(w * imu_dt_))).normalized();
+    return ahrs_q_;
+  }
+
+  ImuNoiseConfig imu_;
+  EncoderConfig enc_;
+  ForceTorqueSensorConfig ft_;
+  double dt_ = 0.001, imu_dt_ = 0.001, gravity_ = 9.81;
+  bool every_tick_ = true;
+  double vel_alpha_ = 1.0;
+  double gyro_std_ = 0.0, accel_std_ = 0.0;
+  Eigen::Matrix3d M_g_ = Eigen::Matrix3d::Identity(), M_a_ = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d b_g_ = Eigen::Vector3d::Zero(), b_a_ = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond ahrs_q_ = Eigen::Quaterniond::Identity();
+  std::vector<Sample> ring_;
+  Sample held_;
+  bool have_sample_ = false;
+  std::int64_t k_ = 0;
+  Eigen::VectorXd q_meas_, qd_meas_;
+  std::vector<Eigen::Matrix<double, 6, 1>> ft_noise_;
+  std::mt19937_64 rng_;
+  std::normal_distribution<double> normal_{0.0, 1.0};
+};
+
+}  // namespace
+
 struct Simulator::Impl {
   SimulatorConfig cfg;
   RobotTree tree;
@@ -237,8 +495,8 @@ struct Simulator::Impl {
   Eigen::VectorXd tau;
   Eigen::Vector3d imu_v_prev = Eigen::Vector3d::Zero();
   Eigen::Vector3d imu_a = Eigen::Vector3d::Zero();
-  std::mt19937_64 rng;
-  std::normal_distribution<double> normal{0.0, 1.0};
+  SensorModel sensors;
+  Eigen::VectorXd q_true, qd_true;
   std::vector<std::uint8_t> contact_scratch;
 
   explicit Impl(const SimulatorConfig& c);
@@ -264,7 +522,7 @@ struct Simulator::Impl {
   double lowest_foot_point(int foot, const Eigen::Vector3d& normal) const;
 };
 
-Simulator::Impl::Impl(const SimulatorConfig& c) : cfg(c), rng(c.imu.seed) {
+Simulator::Impl::Impl(const SimulatorConfig& c) : cfg(c) {
   if (!(cfg.solver.dt > 0.0) || !std::isfinite(cfg.solver.dt))
     throw std::runtime_error("solver.dt must be > 0");
   if (cfg.solver.iterations < 1) throw std::runtime_error("solver.iterations must be >= 1");
@@ -330,6 +588,9 @@ Simulator::Impl::Impl(const SimulatorConfig& c) : cfg(c), rng(c.imu.seed) {
   scratch_q.resize(static_cast<int>(nb));
   scratch_m.resize(static_cast<int>(nb));
   tau = Eigen::VectorXd::Zero(n);
+  q_true = Eigen::VectorXd::Zero(n);
+  qd_true = Eigen::VectorXd::Zero(n);
+  sensors.configure(cfg, n, feet.size());
   contact_scratch.assign(nb, 0);
 
   apply_initial_state();
@@ -739,6 +1000,11 @@ void Simulator::Impl::set_state(const Eigen::Isometry3d& X_WB, const Eigen::Vect
   const Eigen::Isometry3d X_WI = frame_pose(imu_body, X_KI);
   imu_v_prev = point_velocity(imu_body, X_WI.translation());
   imu_a.setZero();
+  for (int i = 0; i < n; ++i) {
+    q_true[i] = q[i];
+    qd_true[i] = qd.size() == n ? qd[i] : 0.0;
+  }
+  sensors.reset(q_true, qd_true);
 }
 
 void Simulator::Impl::fill(SensorFrame& s, GroundTruth& g, bool measure_imu) {
@@ -749,9 +1015,10 @@ void Simulator::Impl::fill(SensorFrame& s, GroundTruth& g, bool measure_imu) {
   g.time = t;
   g.push_force_W = push_force_W;
   for (int i = 0; i < n; ++i) {
-    s.q[i] = mb->getJointPos(i);
-    s.qd[i] = mb->getJointVel(i);
+    q_true[i] = mb->getJointPos(i);
+    qd_true[i] = mb->getJointVel(i);
   }
+  sensors.encoders(measure_imu, q_true, qd_true, s);
   s.tau_measured = tau;
 
   // IMU
@@ -762,16 +1029,8 @@ void Simulator::Impl::fill(SensorFrame& s, GroundTruth& g, bool measure_imu) {
     imu_a = (v_I - imu_v_prev) / dt;
     imu_v_prev = v_I;
   }
-  const ImuNoiseConfig& nz = cfg.imu;
-  s.imu_q_WI = Eigen::Quaterniond(R_WI);
-  s.imu_omega_I = R_WI.transpose() * w_W[static_cast<std::size_t>(imu_body)] + nz.gyro_bias;
-  s.imu_specific_force_I = R_WI.transpose() * (imu_a - cfg.world.gravity) + nz.accel_bias;
-  if (nz.gyro_noise_std > 0.0)
-    for (int k = 0; k < 3; ++k)
-      s.imu_omega_I[k] += nz.gyro_noise_std * normal(rng);
-  if (nz.accel_noise_std > 0.0)
-    for (int k = 0; k < 3; ++k)
-      s.imu_specific_force_I[k] += nz.accel_noise_std * normal(rng);
+  sensors.imu(measure_imu, R_WI, R_WI.transpose() * w_W[static_cast<std::size_t>(imu_body)],
+              R_WI.transpose() * (imu_a - cfg.world.gravity), s);
 
   // Base, CoM
   g.X_WB = X_WK[0] * X_LK[0].inverse();
@@ -851,6 +1110,7 @@ void Simulator::Impl::fill(SensorFrame& s, GroundTruth& g, bool measure_imu) {
     const Eigen::Matrix3d R_FW = ft.X_WF.linear().transpose();
     s.foot_wrench_Fo_F[f].head<3>() = R_FW * ft.torque_Fo_W;
     s.foot_wrench_Fo_F[f].tail<3>() = R_FW * ft.force_W;
+    sensors.foot_ft(measure_imu, f, s.foot_wrench_Fo_F[f]);
   }
 }
 
@@ -1036,6 +1296,47 @@ Eigen::Isometry3d Simulator::frame_pose(const std::string& urdf_link) const {
   if (!fr) throw std::out_of_range("frame_pose: unknown link '" + urdf_link + "'");
   const auto b = static_cast<std::size_t>(fr->body);
   return impl_->X_WK[b] * impl_->X_LK[b].inverse() * fr->X_LF;
+}
+
+ImuNoiseConfig industrial_mems_imu() {
+  // Figures and unit conversions: simulator/sim/SENSORS.md.
+  constexpr double kDeg = M_PI / 180.0;
+  constexpr double kG = 9.80665;
+  ImuNoiseConfig c;
+  c.gyro_noise_density = 0.008 * kDeg;           // 0.008 deg/s/sqrt(Hz) (ADIS16470)
+  c.gyro_bias_walk = 8.0 * kDeg / 3600.0 / 10.0;  // 8 deg/h in-run stability reached in 100 s
+  c.gyro_bias = Eigen::Vector3d(0.1, -0.08, 0.05) * kDeg;          // turn-on residual [rad/s]
+  c.gyro_scale_error = Eigen::Vector3d(0.001, -0.0008, 0.0005);     // 0.1 %
+  c.gyro_misalignment = Eigen::Vector3d(0.05, -0.03, 0.04) * kDeg;  // 0.05 deg
+  c.gyro_range = 2000.0 * kDeg;                                     // +-2000 deg/s
+  c.accel_noise_density = std::sqrt(2.0) * 0.037 / 60.0;  // VRW 0.037 m/s/sqrt(h), one-sided
+  c.accel_bias_walk = 13e-6 * kG / 10.0;  // 13 ug in-run stability reached in 100 s
+  c.accel_bias = Eigen::Vector3d(2.0, -1.5, 1.0) * 1e-3 * kG;       // 2 mg turn-on residual
+  c.accel_scale_error = Eigen::Vector3d(-0.001, 0.0007, 0.0005);
+  c.accel_misalignment = Eigen::Vector3d(-0.04, 0.05, -0.03) * kDeg;
+  c.accel_range = 40.0 * kG;  // +-40 g
+  c.rate_hz = 0.0;            // every simulator step (the part runs at 2 kHz)
+  c.delay_ticks = 1;          // 1 ms: sensor filters and transfer
+  c.orientation = ImuOrientationOutput::kFilter;
+  c.filter_gain = 0.5;
+  c.filter_accel_gate = 0.1;
+  return c;
+}
+
+EncoderConfig industrial_encoder() {
+  EncoderConfig e;
+  e.counts_per_rev = 1048576.0;  // 14-bit motor encoder through a 64:1 reduction (2^20 / rev)
+  e.velocity_filter_hz = 100.0;  // the drive's first-order velocity filter
+  return e;
+}
+
+ForceTorqueSensorConfig industrial_foot_ft() {
+  ForceTorqueSensorConfig f;
+  f.force_noise_std = 0.5;    // [N]
+  f.torque_noise_std = 0.02;  // [N m]
+  f.force_offset = Eigen::Vector3d(1.0, -0.8, 1.5);
+  f.torque_offset = Eigen::Vector3d(0.03, -0.02, 0.01);
+  return f;
 }
 
 std::vector<int> joint_index_map(std::span<const std::string> from,

@@ -89,14 +89,75 @@ struct Push {
   double duration = 0.0;                              ///< [s]
 };
 
-/// IMU noise model: white Gaussian noise (std per axis, per sample) plus a constant bias.
-struct ImuNoiseConfig {
-  double gyro_noise_std = 0.0;                           ///< [rad/s]
-  Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();   ///< [rad/s]
-  double accel_noise_std = 0.0;                          ///< [m/s^2]
-  Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();  ///< [m/s^2]
-  std::uint64_t seed = 1;
+/// What the IMU reports as its orientation (Sensors.imu.orientation_wxyz on the wire).
+enum class ImuOrientationOutput : std::uint8_t {
+  kOff = 0,     ///< no orientation output (an IMU without attitude filter): all zeros on the wire
+  kFilter = 1,  ///< the IMU's own attitude filter (complementary: its noisy, biased gyro
+                ///< integrated, tilt pulled slowly to its accelerometer): yaw drifts, roll and
+                ///< pitch carry the accelerometer's errors
+  kTruth = 2,   ///< the exact orientation of the IMU frame (tests only; no real IMU does this)
 };
+
+/// IMU model (simulator/sim/SENSORS.md). Per axis, at each IMU sample:
+///   omega_meas = sat(S_g R_g^T omega_I + b_g + n_g),  f_meas = sat(S_a R_a^T f_I + b_a + n_a)
+/// with S = I + diag(scale_error), R = exp(misalignment) the rotation of the sensor triad from
+/// the IMU frame I, b = bias (turn-on value, then a random walk), n white noise, sat clamping to
+/// +-range. Samples are taken every 1/rate_hz (held between samples) and come out delay_ticks
+/// simulator ticks late. The defaults here are the ideal IMU (tests that build a configuration
+/// in code); scenario files start from industrial_mems_imu() instead (scenario.cpp).
+struct ImuNoiseConfig {
+  double gyro_noise_std = 0.0;      ///< white noise per sample [rad/s] (added to the density's)
+  double gyro_noise_density = 0.0;  ///< white noise density [rad/s/sqrt(Hz)]: per-sample std is
+                                    ///< density * sqrt(rate / 2)
+  Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();  ///< turn-on bias [rad/s]
+  double gyro_bias_walk = 0.0;  ///< bias random walk [rad/s/sqrt(s)]
+  Eigen::Vector3d gyro_scale_error = Eigen::Vector3d::Zero();   ///< per axis [-] (0.001 = 0.1 %)
+  Eigen::Vector3d gyro_misalignment = Eigen::Vector3d::Zero();  ///< rotation vector [rad]
+  double gyro_range = 0.0;  ///< saturation [rad/s] (0 = none)
+
+  double accel_noise_std = 0.0;      ///< [m/s^2] per sample
+  double accel_noise_density = 0.0;  ///< [m/s^2/sqrt(Hz)]
+  Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();  ///< [m/s^2]
+  double accel_bias_walk = 0.0;                          ///< [m/s^2/sqrt(s)]
+  Eigen::Vector3d accel_scale_error = Eigen::Vector3d::Zero();
+  Eigen::Vector3d accel_misalignment = Eigen::Vector3d::Zero();  ///< [rad]
+  double accel_range = 0.0;                                      ///< [m/s^2] (0 = none)
+
+  double rate_hz = 0.0;  ///< IMU sample rate (0 = every simulator step); <= 1 / dt
+  int delay_ticks = 0;   ///< output latency in simulator ticks (>= 0)
+  ImuOrientationOutput orientation = ImuOrientationOutput::kTruth;
+  /// Attitude filter (orientation = filter): accelerometer correction gain [rad/s] (tilt time
+  /// constant 1 / gain), used only while | |f| - g | < filter_accel_gate * g.
+  double filter_gain = 0.5;
+  double filter_accel_gate = 0.1;
+  std::uint64_t seed = 1;  ///< seed of every sensor's noise (IMU, encoders, F/T)
+};
+
+/// Joint encoders: position quantised to counts_per_rev counts per 2 pi (per metre for a
+/// prismatic joint's unit); velocity = difference of consecutive quantised positions / dt.
+/// counts_per_rev = 0: exact position and velocity from the simulator. velocity_filter_hz > 0:
+/// the differenced velocity goes through a first-order low-pass of that cut-off (as a drive's
+/// firmware does), 0 = raw difference.
+struct EncoderConfig {
+  double counts_per_rev = 0.0;
+  double velocity_filter_hz = 0.0;
+};
+
+/// Foot force/torque sensors: white noise per sample and a constant offset, in the foot frame.
+struct ForceTorqueSensorConfig {
+  double force_noise_std = 0.0;   ///< [N]
+  double torque_noise_std = 0.0;  ///< [N m]
+  Eigen::Vector3d force_offset = Eigen::Vector3d::Zero();   ///< [N]
+  Eigen::Vector3d torque_offset = Eigen::Vector3d::Zero();  ///< [N m]
+};
+
+/// The defaults of a scenario file without sensors: section: an industrial MEMS IMU with the
+/// inertial figures of the ADIS16470 datasheet and an on-board attitude filter, a 17-bit
+/// absolute joint encoder, a strain-gauge foot F/T sensor (figures and conversions in
+/// simulator/sim/SENSORS.md). Defined in simulator.cpp.
+ImuNoiseConfig industrial_mems_imu();
+EncoderConfig industrial_encoder();
+ForceTorqueSensorConfig industrial_foot_ft();
 
 /// Contact / solver settings. Defaults were measured on the project humanoid (README).
 struct SolverConfig {
@@ -143,6 +204,8 @@ struct SimulatorConfig {
   WorldConfig world;
   SolverConfig solver;
   ImuNoiseConfig imu;
+  EncoderConfig encoders;
+  ForceTorqueSensorConfig foot_ft;
   InitialState initial;
   std::vector<Push> pushes;  ///< scheduled pushes (more can be added live)
   int max_live_pushes = 16;  ///< capacity reserved for pushes added while running
