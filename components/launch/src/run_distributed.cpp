@@ -725,17 +725,19 @@ int run_distributed(int argc, char** argv) {
             w.value("p50", 0.0), w.value("p99", 0.0));
       }
     std::printf(
-        "%s %s (%s, %s): com_error max %.3f m final %.3f m, foot slip %.4f m, non-foot contacts "
-        "%d, tick latency p50/p99/max %.0f/%.0f/%.0f us, deadline misses %llu, %.2fx real time "
-        "-> %s\n",
+        "%s %s (%s, %s)%s%s: com_error max %.3f m final %.3f m, foot slip %.4f m, non-foot "
+        "contacts %d, trunk pitch/roll max %.1f/%.1f deg, tick latency p50/p99/max %.0f/%.0f/%.0f "
+        "us, deadline misses %llu, %.2fx real time -> %s\n",
         r["survived"].get<bool>() ? "SURVIVED" : "FAILED", scenario.name.c_str(),
         s.realtime ? "realtime" : "lockstep",
         vendor["sim"] == vendor["controller"] && vendor["sim"] == vendor["estimator"] &&
                 vendor["sim"] == vendor["contact"]
             ? vendor["sim"].c_str()
             : "mixed dds",
+        verdict_reason.empty() ? "" : " on ", verdict_reason.c_str(),
         r.value("com_error_max_m", 0.0), r.value("com_error_final_m", 0.0),
         r.value("foot_slip_max_m", 0.0), r.value("non_foot_contacts", 0),
+        r.value("trunk_pitch_max_deg", 0.0), r.value("trunk_roll_max_deg", 0.0),
         lat.is_object() ? lat.value("p50", 0.0) : 0.0,
         lat.is_object() ? lat.value("p99", 0.0) : 0.0,
         lat.is_object() ? lat.value("max", 0.0) : 0.0,

@@ -198,6 +198,14 @@ class SimNode {
     j["min_base_height_m"] = std::isfinite(r.min_base_height_m) ? r.min_base_height_m : -1.0;
     j["last_recovery_time_s"] =
         std::isfinite(r.last_recovery_time_s) ? r.last_recovery_time_s : -1.0;
+    // The same fields as `poise run --in-process` writes.
+    j["recovery_time_s"] = std::isfinite(r.last_recovery_time_s)
+                               ? nlohmann::json(r.last_recovery_time_s)
+                               : nlohmann::json(nullptr);
+    j["trunk_pitch_max_deg"] = r.trunk_pitch_max_deg;
+    j["trunk_roll_max_deg"] = r.trunk_roll_max_deg;
+    j["failed_criteria"] = r.failed;
+    if (figures_.aborted) j["failed_criteria"].push_back("run aborted before its end");
     j["tick_latency_us"] = hist(figures_.latency);
     j["loop_wait_us"] = hist(figures_.loop_wait);
     j["publish_us"] = hist(figures_.publish);
