@@ -49,7 +49,7 @@ struct Ctx {
       if (!std::isfinite(v)) fail(key, "must be a finite number");
       return v;
     } catch (const YAML::Exception&) {
-      fail(key, "must be a finite number, got '" + n.Scalar().substr(0, 40) + "'");
+      fail(key, "must be a number, got '" + n.Scalar().substr(0, 40) + "'");
     }
   }
   double num(const YAML::Node& parent, const char* k, const std::string& key, double dflt) const {
