@@ -61,7 +61,9 @@ int run_info(const std::string& path_arg, const std::string& config_arg) {
   std::cout << "DoF: " << model.njoints << " joints + 6 floating base  (nq = " << model.nq
             << ", nv = " << model.nv << ")\n";
   std::cout << "total mass: " << model.total_mass << " kg\n";
-  std::cout << "base link: " << model.body_name[0] << "\n\n";
+  std::cout << "base link: " << model.body_name[0] << "\n";
+  for (const std::string& n : model.notes) std::cout << "note: " << n << "\n";
+  std::cout << "\n";
   std::cout << "joints (model order; q index, v index):\n";
   for (int j = 0; j < model.njoints; ++j) {
     const JointLimits& l = model.limits[j];

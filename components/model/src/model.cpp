@@ -7,7 +7,13 @@
 #include <urdf_parser/urdf_parser.h>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <cctype>
+#include <charconv>
 #include <cmath>
+#include <cstdio>
+#include <limits>
+#include <optional>
+#include <string_view>
 #include <fstream>
 #include <map>
 #include <mutex>
@@ -18,14 +24,325 @@ namespace poise::model {
 
 namespace {
 
-// ---- structural pre-check on the raw XML (urdfdom's own messages do not name loop links) -------
+// ---- limits and pre-checks on the raw text, before tinyxml and urdfdom see it ------------------
+
+// Joins collected problems, one per line (each line is a complete message naming its subject).
+std::string join_lines(const std::vector<std::string>& errs, std::size_t max_lines = 60) {
+  std::string out;
+  for (std::size_t i = 0; i < errs.size() && i < max_lines; ++i)
+    out += (i == 0 ? "" : "\n") + errs[i];
+  if (errs.size() > max_lines)
+    out += "\n... and " + std::to_string(errs.size() - max_lines) + " more problems";
+  return out;
+}
+
+// Element nesting depth of XML text, without building a tree (tinyxml recurses per level and
+// overflows the stack on ~100,000 nested elements). Comments, CDATA, declarations and processing
+// instructions are skipped; quoted attribute values may contain '>'. An approximation is enough:
+// it only has to bound the depth tinyxml will see.
+void check_xml_depth(const std::string& xml, const std::string& origin) {
+  int depth = 0;
+  const std::size_t n = xml.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (xml[i] != '<') continue;
+    if (xml.compare(i, 4, "<!--") == 0) {
+      const std::size_t e = xml.find("-->", i + 4);
+      if (e == std::string::npos) return;  // tinyxml reports the unterminated comment
+      i = e + 2;
+      continue;
+    }
+    if (xml.compare(i, 9, "<![CDATA[") == 0) {
+      const std::size_t e = xml.find("]]>", i + 9);
+      if (e == std::string::npos) return;
+      i = e + 2;
+      continue;
+    }
+    if (i + 1 < n && (xml[i + 1] == '?' || xml[i + 1] == '!')) {
+      const std::size_t e = xml.find('>', i + 1);
+      if (e == std::string::npos) return;
+      i = e;
+      continue;
+    }
+    const bool closing = i + 1 < n && xml[i + 1] == '/';
+    // find the end of the tag, skipping quoted values
+    std::size_t j = i + 1;
+    char quote = 0;
+    for (; j < n; ++j) {
+      const char ch = xml[j];
+      if (quote != 0) {
+        if (ch == quote) quote = 0;
+      } else if (ch == '"' || ch == '\'') {
+        quote = ch;
+      } else if (ch == '>' || ch == '<') {
+        break;
+      }
+    }
+    const bool self_closing = j < n && xml[j] == '>' && xml[j - 1] == '/';
+    if (closing) {
+      depth = std::max(0, depth - 1);
+    } else if (!self_closing) {
+      if (++depth > kMaxXmlDepth)
+        throw ModelError("URDF " + origin + ": XML elements nested deeper than " +
+                         std::to_string(kMaxXmlDepth) + " levels (refused before parsing)");
+    }
+    if (j >= n) return;
+    i = j - (xml[j] == '<' ? 1 : 0);
+  }
+}
+
+// Strict number: the whole (trimmed) text must be one number. False for text and empty strings;
+// true with a non-finite value for nan / inf / out-of-range values (the caller says which).
+bool parse_number(std::string_view s, double& out) {
+  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
+  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
+  if (!s.empty() && s.front() == '+') s.remove_prefix(1);
+  if (s.empty()) return false;
+  const auto [ptr, ec] = std::from_chars(s.data(), s.data() + s.size(), out);
+  if (ptr != s.data() + s.size()) return false;
+  if (ec == std::errc::result_out_of_range) {
+    out = std::numeric_limits<double>::infinity();
+    return true;
+  }
+  return ec == std::errc();
+}
+
+std::string quoted_attr(const char* attr, const char* v) {
+  std::string t = v;
+  if (t.size() > 40) t = t.substr(0, 40) + "...";
+  return std::string(attr) + "=\"" + t + "\"";
+}
 
 struct RawJoint {
   std::string name, type, parent, child;
-  bool mimic = false;
 };
 
-void precheck_xml(const std::string& xml, const std::string& origin) {
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+class RawChecker {
+ public:
+  explicit RawChecker(const std::string& origin) : origin_(origin) {}
+  std::vector<std::string> errors;
+
+  void err(const std::string& where, const std::string& what) {
+    errors.push_back("URDF " + origin_ + ": " + where + ": " + what);
+  }
+
+  // A scalar attribute: nullopt when missing (error if required) or bad (error).
+  std::optional<double> scalar(const TiXmlElement* e, const char* attr, const std::string& where,
+                               bool required, double lo, double hi) {
+    const char* v = e->Attribute(attr);
+    const std::string at = where + ": <" + e->ValueStr() + "> ";
+    if (v == nullptr) {
+      if (required) err(at + attr, "missing");
+      return std::nullopt;
+    }
+    double x = 0.0;
+    if (!parse_number(v, x)) {
+      err(at + quoted_attr(attr, v), "not a number");
+      return std::nullopt;
+    }
+    if (!std::isfinite(x)) {
+      err(at + quoted_attr(attr, v), "not a finite number");
+      return std::nullopt;
+    }
+    if (x < lo || x > hi) {
+      std::ostringstream os;
+      os << "out of the accepted range [" << lo << ", " << hi << "]";
+      err(at + quoted_attr(attr, v), os.str());
+      return std::nullopt;
+    }
+    return x;
+  }
+
+  // A 3-vector attribute ("x y z"), each entry finite with |entry| <= bound.
+  std::optional<Vector3> vec3(const TiXmlElement* e, const char* attr, const std::string& where,
+                              bool required, double bound) {
+    const char* v = e->Attribute(attr);
+    const std::string at = where + ": <" + e->ValueStr() + "> ";
+    if (v == nullptr) {
+      if (required) err(at + attr, "missing");
+      return std::nullopt;
+    }
+    std::istringstream is{std::string(v)};
+    std::string tok;
+    std::vector<double> xs;
+    while (is >> tok) {
+      double x = 0.0;
+      if (!parse_number(tok, x)) {
+        err(at + quoted_attr(attr, v), "'" + tok.substr(0, 20) + "' is not a number");
+        return std::nullopt;
+      }
+      if (!std::isfinite(x)) {
+        err(at + quoted_attr(attr, v), "not finite");
+        return std::nullopt;
+      }
+      xs.push_back(x);
+    }
+    if (xs.size() != 3) {
+      err(at + quoted_attr(attr, v), "expected 3 numbers, got " + std::to_string(xs.size()));
+      return std::nullopt;
+    }
+    const Vector3 r(xs[0], xs[1], xs[2]);
+    if (r.cwiseAbs().maxCoeff() > bound) {
+      std::ostringstream os;
+      os << "implausible: an entry exceeds " << bound << " in magnitude";
+      err(at + quoted_attr(attr, v), os.str());
+      return std::nullopt;
+    }
+    return r;
+  }
+
+  // At most one child element named `child` (urdfdom silently uses the first).
+  const TiXmlElement* single(const TiXmlElement* e, const char* child, const std::string& where) {
+    const TiXmlElement* first = e->FirstChildElement(child);
+    if (first != nullptr && first->NextSiblingElement(child) != nullptr)
+      err(where, std::string("<") + e->ValueStr() + "> has more than one <" + child + ">");
+    return first;
+  }
+
+  void origin(const TiXmlElement* e, const std::string& where) {
+    const TiXmlElement* o = single(e, "origin", where);
+    if (o == nullptr) return;
+    const std::string w = where + " <" + e->ValueStr() + ">";
+    vec3(o, "xyz", w, false, kMaxOffset);
+    vec3(o, "rpy", w, false, kMaxOffset);
+  }
+
+  void geometry(const TiXmlElement* shape_owner, const std::string& where, bool collision) {
+    origin(shape_owner, where);
+    const TiXmlElement* g = single(shape_owner, "geometry", where);
+    const std::string w = where + " <" + shape_owner->ValueStr() + "><geometry>";
+    if (g == nullptr) {
+      err(where, "<" + shape_owner->ValueStr() + "> has no <geometry>");
+      return;
+    }
+    const TiXmlElement* s = g->FirstChildElement();
+    if (s == nullptr) {
+      err(w, "no shape");
+      return;
+    }
+    if (s->NextSiblingElement() != nullptr) err(w, "more than one shape");
+    const double lo = collision ? std::numeric_limits<double>::min() : 0.0;
+    const std::string t = s->ValueStr();
+    if (t == "box") {
+      if (auto v = vec3(s, "size", w, true, kMaxOffset))
+        if (v->minCoeff() < lo)
+          err(w + ": <box> size", collision ? "every size must be > 0" : "sizes must be >= 0");
+    } else if (t == "sphere") {
+      scalar(s, "radius", w, true, lo, kMaxOffset);
+    } else if (t == "cylinder" || t == "capsule") {
+      scalar(s, "radius", w, true, lo, kMaxOffset);
+      scalar(s, "length", w, true, lo, kMaxOffset);
+    } else if (t == "mesh") {
+      if (s->Attribute("filename") == nullptr) err(w + ": <mesh> filename", "missing");
+      vec3(s, "scale", w, false, 1e6);
+    } else {
+      err(w, "unknown shape <" + t + ">");
+    }
+  }
+
+  void link(const TiXmlElement* e, const std::string& name) {
+    const std::string where = "link '" + name + "'";
+    if (const TiXmlElement* in = single(e, "inertial", where)) {
+      const std::string w = where + " <inertial>";
+      origin(in, where);
+      const TiXmlElement* mass = single(in, "mass", w);
+      if (mass == nullptr)
+        err(w, "no <mass>");
+      else if (const auto m = scalar(mass, "value", w, true, -kInf, kInf)) {
+        std::ostringstream os;
+        if (*m < 0.0) {
+          os << "negative mass " << *m;
+          err(w + ": <mass> value", os.str());
+        } else if (*m > kMaxLinkMass) {
+          os << "implausible mass " << *m << " kg (limit " << kMaxLinkMass << " kg per link)";
+          err(w + ": <mass> value", os.str());
+        }
+      }
+      const TiXmlElement* I = single(in, "inertia", w);
+      if (I == nullptr) {
+        err(w, "no <inertia>");
+      } else {
+        for (const char* a : {"ixx", "ixy", "ixz", "iyy", "iyz", "izz"})
+          scalar(I, a, w, true, -kMaxInertia, kMaxInertia);
+      }
+    }
+    for (const TiXmlElement* c = e->FirstChildElement("collision"); c != nullptr;
+         c = c->NextSiblingElement("collision"))
+      geometry(c, where, true);
+    for (const TiXmlElement* v = e->FirstChildElement("visual"); v != nullptr;
+         v = v->NextSiblingElement("visual"))
+      geometry(v, where, false);
+  }
+
+  void joint(const TiXmlElement* e, const RawJoint& j, const std::set<std::string>& joint_names) {
+    const std::string where = "joint '" + j.name + "'";
+    for (const char* c : {"parent", "child", "axis", "limit", "dynamics", "mimic"})
+      single(e, c, where);
+    origin(e, where);
+    static const std::set<std::string> kTypes = {"revolute", "continuous", "prismatic", "fixed"};
+    if (j.type.empty()) {
+      err(where, "no type");
+      return;
+    }
+    if (!kTypes.count(j.type)) {
+      err(where, "unsupported type '" + j.type +
+                     "' (only fixed, revolute, continuous and prismatic joints "
+                     "below the floating base)");
+      return;
+    }
+    if (j.type == "fixed") return;  // axis, limits, dynamics and <mimic> of a fixed joint unused
+    if (const TiXmlElement* a = e->FirstChildElement("axis"))
+      if (auto v = vec3(a, "xyz", where, false, 1e6))
+        if (v->norm() < 1e-9) err(where + ": <axis> xyz", "zero axis");
+    const TiXmlElement* lim = e->FirstChildElement("limit");
+    const bool prismatic = j.type == "prismatic";
+    if (lim == nullptr) {
+      if (j.type != "continuous") err(where, "a " + j.type + " joint needs a <limit>");
+    } else {
+      const double inf = std::numeric_limits<double>::infinity();
+      const auto eff = scalar(lim, "effort", where, true, -inf, inf);
+      if (eff && !(*eff > 0.0))
+        err(where + ": <limit> effort",
+            "must be > 0 (a limit <= 0 would be read as 'unlimited')");
+      const auto vel = scalar(lim, "velocity", where, true, -inf, inf);
+      if (vel && !(*vel > 0.0)) err(where + ": <limit> velocity", "must be > 0");
+      if (j.type != "continuous") {
+        const double b = prismatic ? kMaxOffset : inf;
+        const auto lo = scalar(lim, "lower", where, false, -b, b);
+        const auto hi = scalar(lim, "upper", where, false, -b, b);
+        if (lo && hi && *lo > *hi) {
+          std::ostringstream os;
+          os << "lower " << *lo << " > upper " << *hi;
+          err(where + ": <limit>", os.str());
+        }
+      }
+    }
+    if (const TiXmlElement* d = e->FirstChildElement("dynamics")) {
+      scalar(d, "damping", where, false, 0.0, 1e9);
+      scalar(d, "friction", where, false, 0.0, 1e9);
+    }
+    if (const TiXmlElement* mi = e->FirstChildElement("mimic")) {
+      const char* leader = mi->Attribute("joint");
+      if (leader == nullptr)
+        err(where + ": <mimic>", "no joint attribute");
+      else if (!joint_names.count(leader))
+        err(where + ": <mimic joint=\"" + std::string(leader) + "\">", "no such joint");
+      else if (j.name == leader)
+        err(where + ": <mimic>", "mimics itself");
+      scalar(mi, "multiplier", where, false, -1e6, 1e6);
+      scalar(mi, "offset", where, false, -1e6, 1e6);
+    }
+  }
+
+ private:
+  std::string origin_;
+};
+
+// Checks the raw XML; returns the text urdfdom is to parse: `xml` itself, or a copy without the
+// <mimic> elements of fixed joints (legal URDF, meaningless there, ignored).
+std::string precheck_xml(const std::string& xml, const std::string& origin) {
+  check_xml_depth(xml, origin);
   TiXmlDocument doc;
   doc.Parse(xml.c_str());
   if (doc.Error()) {
@@ -36,80 +353,168 @@ void precheck_xml(const std::string& xml, const std::string& origin) {
   }
   const TiXmlElement* robot = doc.FirstChildElement("robot");
   if (robot == nullptr) throw ModelError("URDF " + origin + ": no <robot> element");
+  if (robot->NextSiblingElement("robot") != nullptr)
+    throw ModelError("URDF " + origin + ": more than one <robot> element");
 
+  RawChecker ck(origin);
   std::set<std::string> links;
+  std::size_t nlinks = 0, njoints = 0;
+  for (const TiXmlElement* e = robot->FirstChildElement("link"); e != nullptr;
+       e = e->NextSiblingElement("link"))
+    ++nlinks;
+  for (const TiXmlElement* e = robot->FirstChildElement("joint"); e != nullptr;
+       e = e->NextSiblingElement("joint"))
+    ++njoints;
+  if (nlinks > kMaxLinks || njoints > kMaxLinks)
+    throw ModelError("URDF " + origin + ": " + std::to_string(nlinks) + " links and " +
+                     std::to_string(njoints) + " joints; at most " + std::to_string(kMaxLinks) +
+                     " of each are accepted");
   for (const TiXmlElement* e = robot->FirstChildElement("link"); e != nullptr;
        e = e->NextSiblingElement("link")) {
     const char* name = e->Attribute("name");
-    if (name == nullptr) throw ModelError("URDF " + origin + ": a <link> has no name");
-    if (!links.insert(name).second)
-      throw ModelError("URDF " + origin + ": link '" + name + "' is defined twice");
+    if (name == nullptr || *name == '\0') {
+      ck.err("a <link>", "has no name");
+      continue;
+    }
+    if (!links.insert(name).second) ck.err("link '" + std::string(name) + "'", "defined twice");
+    ck.link(e, name);
   }
-  if (links.empty()) throw ModelError("URDF " + origin + ": no links");
+  if (links.empty()) throw ModelError(join_lines(ck.errors) + (ck.errors.empty() ? "" : "\n") +
+                                      "URDF " + origin + ": no links");
 
+  std::set<std::string> joint_names;
+  for (const TiXmlElement* e = robot->FirstChildElement("joint"); e != nullptr;
+       e = e->NextSiblingElement("joint")) {
+    const char* name = e->Attribute("name");
+    if (name != nullptr && !joint_names.insert(name).second)
+      ck.err("joint '" + std::string(name) + "'", "defined twice");
+  }
   std::vector<RawJoint> joints;
   for (const TiXmlElement* e = robot->FirstChildElement("joint"); e != nullptr;
        e = e->NextSiblingElement("joint")) {
     RawJoint j;
     const char* name = e->Attribute("name");
     const char* type = e->Attribute("type");
-    if (name == nullptr) throw ModelError("URDF " + origin + ": a <joint> has no name");
+    if (name == nullptr || *name == '\0') {
+      ck.err("a <joint>", "has no name");
+      continue;
+    }
     j.name = name;
     j.type = type ? type : "";
+    ck.joint(e, j, joint_names);
     const TiXmlElement* p = e->FirstChildElement("parent");
     const TiXmlElement* c = e->FirstChildElement("child");
     if (p == nullptr || p->Attribute("link") == nullptr || c == nullptr ||
-        c->Attribute("link") == nullptr)
-      throw ModelError("URDF " + origin + ": joint '" + j.name + "' lacks a parent or child link");
+        c->Attribute("link") == nullptr) {
+      ck.err("joint '" + j.name + "'", "lacks a parent or child link");
+      continue;
+    }
     j.parent = p->Attribute("link");
     j.child = c->Attribute("link");
-    j.mimic = e->FirstChildElement("mimic") != nullptr;
-    if (!links.count(j.parent))
-      throw ModelError("URDF " + origin + ": joint '" + j.name + "' has unknown parent link '" +
-                       j.parent + "'");
-    if (!links.count(j.child))
-      throw ModelError("URDF " + origin + ": joint '" + j.name + "' has unknown child link '" +
-                       j.child + "'");
-    if (j.mimic)
-      throw ModelError("URDF " + origin + ": joint '" + j.name +
-                       "' is a mimic joint; mimic joints are not supported by poise::model "
-                       "(model the coupling in the controller or remove <mimic>)");
-    joints.push_back(j);
+    bool ok = true;
+    if (!links.count(j.parent)) {
+      ck.err("joint '" + j.name + "'", "unknown parent link '" + j.parent + "'");
+      ok = false;
+    }
+    if (!links.count(j.child)) {
+      ck.err("joint '" + j.name + "'", "unknown child link '" + j.child + "'");
+      ok = false;
+    }
+    if (ok) joints.push_back(j);
   }
 
   std::map<std::string, std::string> parent_of, joint_of;
   for (const RawJoint& j : joints) {
-    if (j.parent == j.child)
-      throw ModelError("URDF " + origin + ": kinematic loop: joint '" + j.name +
-                       "' connects link '" + j.child + "' to itself");
+    if (j.parent == j.child) {
+      ck.err("joint '" + j.name + "'",
+             "kinematic loop: connects link '" + j.child + "' to itself");
+      continue;
+    }
     auto it = joint_of.find(j.child);
-    if (it != joint_of.end())
-      throw ModelError("URDF " + origin + ": kinematic loop: link '" + j.child +
-                       "' is the child of two joints ('" + it->second + "' and '" + j.name +
-                       "'); only trees are supported");
+    if (it != joint_of.end()) {
+      ck.err("link '" + j.child + "'", "kinematic loop: the child of two joints ('" +
+                                           it->second + "' and '" + j.name +
+                                           "'); only trees are supported");
+      continue;
+    }
     joint_of[j.child] = j.name;
     parent_of[j.child] = j.parent;
   }
-  // Every link must reach the root by following parents; a cycle never does.
+  // Depth of every link below its root, memoised (linear time); a cycle never reaches a root.
+  std::map<std::string, long> depth;  // -1: on the current path
+  bool cycle = false;
   for (const std::string& l : links) {
+    if (depth.count(l)) continue;
+    std::vector<std::string> path;
     std::string cur = l;
-    for (std::size_t steps = 0; parent_of.count(cur); ++steps) {
-      if (steps > links.size())
-        throw ModelError("URDF " + origin + ": kinematic loop through link '" + l +
-                         "' (following its parent joints returns to it)");
-      cur = parent_of[cur];
+    long base = 0;
+    while (true) {
+      auto d = depth.find(cur);
+      if (d != depth.end()) {
+        if (d->second < 0) {
+          if (!cycle)
+            ck.err("link '" + cur + "'",
+                   "kinematic loop (following its parent joints returns to it)");
+          cycle = true;
+          base = 0;
+        } else {
+          base = d->second + 1;
+        }
+        break;
+      }
+      depth[cur] = -1;
+      path.push_back(cur);
+      auto p = parent_of.find(cur);
+      if (p == parent_of.end()) {
+        base = 0;
+        depth[cur] = 0;
+        path.pop_back();
+        base = 1;
+        break;
+      }
+      cur = p->second;
     }
+    for (auto it = path.rbegin(); it != path.rend(); ++it) depth[*it] = base++;
   }
+  long max_depth = 0;
+  std::string deepest;
+  for (const auto& [l, d] : depth)
+    if (d > max_depth) {
+      max_depth = d;
+      deepest = l;
+    }
+  if (!cycle && max_depth > static_cast<long>(kMaxTreeDepth))
+    ck.err("link '" + deepest + "'", "is " + std::to_string(max_depth) +
+                                         " joints below the root; at most " +
+                                         std::to_string(kMaxTreeDepth) + " are accepted");
   std::vector<std::string> roots;
   for (const std::string& l : links)
     if (!parent_of.count(l)) roots.push_back(l);
   if (roots.size() > 1) {
     std::string all;
-    for (const auto& r : roots)
-      all += (all.empty() ? "'" : ", '") + r + "'";
-    throw ModelError("URDF " + origin + ": several root links (" + all +
-                     "); the model needs one tree");
+    for (std::size_t i = 0; i < roots.size() && i < 10; ++i)
+      all += (all.empty() ? "'" : ", '") + roots[i] + "'";
+    if (roots.size() > 10) all += ", ...";
+    ck.err("several root links (" + all + ")", "the model needs one tree");
+  } else if (roots.empty() && !cycle) {
+    ck.err("links", "no root link (kinematic loop)");
   }
+  if (!ck.errors.empty()) throw ModelError(join_lines(ck.errors));
+
+  bool stripped = false;
+  for (TiXmlElement* e = doc.FirstChildElement("robot")->FirstChildElement("joint"); e != nullptr;
+       e = e->NextSiblingElement("joint")) {
+    const char* type = e->Attribute("type");
+    if (type == nullptr || std::string(type) != "fixed") continue;
+    while (TiXmlElement* mi = e->FirstChildElement("mimic")) {
+      e->RemoveChild(mi);
+      stripped = true;
+    }
+  }
+  if (!stripped) return xml;
+  TiXmlPrinter printer;
+  doc.Accept(&printer);
+  return printer.CStr();
 }
 
 // Captures urdfdom's console_bridge messages so they can go into the exception text.
@@ -139,46 +544,75 @@ SE3 to_se3(const urdf::Pose& pose) {
   return SE3(qr.toRotationMatrix(), Vector3(pose.position.x, pose.position.y, pose.position.z));
 }
 
-Inertia link_inertia(const urdf::Link& link, const std::string& origin) {
+// One link's inertia in its link frame. Per link only what no merging can repair is refused (a
+// negative principal moment); positive definiteness and the triangle inequality are checked on
+// each body after its fixed links are merged into it (check_body), so a massless or degenerate
+// leaf on a fixed joint is fine. The raw pre-check has already refused non-finite values.
+Inertia link_inertia(const urdf::Link& link, const std::string& origin,
+                     std::vector<std::string>& errors) {
   if (!link.inertial) return Inertia::Zero();  // URDF semantics: massless link
   const urdf::Inertial& in = *link.inertial;
   const std::string where = "URDF " + origin + ": link '" + link.name + "'";
-  if (!std::isfinite(in.mass)) throw ModelError(where + ": mass is not finite");
-  if (in.mass < 0.0) {
-    std::ostringstream os;
-    os << where << ": negative mass " << in.mass;
-    throw ModelError(os.str());
-  }
   Matrix3 I;
   I << in.ixx, in.ixy, in.ixz, in.ixy, in.iyy, in.iyz, in.ixz, in.iyz, in.izz;
-  if (!I.allFinite()) throw ModelError(where + ": inertia has non-finite entries");
+  if (!std::isfinite(in.mass) || in.mass < 0.0 || !I.allFinite()) {
+    std::ostringstream os;
+    os << where << ": mass " << in.mass << " or inertia not finite / negative";
+    errors.push_back(os.str());
+    return Inertia::Zero();
+  }
   const Eigen::SelfAdjointEigenSolver<Matrix3> es(I, Eigen::EigenvaluesOnly);
   const Vector3 ev = es.eigenvalues();
   const double scale = std::max(1e-12, ev.cwiseAbs().maxCoeff());
-  const bool pd = ev.minCoeff() > 1e-12 * scale && ev.minCoeff() > 0.0;
-  const bool psd_zero = ev.cwiseAbs().maxCoeff() == 0.0;
-  if ((in.mass > 0.0 && !pd) || (in.mass == 0.0 && !psd_zero && ev.minCoeff() < 0.0)) {
+  if (ev.minCoeff() < -1e-9 * scale) {
     std::ostringstream os;
-    os << where << ": inertia matrix is not positive definite (eigenvalues " << ev.transpose()
-       << ")";
-    throw ModelError(os.str());
-  }
-  if (in.mass > 0.0) {
-    const double tol = 1e-9 * ev.sum();
-    if (ev(0) + ev(1) < ev(2) - tol) {
-      std::ostringstream os;
-      os << where << ": principal moments " << ev.transpose()
-         << " violate the triangle inequality (not a physical rigid body)";
-      throw ModelError(os.str());
-    }
+    os << where << ": inertia matrix is not positive definite (a negative principal moment; "
+       << "eigenvalues " << ev.transpose() << ")";
+    errors.push_back(os.str());
+    return Inertia::Zero();
   }
   const SE3 X = to_se3(in.origin);
   return Inertia(in.mass, X.p, X.R * I * X.R.transpose());
 }
 
+// A body (its link plus the links merged into it by fixed joints) must be a physical rigid body.
+void check_body(const Model& m, int b, const std::string& origin,
+                std::vector<std::string>& errors) {
+  const Inertia& in = m.inertia[b];
+  std::string merged;
+  for (const Frame& f : m.frames)
+    if (f.body == b && !f.is_body) merged += (merged.empty() ? "'" : ", '") + f.name + "'";
+  const std::string where = "URDF " + origin + ": link '" + m.body_name[b] + "'" +
+                            (merged.empty() ? "" : " (with the fixed links " + merged + ")");
+  const Eigen::SelfAdjointEigenSolver<Matrix3> es(in.I_com, Eigen::EigenvaluesOnly);
+  const Vector3 ev = es.eigenvalues();
+  const double scale = std::max(1e-12, ev.cwiseAbs().maxCoeff());
+  if (in.mass > 0.0) {
+    if (!(ev.minCoeff() > 1e-12 * scale && ev.minCoeff() > 0.0)) {
+      std::ostringstream os;
+      os << where << ": inertia matrix is not positive definite (eigenvalues " << ev.transpose()
+         << ")";
+      errors.push_back(os.str());
+      return;
+    }
+    const double tol = 1e-9 * ev.sum();
+    if (ev(0) + ev(1) < ev(2) - tol) {
+      std::ostringstream os;
+      os << where << ": principal moments " << ev.transpose()
+         << " violate the triangle inequality (not a physical rigid body)";
+      errors.push_back(os.str());
+    }
+  } else if (ev.minCoeff() < -1e-9 * scale) {
+    std::ostringstream os;
+    os << where << ": massless but its inertia has negative eigenvalues " << ev.transpose();
+    errors.push_back(os.str());
+  }
+}
+
 struct Builder {
   Model& m;
   const std::string& origin;
+  std::vector<std::string> errors;
 
   int add_body(int parent, JointType type, const SE3& X, const Vector3& axis,
                const std::string& link) {
@@ -203,7 +637,7 @@ struct Builder {
     fr.X_BF = X_BL;
     fr.is_body = (m.body_name[body] == link.name);
     m.frames.push_back(fr);
-    m.inertia[body] += link_inertia(link, origin).transformed(X_BL);
+    m.inertia[body] += link_inertia(link, origin, errors).transformed(X_BL);
 
     std::vector<urdf::JointSharedPtr> children = link.child_joints;
     std::sort(children.begin(), children.end(),
@@ -215,9 +649,28 @@ struct Builder {
       if (child == nullptr)
         throw ModelError("URDF " + origin + ": joint '" + j->name + "' has no child link");
       const SE3 X_BJ = X_BL * to_se3(j->parent_to_joint_origin_transform);
-      if (j->mimic)
-        throw ModelError("URDF " + origin + ": joint '" + j->name +
-                         "' is a mimic joint; mimic joints are not supported");
+      if (j->mimic && j->type != urdf::Joint::FIXED) {
+        // Frozen: made fixed at the mimic formula with its leader at 0 (= offset), clamped to
+        // the joint's limits (components/model/README.md "Mimic joints").
+        double x = j->mimic->offset;
+        if (j->limits && j->type != urdf::Joint::CONTINUOUS)
+          x = std::clamp(x, j->limits->lower, std::max(j->limits->lower, j->limits->upper));
+        Vector3 a(j->axis.x, j->axis.y, j->axis.z);
+        if (!a.allFinite() || a.norm() < 1e-9) a = Vector3::UnitX();
+        a.normalize();
+        SE3 X_JC = SE3::Identity();
+        if (j->type == urdf::Joint::PRISMATIC)
+          X_JC.p = x * a;
+        else
+          X_JC.R = Eigen::AngleAxisd(x, a).toRotationMatrix();
+        std::ostringstream os;
+        os << "joint '" << j->name << "' mimics '" << j->mimic->joint_name
+           << "': frozen (treated as fixed) at " << x;
+        m.notes.push_back(os.str());
+        m.frozen_joints.push_back(j->name);
+        visit(*child, body, X_BJ * X_JC);
+        continue;
+      }
       JointType type;
       switch (j->type) {
         case urdf::Joint::FIXED:
@@ -266,7 +719,13 @@ struct Builder {
 }  // namespace
 
 Model build_model_from_urdf_string(const std::string& xml, const std::string& origin) {
-  precheck_xml(xml, origin);
+  if (xml.size() > kMaxFileBytes)
+    throw ModelError("URDF " + origin + ": " + std::to_string(xml.size()) +
+                     " bytes, larger than the limit of " + std::to_string(kMaxFileBytes) +
+                     " bytes");
+  if (xml.find('\0') != std::string::npos)
+    throw ModelError("URDF " + origin + ": contains a NUL byte (binary data, not XML)");
+  const std::string checked = precheck_xml(xml, origin);
 
   urdf::ModelInterfaceSharedPtr urdf_model;
   std::string messages;
@@ -274,7 +733,7 @@ Model build_model_from_urdf_string(const std::string& xml, const std::string& or
     std::lock_guard<std::mutex> lock(urdfdom_mutex());
     CaptureHandler handler;
     console_bridge::useOutputHandler(&handler);
-    urdf_model = urdf::parseURDF(xml);
+    urdf_model = urdf::parseURDF(checked);
     console_bridge::restorePreviousOutputHandler();
     messages = handler.messages;
   }
@@ -286,9 +745,20 @@ Model build_model_from_urdf_string(const std::string& xml, const std::string& or
 
   Model m;
   m.name = urdf_model->getName();
-  Builder b{m, origin};
+  Builder b{m, origin, {}};
   b.add_body(-1, JointType::kFloating, SE3::Identity(), Vector3::Zero(), root->name);
   b.visit(*root, 0, SE3::Identity());
+  for (int body = 0; body < static_cast<int>(m.parent.size()); ++body)
+    check_body(m, body, origin, b.errors);
+  double total = 0.0;
+  for (const Inertia& I : m.inertia) total += I.mass;
+  if (total > kMaxTotalMass) {
+    std::ostringstream os;
+    os << "URDF " << origin << ": total mass " << total << " kg exceeds " << kMaxTotalMass
+       << " kg (implausible for a robot)";
+    b.errors.push_back(os.str());
+  }
+  if (!b.errors.empty()) throw ModelError(join_lines(b.errors));
 
   m.nbodies = static_cast<int>(m.parent.size());
   m.njoints = m.nbodies - 1;
@@ -313,17 +783,34 @@ Model build_model_from_urdf_string(const std::string& xml, const std::string& or
   return m;
 }
 
-Model build_model_from_urdf_file(const std::filesystem::path& path) {
+std::string read_text_file_limited(const std::filesystem::path& path, const std::string& what,
+                                   std::size_t max_bytes) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec))
-    throw ModelError("URDF file not found: '" + path.string() + "'");
+    throw ModelError(what + " file not found: '" + path.string() + "'");
   if (std::filesystem::is_directory(path, ec))
-    throw ModelError("URDF path is a directory, not a file: '" + path.string() + "'");
-  std::ifstream in(path);
-  if (!in) throw ModelError("cannot read URDF file '" + path.string() + "'");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return build_model_from_urdf_string(ss.str(), "'" + path.string() + "'");
+    throw ModelError(what + " path is a directory, not a file: '" + path.string() + "'");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw ModelError("cannot read " + what + " file '" + path.string() + "'");
+  std::string out;
+  char buf[65536];
+  while (in) {
+    in.read(buf, sizeof buf);
+    const auto got = static_cast<std::size_t>(in.gcount());
+    if (got == 0) break;
+    if (out.size() + got > max_bytes)
+      throw ModelError(what + " file '" + path.string() + "' is larger than the limit of " +
+                       std::to_string(max_bytes) + " bytes (" +
+                       std::to_string(max_bytes >> 20) + " MB); refused");
+    out.append(buf, got);
+  }
+  if (in.bad()) throw ModelError("error reading " + what + " file '" + path.string() + "'");
+  return out;
+}
+
+Model build_model_from_urdf_file(const std::filesystem::path& path) {
+  return build_model_from_urdf_string(read_text_file_limited(path, "URDF"),
+                                      "'" + path.string() + "'");
 }
 
 int Model::joint_index(const std::string& n) const {

@@ -29,6 +29,7 @@
 
 #include <Eigen/Core>
 #include <filesystem>
+#include <cstddef>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -95,6 +96,10 @@ struct Model {
 
   Vector3 gravity{0.0, 0.0, -9.81};  ///< gravity acceleration in world (3)
   double total_mass = 0.0;
+  /// What the loader changed on the way (one line each), e.g. a movable <mimic> joint frozen.
+  std::vector<std::string> notes;
+  /// Movable <mimic> joints the loader froze (not model joints; see notes).
+  std::vector<std::string> frozen_joints;
 
   /// Index of the joint named `name` (0..njoints-1). Throws ModelError on unknown names.
   int joint_index(const std::string& name) const;
@@ -108,9 +113,28 @@ struct Model {
   Eigen::VectorXd neutral() const;
 };
 
-/// Builds the model from a URDF file. Throws ModelError naming the problem: missing file, bad XML,
-/// kinematic loop, negative mass, non-positive-definite inertia, unsupported joint type,
-/// mimic joints (not supported: refused).
+// ---- limits on input files (checked before any parser sees them; components/model/README.md) ----
+constexpr std::size_t kMaxFileBytes = std::size_t{16} << 20;  ///< URDF, robot.yaml, scenario
+constexpr int kMaxXmlDepth = 256;            ///< element nesting in a URDF (real ones: < 10)
+constexpr std::size_t kMaxLinks = 10000;     ///< links (and joints) in a URDF
+constexpr std::size_t kMaxTreeDepth = 1000;  ///< joints between the root and any link
+constexpr double kMaxLinkMass = 1e4;         ///< kg, one link
+constexpr double kMaxTotalMass = 1e5;        ///< kg, the whole robot
+constexpr double kMaxInertia = 1e5;          ///< kg m^2, any entry of a link's inertia
+constexpr double kMaxOffset = 100.0;         ///< m, any origin offset, shape size or prismatic limit
+
+/// Reads a whole text file of at most `max_bytes` (stops reading there: /dev/zero is refused,
+/// not read until memory runs out). `what` names the file kind in messages ("URDF").
+/// Throws ModelError naming the file and the limit.
+std::string read_text_file_limited(const std::filesystem::path& path, const std::string& what,
+                                   std::size_t max_bytes = kMaxFileBytes);
+
+/// Builds the model from a URDF file. Throws ModelError naming every problem found (one per
+/// line): missing or oversized file, bad or too deeply nested XML, non-finite / textual /
+/// missing / negative / implausible numbers (mass, inertia, origins, shapes, limits), kinematic
+/// loop, non-positive-definite inertia of a body (after merging its fixed links), unsupported
+/// joint type. A <mimic> on a fixed joint is ignored; a movable mimic joint is frozen (made fixed)
+/// at `offset` (its leader at 0), clamped to its limits, and reported in Model::notes.
 Model build_model_from_urdf_file(const std::filesystem::path& path);
 /// Same from URDF text; `origin` is used in error messages.
 Model build_model_from_urdf_string(const std::string& xml, const std::string& origin = "<string>");
