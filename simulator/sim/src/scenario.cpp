@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -113,7 +114,8 @@ Sinusoid sinusoid(const Ctx& c, const YAML::Node& n, const std::string& key, boo
 }
 
 void load_robot(const Ctx& c, const YAML::Node& n, Scenario& sc,
-                std::vector<std::pair<std::string, double>>& nominal) {
+                std::vector<std::pair<std::string, double>>& nominal,
+                std::map<std::string, std::pair<double, double>>& limits) {
   const std::string key = "robot";
   if (!n) c.fail(key, "is required");
   c.allow(n, key, {"config", "urdf", "feet", "imu_frame", "self_collision", "damping_mode_kd"});
@@ -148,8 +150,10 @@ void load_robot(const Ctx& c, const YAML::Node& n, Scenario& sc,
     }
     // nominal posture: joint entries of q_nominal (q = [p (3); quat (4); joints])
     const model::Model m = model::load_robot_model(rc);
-    for (std::size_t j = 0; j < m.joint_names.size(); ++j)
+    for (std::size_t j = 0; j < m.joint_names.size(); ++j) {
       nominal.emplace_back(m.joint_names[j], rc.q_nominal[7 + static_cast<Eigen::Index>(j)]);
+      limits[m.joint_names[j]] = {m.limits[j].lower, m.limits[j].upper};
+    }
 #else
     c.fail(key + ".config",
            "this build has no robot-configuration loader (poise_model); use "
@@ -278,7 +282,8 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
   if (sc.duration > 1e6) c.fail("duration", "must be at most 1e6 s");
 
   std::vector<std::pair<std::string, double>> nominal;
-  load_robot(c, root["robot"], sc, nominal);
+  std::map<std::string, std::pair<double, double>> limits;  // joint -> (lower, upper)
+  load_robot(c, root["robot"], sc, nominal, limits);
   load_world(c, root["world"], sc);
 
   // initial state
@@ -300,6 +305,13 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
       for (const auto& kv : j) {
         const std::string name = kv.first.as<std::string>();
         const double v = c.num(kv.second, "initial.joints." + name);
+        if (const auto l = limits.find(name);
+            l != limits.end() && (v < l->second.first || v > l->second.second)) {
+          std::ostringstream os;
+          os << v << " is outside the joint limits [" << l->second.first << ", "
+             << l->second.second << "]";
+          c.fail("initial.joints." + name, os.str());
+        }
         auto it = std::find(ini.joint_names.begin(), ini.joint_names.end(), name);
         if (it != ini.joint_names.end())
           ini.joint_positions[static_cast<std::size_t>(it - ini.joint_names.begin())] = v;
