@@ -55,6 +55,10 @@ struct PlotResult {
 /// "" when there is none.
 std::string find_gnuplot(const std::string& requested);
 
+/// Runs `gnuplot script` as a child process, its stdout and stderr to `log_path`. Returns the
+/// exit status (127: could not be started; 128 + N: killed by signal N).
+int run_gnuplot(const std::string& gnuplot, const std::string& script, const std::string& log_path);
+
 /// Draws the sheet as the top of this file says.
 PlotResult plot_balance(const PlotOptions& options);
 
