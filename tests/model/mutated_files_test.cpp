@@ -688,6 +688,8 @@ TEST(MutatedScenario, TopLevelFields) {
                {"robot.damping_mode_kd", ">= 0"}, "damping_mode_kd -5");
   expect_names(scenario_error(sub("  posture: nominal", "  posture: nominal\n  base_height: -1")),
                {"initial.base_height"}, "base height -1");
+  expect_names(scenario_error(sub("  posture: nominal", "  posture: nominal\n  joints: {l_knee: 10}")),
+               {"initial.joints.l_knee", "outside the joint limits"}, "initial knee 10 rad");
   expect_names(scenario_error(s + "colour: blue\n"), {"colour", "unknown key"}, "unknown key");
   // a scenario whose robot.yaml is broken: the robot's errors come through, naming the key
   const fs::path dir = fs::temp_directory_path() / ("poise_mutscen_" + std::to_string(::getpid()));
