@@ -162,6 +162,13 @@ void load_robot(const Ctx& c, const YAML::Node& n, Scenario& sc,
   } else {
     if (!n["urdf"]) c.fail(key, "needs 'config' or 'urdf'");
     r.urdf_path = c.path(n["urdf"], key + ".urdf").string();
+    {  // the simulator reads it whole later: refuse what is not a file of sane size now
+      std::error_code ec;
+      if (!fs::is_regular_file(r.urdf_path, ec))
+        c.fail(key + ".urdf", "'" + r.urdf_path + "' is not a regular file");
+      if (fs::file_size(r.urdf_path, ec) > (std::uintmax_t{16} << 20))
+        c.fail(key + ".urdf", "'" + r.urdf_path + "' is larger than the limit of 16 MB");
+    }
     if (n["imu_frame"]) r.imu_frame = c.str(n["imu_frame"], key + ".imu_frame");
     const YAML::Node feet = n["feet"];
     if (!feet || !feet.IsMap() || feet.size() == 0)
