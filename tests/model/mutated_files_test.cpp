@@ -691,6 +691,9 @@ TEST(MutatedScenario, TopLevelFields) {
   expect_names(scenario_error(sub("  posture: nominal", "  posture: nominal\n  joints: {l_knee: 10}")),
                {"initial.joints.l_knee", "outside the joint limits"}, "initial knee 10 rad");
   expect_names(scenario_error(s + "colour: blue\n"), {"colour", "unknown key"}, "unknown key");
+  expect_names(scenario_error("name: x\nduration: 1\n"
+                              "robot: {urdf: /dev/zero, feet: {l: {frame: l_foot}}}\n"),
+               {"robot.urdf", "not a regular file"}, "scenario robot.urdf /dev/zero");
   // a scenario whose robot.yaml is broken: the robot's errors come through, naming the key
   const fs::path dir = fs::temp_directory_path() / ("poise_mutscen_" + std::to_string(::getpid()));
   fs::create_directories(dir);
