@@ -1,0 +1,173 @@
+// `poise envelope` tested as users run it: the boundaries it reports agree with the runs it made
+// (runs.csv), the distributed mode runs the same study, and bad input is refused clearly.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "child_process.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+using poise::testing::bin;
+using poise::testing::ChildProcess;
+
+fs::path work_dir(const std::string& name) {
+  const fs::path d = fs::path(POISE_BINARY_DIR) / "test_output" / "envelope" / name;
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+std::pair<int, std::string> run_cmd(std::vector<std::string> argv, std::chrono::seconds limit) {
+  ChildProcess p(std::move(argv), {}, false, true);
+  const auto c = p.wait_for(limit);
+  return {c.value_or(-1), p.output()};
+}
+
+/// CSV rows as maps column -> text (no quoted commas in the columns read here).
+std::vector<std::map<std::string, std::string>> read_csv(const fs::path& file) {
+  std::ifstream in(file);
+  std::string line;
+  std::vector<std::string> head;
+  std::vector<std::map<std::string, std::string>> rows;
+  auto split = [](const std::string& l) {
+    std::vector<std::string> out;
+    std::string cell;
+    bool quoted = false;
+    for (char c : l) {
+      if (c == '"') quoted = !quoted;
+      else if (c == ',' && !quoted) {
+        out.push_back(cell);
+        cell.clear();
+      } else
+        cell += c;
+    }
+    out.push_back(cell);
+    return out;
+  };
+  if (!std::getline(in, line)) return rows;
+  head = split(line);
+  while (std::getline(in, line)) {
+    const auto cells = split(line);
+    std::map<std::string, std::string> r;
+    for (std::size_t i = 0; i < head.size() && i < cells.size(); ++i) r[head[i]] = cells[i];
+    rows.push_back(r);
+  }
+  return rows;
+}
+
+void check_push_study(const fs::path& dir, double step) {
+  const auto runs = read_csv(dir / "runs.csv");
+  const auto env = read_csv(dir / "envelope.csv");
+  ASSERT_EQ(env.size(), 2u);  // one double-support and one single-support direction
+  for (const auto& e : env) {
+    SCOPED_TRACE(e.at("support_or_scenario"));
+    const double boundary = std::stod(e.at("boundary"));
+    const double monotone = std::stod(e.at("monotone"));
+    EXPECT_GE(boundary, monotone);
+    // The boundary was run and survived; every scan step up to `monotone` survived; some force
+    // within one step above the boundary failed (it is an edge, not a guess).
+    bool boundary_survived = false, failed_above = false;
+    for (const auto& r : runs) {
+      if (r.at("study") != "push" || r.at("support") != e.at("support_or_scenario")) continue;
+      const double f = std::stod(r.at("force_N"));
+      const bool ok = r.at("survived") == "1";
+      if (std::abs(f - boundary) < 1e-6) boundary_survived = boundary_survived || ok;
+      if (f <= monotone + 1e-6 && std::fmod(f + 1e-6, step) < 1e-3) {
+        EXPECT_TRUE(ok) << f;
+      }
+      if (!ok && f > boundary && f <= boundary + step + 1e-6) failed_above = true;
+      if (!ok) {
+        EXPECT_FALSE(r.at("failed").empty()) << "a failed run names why";
+      }
+    }
+    if (monotone > 0.0) {
+      EXPECT_TRUE(boundary_survived);
+    }
+    EXPECT_TRUE(failed_above);
+  }
+  std::ifstream md(dir / "envelope.md");
+  std::stringstream text;
+  text << md.rdbuf();
+  EXPECT_NE(text.str().find("| double | 0.0 |"), std::string::npos) << text.str();
+  EXPECT_NE(text.str().find("120 N survived (Fig. 8)"), std::string::npos) << text.str();
+}
+
+TEST(Envelope, PushBoundariesAgreeWithTheRunsInProcess) {
+  const fs::path dir = work_dir("pushes");
+  auto [code, out] =
+      run_cmd({bin("poise"), "envelope", "pushes", "--directions", "1", "--single-directions", "1",
+               "--force-step", "120", "--force-tol", "30", "--force-max", "480", "--probes", "1",
+               "-o", dir.string()},
+              240s);
+  ASSERT_EQ(code, 0) << out;
+  check_push_study(dir, 120.0);
+  for (const char* pic : {"push_envelope.png", "push_envelope.svg"})
+    EXPECT_GT(fs::file_size(dir / pic), 1000u) << pic;
+}
+
+TEST(Envelope, Fig11ReportsTheLongestPushSurvived) {
+  const fs::path dir = work_dir("fig11");
+  auto [code, out] = run_cmd(
+      {bin("poise"), "envelope", "fig11", "--fig11-forces", "150", "--duration-max", "0.4",
+       "--duration-tol", "0.05", "-o", dir.string()},
+      240s);
+  ASSERT_EQ(code, 0) << out;
+  const auto env = read_csv(dir / "envelope.csv");
+  ASSERT_EQ(env.size(), 1u);
+  const double d = std::stod(env[0].at("boundary"));
+  EXPECT_GT(d, 0.0);  // a 150 N push of some duration is survived (0.1 s is, measured)
+  bool edge_failed = false;
+  for (const auto& r : read_csv(dir / "runs.csv")) {
+    const double t = std::stod(r.at("duration_s"));
+    if (t <= d + 1e-9) {
+      EXPECT_EQ(r.at("survived"), "1") << t;  // no failure below the edge
+    }
+    if (t > d && t <= d + 0.05 + 1e-9 && r.at("survived") == "0") edge_failed = true;
+  }
+  EXPECT_TRUE(edge_failed || env[0].at("reached_max") == "1");
+  EXPECT_GT(fs::file_size(dir / "fig11.png"), 1000u);
+}
+
+TEST(Envelope, DistributedLockstepRunsTheSameStudy) {
+  const fs::path dir = work_dir("lockstep");
+  auto [code, out] =
+      run_cmd({bin("poise"), "envelope", "pushes", "--mode", "lockstep", "--directions", "1",
+               "--single-directions", "1", "--force-step", "150", "--force-tol", "150",
+               "--force-max", "450", "--probes", "0", "-o", dir.string()},
+              280s);
+  ASSERT_EQ(code, 0) << out;
+  check_push_study(dir, 150.0);
+  // Each run left its distributed result (one process per component).
+  bool saw_logs = false;
+  for (const auto& e : fs::directory_iterator(dir / "runs"))
+    saw_logs = saw_logs || e.path().extension() == ".logs";
+  EXPECT_TRUE(saw_logs);
+}
+
+TEST(Envelope, BadInputIsRefusedNamingTheProblem) {
+  const fs::path dir = work_dir("bad");
+  std::ofstream(dir / "nopush.yaml")
+      << "name: nopush\nrobot: {config: "
+      << (fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/robot.yaml").string()
+      << "}\nduration: 1.0\n";
+  auto [code, out] = run_cmd({bin("poise"), "envelope", "pushes", "--supports", "double",
+                              "--double", (dir / "nopush.yaml").string(), "-o", dir.string()},
+                             60s);
+  EXPECT_EQ(code, 2) << out;
+  EXPECT_NE(out.find("has no push to vary"), std::string::npos) << out;
+  auto [code2, out2] = run_cmd({bin("poise"), "envelope", "sideways"}, 30s);
+  EXPECT_NE(code2, 0);
+  EXPECT_NE(out2.find("sideways"), std::string::npos) << out2;
+}
+
+}  // namespace
