@@ -387,6 +387,15 @@ TEST(MutatedUrdf, FilesEmptyZeroOversizedMissing) {
                "urdf: /dev/zero");
   expect_names(error_of([] { load_robot_config("/dev/zero"); }), {"/dev/zero", "limit"},
                "robot config /dev/zero");
+  // from files too, URDF and robot.yaml defects come in one message
+  const fs::path urdf = dir / "robot.urdf";
+  std::string xml = urdf_text();
+  xml.replace(xml.find("effort=\"100\""), 13, "effort=\"0\"");
+  std::ofstream(urdf) << xml;
+  std::ofstream(yaml) << std::regex_replace(yaml_text(), std::regex("urdf: [^\\n]*"),
+                                            "urdf: robot.urdf\ncolour: blue");
+  expect_names(error_of([&] { load_robot_config(yaml); }), {"'torso_yaw'", "effort", "colour"},
+               "robot.yaml and URDF files with defects");
   fs::remove_all(dir);
 }
 

@@ -403,14 +403,16 @@ RobotConfig load_robot_config(const std::filesystem::path& path) {
   r.attempt([&] { urdf = r.text(r.child(root, "", "urdf"), "urdf"); });
   if (urdf.empty()) r.throw_if_errors();
   cfg.urdf_path = urdf.is_absolute() ? urdf : cfg.config_path.parent_path() / urdf;
+  bool have_urdf = false;
   r.attempt([&] {
     try {
       cfg.urdf_xml = read_text_file_limited(cfg.urdf_path, "URDF");
+      have_urdf = true;
     } catch (const ModelError& e) {
       r.fail("urdf", e.what());
     }
   });
-  r.throw_if_errors();
+  if (!have_urdf) r.throw_if_errors();
   const Model model = model_or_throw(
       r, [&] { return build_model_from_urdf_string(cfg.urdf_xml, "'" + cfg.urdf_path.string() + "'"); });
   read_config_body(root, r, model, cfg.urdf_path.string(), cfg);
