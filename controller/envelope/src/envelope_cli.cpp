@@ -65,6 +65,7 @@ struct Options {
   std::string output_dir = "results/envelope";
   std::string gnuplot;
   double run_timeout_s = 600.0;
+  bool ground_truth_state = false;
   bool quiet = false;
 };
 
@@ -130,6 +131,7 @@ class Runner {
         e << scenario;
         const sim::Scenario sc = sim::parse_scenario(e.c_str(), work_, "scenario " + name);
         inprocess::LoopOptions lo;
+        if (o_.ground_truth_state) lo.state_source = inprocess::StateSource::kGroundTruth;
         inprocess::InProcessLoop loop(sc, lo);
         const inprocess::RunResult r = loop.run();
         out.survived = r.survived;
@@ -166,6 +168,7 @@ class Runner {
     std::vector<std::string> args{poise_, "run", file.string(), "-q", "-o", json.string(),
                                   "--log-dir", (work_ / (name + ".logs")).string(), "--timeout",
                                   timeout};
+    if (o_.ground_truth_state) args.push_back("--ground-truth-state");
     const pid_t pid = ::fork();
     if (pid < 0) throw std::runtime_error("fork failed");
     if (pid == 0) {
@@ -372,6 +375,9 @@ int envelope_main(int argc, char** argv) {
       ->check(CLI::Range(10.0, 36000.0))
       ->capture_default_str();
   app.add_option("--gnuplot", o.gnuplot, "gnuplot executable (default: gnuplot on PATH)");
+  app.add_flag("--ground-truth-state", o.ground_truth_state,
+               "the controller gets the simulator's ground truth instead of the estimator's state "
+               "(separates the controller's limits from the estimator's)");
   app.add_flag("-q,--quiet", o.quiet, "no progress lines");
   CLI11_PARSE(app, argc, argv);
 
@@ -615,6 +621,7 @@ int envelope_main(int argc, char** argv) {
          << fmt(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 0)
          << " s). Every run: runs.csv. Priority: "
          << (o.priority.empty() ? "the base scenarios' (default lexicographic)" : o.priority)
+         << ". State: " << (o.ground_truth_state ? "ground truth (debug)" : "the estimator's")
          << ".\n\n";
       if (!dirs.empty()) {
         md << "## Pushes of " << fmt(o.push_duration, 2)
