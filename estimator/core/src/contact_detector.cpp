@@ -1,5 +1,6 @@
 #include "poise/estimator/contact_detector.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -7,23 +8,100 @@
 namespace poise::estimator {
 
 ContactDetector::ContactDetector(const ContactThresholds& thresholds) : thresholds_(thresholds) {
-  if (!std::isfinite(thresholds.on_force) || !std::isfinite(thresholds.off_force) ||
-      thresholds.off_force < 0.0 || thresholds.off_force >= thresholds.on_force) {
-    throw std::invalid_argument(
-        "ContactDetector: thresholds must satisfy 0 <= off_force < on_force (got on_force = " +
-        std::to_string(thresholds.on_force) +
-        ", off_force = " + std::to_string(thresholds.off_force) + ")");
-  }
+  ContactThresholds& t = thresholds_;
+  const auto fail = [&](const std::string& what) {
+    throw std::invalid_argument("ContactDetector: " + what + " (got on_force = " +
+                                std::to_string(t.on_force) +
+                                ", off_force = " + std::to_string(t.off_force) +
+                                ", touch_force = " + std::to_string(t.touch_force) + ")");
+  };
+  if (!std::isfinite(t.on_force) || !std::isfinite(t.off_force) || t.off_force < 0.0 ||
+      t.off_force >= t.on_force)
+    fail("thresholds must satisfy 0 <= off_force < on_force");
+  if (!std::isfinite(t.touch_force)) fail("touch_force must be finite");
+  if (t.touch_force <= 0.0) t.touch_force = t.off_force + 0.25 * (t.on_force - t.off_force);
+  if (t.touch_force < t.off_force || t.touch_force >= t.on_force)
+    fail("touch_force must be in [off_force, on_force)");
+  if (!(t.touch_rate > 0.0) || !std::isfinite(t.touch_rate)) fail("touch_rate must be > 0");
+  if (t.confirm_ticks < 1 || t.confirm_ticks > 1000) fail("confirm_ticks must be in [1, 1000]");
+  if (!(t.max_touch_height >= 0.0) || !(t.lift_height >= 0.0) || !(t.tare_height >= 0.0) ||
+      !std::isfinite(t.max_touch_height) || !std::isfinite(t.lift_height) ||
+      !std::isfinite(t.tare_height))
+    fail("max_touch_height, lift_height and tare_height must be finite and >= 0");
+  if (!(t.tare_time > 0.0) || !std::isfinite(t.tare_time)) fail("tare_time must be > 0");
 }
 
-bool ContactDetector::update(const Force& wrench_Fo_F) noexcept {
-  const double fn = wrench_Fo_F[2];
-  if (!std::isfinite(fn)) return in_contact_;
-  if (in_contact_) {
-    if (fn < thresholds_.off_force) in_contact_ = false;
+void ContactDetector::reset(bool in_contact) noexcept {
+  in_contact_ = in_contact;
+  pending_ = 0;
+  have_prev_ = false;
+  have_support_ = false;
+  have_z_ = false;
+}
+
+bool ContactDetector::update(const Force& wrench_Fo_F, const FootKinematics& kin) noexcept {
+  const ContactThresholds& t = thresholds_;
+  const double raw = wrench_Fo_F[2];
+  if (!std::isfinite(raw)) return in_contact_;
+
+  // Kinematics: height of the sole above where it last stood, and whether it rises.
+  const bool have_kin = std::isfinite(kin.sole_z) && std::isfinite(kin.dt) && kin.dt > 0.0;
+  double height = std::numeric_limits<double>::quiet_NaN();
+  bool rising = false;
+  if (have_kin) {
+    if (!have_support_) {
+      support_z_ = kin.sole_z;
+      have_support_ = true;
+    }
+    height = kin.sole_z - support_z_;
+    rising = have_z_ && kin.sole_z > z_prev_;
+    z_prev_ = kin.sole_z;
+    have_z_ = true;
   } else {
-    if (fn > thresholds_.on_force) in_contact_ = true;
+    have_z_ = false;
   }
+
+  // F/T offset: learnt while the foot is clearly in the air (the reading is then the offset).
+  if (!in_contact_ && have_kin && height > t.tare_height) {
+    const double a = std::min(1.0, kin.dt / t.tare_time);
+    offset_ += a * (raw - offset_);
+  }
+  const double fn = raw - offset_;
+  const double rate = have_prev_ ? (fn - fn_prev_) / (have_kin ? kin.dt : 0.001) : 0.0;
+  fn_prev_ = fn;
+  have_prev_ = true;
+
+  if (in_contact_) {
+    const bool lifted = have_kin && height > t.lift_height && rising;
+    if (lifted) {
+      in_contact_ = false;
+      pending_ = 0;
+    } else if (fn < t.off_force) {
+      if (++pending_ >= t.confirm_ticks) {
+        in_contact_ = false;
+        pending_ = 0;
+      }
+    } else {
+      pending_ = 0;
+    }
+  } else {
+    const bool too_high = have_kin && height > t.max_touch_height;
+    if (too_high) {
+      pending_ = 0;
+    } else if (fn > t.on_force || (fn > t.touch_force && rate > t.touch_rate)) {
+      in_contact_ = true;
+      pending_ = 0;
+    } else if (fn > t.touch_force) {
+      if (++pending_ >= t.confirm_ticks) {
+        in_contact_ = true;
+        pending_ = 0;
+      }
+    } else {
+      pending_ = 0;
+    }
+  }
+  // Where the foot stands: its height while it carries a load.
+  if (in_contact_ && have_kin && fn > t.touch_force) support_z_ = kin.sole_z;
   return in_contact_;
 }
 

@@ -113,8 +113,9 @@ Estimator::Estimator(const model::Model& model, const model::RobotConfig& robot,
   require(positive_finite(weight_), "the model's weight (total mass * |g|) must be > 0");
 
   for (int f = 0; f < kNumFeet; ++f) {
-    contact_[f] = ContactDetector(ContactThresholds{config.contact_on_fraction * weight_,
-                                                    config.contact_off_fraction * weight_});
+    ContactThresholds t{config.contact_on_fraction * weight_, config.contact_off_fraction * weight_};
+    t.touch_force = std::max(t.off_force, std::min(0.02 * weight_, 0.5 * t.on_force));
+    contact_[f] = ContactDetector(t);
   }
   require(config.supports == SupportModel::kFixed || config.supports == SupportModel::kMoving ||
               config.supports == SupportModel::kTranslating,
@@ -237,21 +238,9 @@ InvariantEkf::Covariance Estimator::initial_covariance() const noexcept {
   return P;
 }
 
-void Estimator::initialize(const SensorFrame& frame) noexcept {
-  // Orientation: the IMU's own estimate when it is a plausible quaternion, else the tilt from
-  // the accelerometer (yaw 0).
-  Matrix3 R_WI;
-  const double qn = frame.imu_q_WI.norm();
-  if (imu_orientation_present(frame.imu_q_WI) && qn < 1.5) {
-    R_WI = frame.imu_q_WI.normalized().toRotationMatrix();
-  } else {
-    const Vector3 f = frame.imu_specific_force_I;
-    R_WI = f.norm() > 1e-6
-               ? Eigen::Quaterniond::FromTwoVectors(f, Vector3::UnitZ()).toRotationMatrix()
-               : Matrix3::Identity();
-  }
+Vector3 Estimator::start_position(const Matrix3& R_WB) const noexcept {
   SE3 X_WB;
-  X_WB.R = R_WI * X_IB_.R;
+  X_WB.R = R_WB;
   bool any_contact = legs_.contact[0] || legs_.contact[1];
   double z_min = 0.0;
   bool first = true;
@@ -273,6 +262,39 @@ void Estimator::initialize(const SensorFrame& frame) noexcept {
     ++z_count;
   }
   if (z_count > 0) X_WB.p.z() = z_sum / z_count;
+
+  return X_WB.p;
+}
+
+void Estimator::relevel_from_filter() noexcept {
+  started_without_orientation_ = false;
+  const InvariantEkf::Mean& m = ekf_.mean();
+  SE3 X_WB;
+  X_WB.R = m.R_WI * X_IB_.R;
+  X_WB.p = start_position(X_WB.R);
+  ekf_.set_pose_velocity(m.R_WI, m.v_WI, X_WB.act(X_BI_.p));
+  baseline_.reset(X_WB, baseline_.v_WB(), legs_);
+  fallback_.reset(X_WB, fallback_.v_WB(), legs_);
+  R_WB_gyro_ = X_WB.R;
+}
+
+void Estimator::initialize(const SensorFrame& frame) noexcept {
+  // Orientation: the IMU's own estimate when it is a plausible quaternion, else the tilt from
+  // the accelerometer (yaw 0).
+  Matrix3 R_WI;
+  const double qn = frame.imu_q_WI.norm();
+  if (imu_orientation_present(frame.imu_q_WI) && qn < 1.5) {
+    R_WI = frame.imu_q_WI.normalized().toRotationMatrix();
+  } else {
+    const Vector3 f = frame.imu_specific_force_I;
+    R_WI = f.norm() > 1e-6
+               ? Eigen::Quaterniond::FromTwoVectors(f, Vector3::UnitZ()).toRotationMatrix()
+               : Matrix3::Identity();
+  }
+  SE3 X_WB;
+  X_WB.R = R_WI * X_IB_.R;
+  X_WB.p = start_position(X_WB.R);
+  started_without_orientation_ = !(imu_orientation_present(frame.imu_q_WI) && qn < 1.5);
 
   InvariantEkf::Mean m;
   m.R_WI = R_WI;
@@ -392,8 +414,18 @@ StatusFlags Estimator::update(const SensorFrame& frame, EstimatorState& out) noe
   }
   last_tick_ = frame.tick;
 
+  // Contact: F/T load, and the sole's height from this tick's leg kinematics placed by the
+  // previous tick's filter state (contact_detector.hpp).
+  compute_leg_kinematics(frame);
   for (int f = 0; f < kNumFeet; ++f) {
-    legs_.contact[f] = contact_[f].update(frame.foot_wrench_Fo_F[f]);
+    FootKinematics kin;
+    kin.dt = dt;
+    if (initialized_) {
+      const InvariantEkf::Mean& m = ekf_.mean();
+      const Vector3 sole_B = legs_.X_BF[f].act(Vector3(0.0, 0.0, -sole_height_[f]));
+      kin.sole_z = (m.p_WI + m.R_WI * X_IB_.act(sole_B)).z();
+    }
+    legs_.contact[f] = contact_[f].update(frame.foot_wrench_Fo_F[f], kin);
     legs_.normal_force[f] = frame.foot_wrench_Fo_F[f][2];
   }
 
@@ -408,8 +440,6 @@ StatusFlags Estimator::update(const SensorFrame& frame, EstimatorState& out) noe
   last_imu_q_ = frame.imu_q_WI;
   const bool frozen = same_imu_count_ >= config_.frozen_imu_ticks;
   if (frozen && !imu_frozen_) diag_.last_error = "IMU frozen: kinematics-only fallback";
-
-  compute_leg_kinematics(frame);
 
   if (!initialized_) {
     initialize(frame);
@@ -477,6 +507,8 @@ StatusFlags Estimator::update(const SensorFrame& frame, EstimatorState& out) noe
       legs_baseline.v_BF_B[f] = omega_B_raw.cross(legs_.X_BF[f].p) + v_F0_B_[f];
     if (imu_orientation_present(frame.imu_q_WI)) {
       R_WB_gyro_ = frame.imu_q_WI.normalized().toRotationMatrix() * X_IB_.R;
+    } else if (started_without_orientation_) {
+      R_WB_gyro_ = ekf_.mean().R_WI * X_IB_.R;  // the filter's, until relevel_from_filter()
     } else {
       // Integrate the body rate: R <- R exp([omega dt]x) (exact for a constant rate).
       const double angle = omega_B_raw.norm() * dt;
@@ -489,6 +521,8 @@ StatusFlags Estimator::update(const SensorFrame& frame, EstimatorState& out) noe
   }
 
   time_since_init_ += dt;
+  if (started_without_orientation_ && time_since_init_ >= config_.initializing_time)
+    relevel_from_filter();
   if (time_since_init_ < config_.initializing_time) flags |= kInitializing;
   time_since_start_ += dt;
   if (!contacts_free_ && config_.supports != SupportModel::kFixed)

@@ -1,34 +1,74 @@
 #pragma once
-// Contact detection from a foot force/torque sensor (Schmitt trigger on the normal force) and the
-// measured centre of pressure on the sole plane.
+// Contact detection from a foot force/torque sensor and, when the estimator provides it, the
+// foot's kinematic height (idl/README.md "Contact flags"), plus the measured centre of pressure
+// on the sole plane.
+//
+// Per tick, with fn the force along the foot normal (the foot frame's z axis) minus the
+// sensor offset learnt while the foot is clearly in the air:
+//   touch-down when fn > on_force (at once), or fn > touch_force and rising faster than
+//              touch_rate (at once: an impact), or fn > touch_force for confirm_ticks ticks;
+//              never while the sole is more than max_touch_height above where it last stood
+//              (kinematics given);
+//   lift-off   when fn < off_force for confirm_ticks ticks, or (kinematics given) the sole is
+//              lift_height above where it stood and still rising.
+// A sliding foot keeps its load, so neither rule fires while it slides (no chatter).
+
+#include <limits>
 
 #include "poise/estimator/types.hpp"
 
 namespace poise::estimator {
 
-/// Hysteresis thresholds on the force along the foot normal (the foot frame's z axis).
+/// Thresholds of the detector. The two-number form {on_force, off_force} of earlier versions is
+/// still valid (the others keep their defaults; touch_force <= 0 means off_force + the
+/// hysteresis gap to on_force / 4).
 struct ContactThresholds {
-  double on_force = 0.0;   ///< contact starts when the normal force rises above this [N]
-  double off_force = 0.0;  ///< contact ends when it falls below this [N] (< on_force)
+  double on_force = 0.0;   ///< contact starts at once above this [N]
+  double off_force = 0.0;  ///< contact ends below this (confirmed) [N] (< on_force)
+  double touch_force = 0.0;    ///< light-contact threshold (confirmed, or with touch_rate) [N]
+  double touch_rate = 2000.0;  ///< force rise that marks an impact [N/s]
+  int confirm_ticks = 2;       ///< ticks a light or vanishing load must persist (>= 1)
+  double max_touch_height = 0.02;  ///< no touch-down with the sole this far up [m]
+  double lift_height = 0.004;      ///< lift-off once the sole is this far up and rising [m]
+  double tare_height = 0.03;  ///< above this (in the air) the F/T reading is learnt as offset [m]
+  double tare_time = 0.05;    ///< time constant of that offset estimate [s]
+};
+
+/// What the estimator knows of the foot's motion this tick (NaN: unknown).
+struct FootKinematics {
+  double sole_z = std::numeric_limits<double>::quiet_NaN();  ///< sole centre height in W [m]
+  double dt = 0.001;                                         ///< since the previous tick [s]
 };
 
 /// One foot's contact state. Real-time safe (no allocation, no exception).
 class ContactDetector {
  public:
   ContactDetector() = default;
-  /// Throws std::invalid_argument unless 0 <= off_force < on_force (finite).
+  /// Throws std::invalid_argument unless 0 <= off_force < on_force and the other fields are
+  /// finite and in range (touch_force < on_force, touch_rate > 0, confirm_ticks >= 1, heights
+  /// >= 0, tare_time > 0).
   explicit ContactDetector(const ContactThresholds& thresholds);
 
-  /// Feeds one wrench [force; torque] at Fo in F axes; returns the contact state after it.
-  /// A non-finite normal force leaves the state unchanged.
-  bool update(const Force& wrench_Fo_F) noexcept;
+  /// Feeds one wrench [force; torque] at Fo in F axes, and optionally the foot's kinematics;
+  /// returns the contact state after it. A non-finite normal force leaves the state unchanged.
+  bool update(const Force& wrench_Fo_F, const FootKinematics& kin = FootKinematics{}) noexcept;
   bool in_contact() const noexcept { return in_contact_; }
-  void reset(bool in_contact = false) noexcept { in_contact_ = in_contact; }
+  void reset(bool in_contact = false) noexcept;
   const ContactThresholds& thresholds() const noexcept { return thresholds_; }
+  /// Normal force offset learnt in the air [N] (0 until the foot was clearly up once).
+  double force_offset() const noexcept { return offset_; }
 
  private:
   ContactThresholds thresholds_{};
   bool in_contact_ = false;
+  int pending_ = 0;        ///< consecutive ticks the opposite condition held
+  double fn_prev_ = 0.0;   ///< previous corrected normal force
+  bool have_prev_ = false;
+  double support_z_ = 0.0;  ///< sole height when the foot last stood [m]
+  bool have_support_ = false;
+  double z_prev_ = 0.0;
+  bool have_z_ = false;
+  double offset_ = 0.0;
 };
 
 /// Centre of pressure on the sole plane z = -sole_height of the foot frame F, in F coordinates:

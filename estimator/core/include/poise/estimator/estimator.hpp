@@ -100,7 +100,9 @@ enum class SupportModel { kFixed, kMoving, kTranslating };
 ///    orientation from the IMU's own orientation output (from the gyro integrated from the
 ///    start tilt when the IMU gives none: an all-zero quaternion), position and velocity from the
 ///    stance feet's kinematics with each stance foot held still in W since its touch-down, angular
-///    velocity the raw gyro. It estimates no IMU bias (published as 0) and, with no foot in
+///    velocity the raw gyro (without an IMU orientation, the attitude is the filter's during the
+///    first initializing_time and the gyro integrated from there). It estimates no IMU bias
+///    (published as 0) and, with no foot in
 ///    contact, propagates the base ballistically. While the IMU is frozen both use the same
 ///    kinematics-only fallback.
 enum class EstimatorKind { kInvariantEkf, kLegOdometry };
@@ -138,9 +140,11 @@ struct EstimatorConfig {
   /// With kTranslating: an orientation measurement whose innovation chi2 (3 dof) exceeds this is
   /// not used and the foot's kept orientation is taken again (the foot turned: it tips).
   double translating_orientation_max_chi2 = 16.3;  // 99.9 % of chi2(3)
-  /// Contact hysteresis as fractions of the robot's weight m |g| on the foot normal force.
+  /// Contact thresholds as fractions of the robot's weight m |g| on the foot normal force:
+  /// touch-down at once above on, lift-off confirmed below off (ContactDetector; a light load of
+  /// 2 % of the weight, or an impact, also makes a touch-down; kinematics gate both).
   double contact_on_fraction = 0.15;
-  double contact_off_fraction = 0.05;
+  double contact_off_fraction = 0.01;
   /// Identical consecutive IMU samples (gyro, accelerometer and orientation bit for bit) after
   /// which the IMU counts as frozen.
   int frozen_imu_ticks = 20;
@@ -207,6 +211,14 @@ class Estimator {
   void calibrate_on_still_supports(const SensorFrame& frame, StatusFlags flags) noexcept;
   void compute_leg_kinematics(const SensorFrame& frame) noexcept;
   void initialize(const SensorFrame& frame) noexcept;
+  /// Base position for a base orientation: x, y from the config, z such that the soles in
+  /// contact are at their start heights (initialize()).
+  Vector3 start_position(const Matrix3& R_WB) const noexcept;
+  /// End of the initialising window after a start without an IMU orientation: the start
+  /// attitude came from one accelerometer sample (degrees off while the robot settles); the
+  /// filter has corrected it since with the leg kinematics, so the base is re-placed at the
+  /// start heights with the filter's attitude, and leg odometry integrates the gyro from there.
+  void relevel_from_filter() noexcept;
   void write_output(const SensorFrame& frame, StatusFlags flags, EstimatorState& out) noexcept;
   void hold_output(const SensorFrame& frame, StatusFlags flags, EstimatorState& out) noexcept;
   InvariantEkf::Covariance initial_covariance() const noexcept;
@@ -227,6 +239,7 @@ class Estimator {
   /// start orientation (or from the IMU's last orientation when it had one).
   Matrix3 R_WB_gyro_ = Matrix3::Identity();
   Vector3 omega_B_raw_ = Vector3::Zero();  ///< raw gyro in base axes, this tick
+  bool started_without_orientation_ = false;  ///< initialize() had no IMU orientation
 
   // Workspaces (sized at construction).
   Eigen::VectorXd q_rel_, v_rel_;  ///< base at identity, base twist zero
