@@ -700,6 +700,9 @@ TEST(MutatedScenario, TopLevelFields) {
   expect_names(scenario_error(sub("  posture: nominal", "  posture: nominal\n  joints: {l_knee: 10}")),
                {"initial.joints.l_knee", "outside the joint limits"}, "initial knee 10 rad");
   expect_names(scenario_error(s + "colour: blue\n"), {"colour", "unknown key"}, "unknown key");
+  expect_names(scenario_error(sub("  min_base_height_m: 0.5",
+                                  "  min_base_height_m: 0.5\n  max_damping_ticks: 1e300")),
+               {"success.max_damping_ticks"}, "max_damping_ticks 1e300 (an overflowing cast)");
   expect_names(scenario_error("name: x\nduration: 1\n"
                               "robot: {urdf: /dev/zero, feet: {l: {frame: l_foot}}}\n"),
                {"robot.urdf", "not a regular file"}, "scenario robot.urdf /dev/zero");

@@ -523,8 +523,8 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
     k.min_base_height_m = c.num(s, "min_base_height_m", "success", k.min_base_height_m);
     const double damping = c.num(s, "max_damping_ticks", "success",
                                  static_cast<double>(k.max_damping_ticks));
-    if (!(damping >= 0.0) || damping != std::floor(damping))
-      c.fail("success.max_damping_ticks", "must be a whole number >= 0");
+    if (!(damping >= 0.0 && damping <= 1e15) || damping != std::floor(damping))
+      c.fail("success.max_damping_ticks", "must be a whole number in [0, 1e15]");
     else
       k.max_damping_ticks = static_cast<long long>(damping);
   }
