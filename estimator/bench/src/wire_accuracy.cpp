@@ -59,6 +59,7 @@ struct TruthSample {
   Vector3d p, v, w, com, vcom;
   Quaterniond q;
   std::array<bool, 2> contact{false, false};
+  bool other_contact = false;  ///< a link other than the feet touches something
   double stamp_s = 0.0;
 };
 
@@ -124,6 +125,7 @@ Accuracy analyse_recording(const std::string& mcap, const std::string& scenario_
       for (int f = 0; f < 2; ++f)
         t.contact[f] = gt.feet()[f].in_contact();
       t.stamp_s = 1e-9 * static_cast<double>(gt.header().stamp_ns());
+      t.other_contact = gt.other_contact_count() > 0;
       truths[gt.header().tick()] = t;
     } else if (topic == "poise/robot_description" && wire_joints.empty()) {
       if (decode(m, desc))
@@ -154,6 +156,23 @@ Accuracy analyse_recording(const std::string& mcap, const std::string& scenario_
     }
 
   Eigen::VectorXd q = model.neutral(), v = Eigen::VectorXd::Zero(model.nv);
+  // True foot positions of every tick with both topics: forward kinematics with the base at
+  // identity and the encoders' q, then the true base pose. Their velocities are central
+  // differences over +-kHalf ticks (the encoders' qd is the drive's filtered velocity: using it
+  // would put the filter's lag into the truth).
+  constexpr int kHalf = 5;
+  std::map<std::uint64_t, std::array<Vector3d, 2>> true_feet;
+  for (const auto& [tick, s] : states) {
+    const auto it = truths.find(tick);
+    if (it == truths.end() || s.joints_q.size() != wire_joints.size()) continue;
+    for (std::size_t j = 0; j < wire_of.size(); ++j)
+      q[7 + static_cast<Eigen::Index>(j)] = s.joints_q[static_cast<std::size_t>(wire_of[j])];
+    model::forward_kinematics(model, data, q, v);
+    std::array<Vector3d, 2> p;
+    for (int f = 0; f < 2; ++f)
+      p[f] = it->second.p + it->second.q * model::frame_placement(model, data, foot_frame[f]).p;
+    true_feet[tick] = p;
+  }
   bool have_t0 = false;
   double t0 = 0.0;
   int next_drift = 0;
@@ -170,6 +189,10 @@ Accuracy analyse_recording(const std::string& mcap, const std::string& scenario_
     if (s.flags & 16u) continue;  // STATE_INITIALIZING
     if (s.joints_q.size() != wire_joints.size()) continue;
     const double time = t.stamp_s - t0;
+    if (t.other_contact) {
+      acc.fell_at_s = time;
+      break;
+    }
     ++acc.matched_ticks;
     acc.duration_s = time;
     // World frame.
@@ -182,7 +205,8 @@ Accuracy analyse_recording(const std::string& mcap, const std::string& scenario_
     acc.attitude_deg.add(Eigen::AngleAxisd(R_est.transpose() * R_true).angle() * kRadToDeg);
     const double c = std::clamp(R_est.col(2).dot(R_true.col(2)), -1.0, 1.0);
     acc.tilt_deg.add(std::acos(c) * kRadToDeg);
-    while (next_drift < 3 && time >= acc.drift_t[next_drift]) {
+    // (a run of D s ends at its tick D/dt - 1: 5 ms of tolerance)
+    while (next_drift < 3 && time >= acc.drift_t[next_drift] - 0.005) {
       acc.base_drift[next_drift] = (s.p - t.p).norm();
       acc.com_drift[next_drift] = (s.com - t.com).norm();
       ++next_drift;
@@ -192,23 +216,17 @@ Accuracy analyse_recording(const std::string& mcap, const std::string& scenario_
       ++acc.no_support_ticks;
       continue;
     }
-    // True feet: forward kinematics with the base at identity (foot pose and velocity relative
-    // to the base, base axes), then the true base pose and twist.
-    for (std::size_t j = 0; j < wire_of.size(); ++j) {
-      q[7 + static_cast<Eigen::Index>(j)] = s.joints_q[static_cast<std::size_t>(wire_of[j])];
-      v[6 + static_cast<Eigen::Index>(j)] = s.joints_qd[static_cast<std::size_t>(wire_of[j])];
-    }
-    model::forward_kinematics(model, data, q, v);
+    const auto before = true_feet.find(tick - kHalf), after = true_feet.find(tick + kHalf);
+    if (before == true_feet.end() || after == true_feet.end()) continue;  // run's ends
+    const double span = truths.at(tick + kHalf).stamp_s - truths.at(tick - kHalf).stamp_s;
+    if (!(span > 0.0)) continue;
     Vector3d sup_est = Vector3d::Zero(), sup_vest = Vector3d::Zero();
     Vector3d sup_true = Vector3d::Zero(), sup_vtrue = Vector3d::Zero();
     int n = 0;
     for (int f = 0; f < 2; ++f) {
       if (!t.contact[f]) continue;
-      const model::SE3 X_BF = model::frame_placement(model, data, foot_frame[f]);
-      const model::Motion V = model::frame_velocity(model, data, foot_frame[f]);
-      const Vector3d r_W = R_true * X_BF.p;
-      sup_true += t.p + r_W;
-      sup_vtrue += t.v + t.w.cross(r_W) + R_true * V.head<3>();
+      sup_true += true_feet[tick][f];
+      sup_vtrue += (after->second[f] - before->second[f]) / span;
       sup_est += s.foot_p[f];
       sup_vest += s.foot_v[f];
       ++n;
@@ -355,6 +373,12 @@ std::string format_table(const std::vector<Accuracy>& results) {
                   d(a.base_drift[2]).c_str(), d(a.com_drift[0]).c_str(), d(a.com_drift[1]).c_str(),
                   d(a.com_drift[2]).c_str(), !a.ran || a.survived ? "" : "  (run FAILED)");
     o << line;
+    if (!std::isnan(a.fell_at_s)) {
+      std::snprintf(line, sizeof line, "    fell at %.2f s: figures up to then\n", a.fell_at_s);
+    } else {
+      line[0] = '\0';
+    }
+    o << line;
   }
   return o.str();
 }
@@ -370,7 +394,7 @@ std::string to_json(const std::vector<Accuracy>& results) {
     const Accuracy& a = results[i];
     o << "  {\"scenario\": \"" << a.scenario << "\", \"estimator\": \"" << a.estimator
       << "\", \"error\": \"" << a.error << "\", \"survived\": " << (a.survived ? "true" : "false")
-      << ", \"duration_s\": " << a.duration_s << ", \"matched_ticks\": " << a.matched_ticks << ", ";
+      << ", \"fell_at_s\": " << num(a.fell_at_s) << ", \"duration_s\": " << a.duration_s << ", \"matched_ticks\": " << a.matched_ticks << ", ";
     stat("base_pos_m", a.base_pos);
     stat("base_pos_before_2s_m", a.base_pos_early);
     stat("base_vel_mps", a.base_vel);

@@ -3,19 +3,22 @@
 // scenario (`poise run SCENARIO --record FILE`, real processes over loopback DDS), then
 // poise/state against poise/ground_truth of the recording, matched by tick.
 //
-// Figures (ticks flagged STATE_INITIALIZING left out: the first 0.5 s):
+// Figures (ticks flagged STATE_INITIALIZING left out: the first 0.5 s; a run in which the robot
+// falls is evaluated up to its first non-foot contact):
 //  - world frame: base position, base velocity, CoM position and velocity errors (norm of the
 //    difference), attitude error (angle of R_est^T R_true) and tilt error (angle between the
 //    estimated and true base z axes: roll/pitch, yaw excluded);
 //  - relative to the supporting feet: the CoM and the base position and velocity minus the mean
 //    position and velocity of the feet in contact (the truth's contact flags choose the feet for
-//    both sides), estimated minus true. The true feet come from the true base pose and twist and
-//    the encoders' q, qd carried in poise/state (the ground truth has no foot poses);
+//    both sides), estimated minus true. The true feet come from the true base pose and the
+//    encoders' q carried in poise/state (the ground truth has no foot poses), their velocities
+//    from central differences over +-5 ticks (not from the encoders' filtered qd);
 //  - drift: the world base and CoM position errors at 5, 10 and 20 s (NaN past the run's end).
 // Used by poise-bench-estimator-wire and tests/estimator/estimator_wire_test.cpp.
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -46,6 +49,9 @@ struct Accuracy {
   // Relative to the supporting feet [m, m/s].
   Stat rel_com_pos, rel_com_vel, rel_base_pos, rel_base_vel;
   std::uint64_t no_support_ticks = 0;  ///< ticks with no foot in contact (truth): no relative figure
+  /// Time of the first tick with a non-foot contact (the robot fell): the figures stop there.
+  /// NaN: it did not fall.
+  double fell_at_s = std::numeric_limits<double>::quiet_NaN();
   // World drift: base / CoM position error at 5, 10, 20 s [m] (NaN past the end).
   double drift_t[3] = {5.0, 10.0, 20.0};
   double base_drift[3] = {0.0, 0.0, 0.0};
