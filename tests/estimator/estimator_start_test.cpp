@@ -1,0 +1,85 @@
+// The scenario's estimator section (type, ground_height, support_height) and where `poise run`
+// starts the estimator's soles (sim::estimator_start, issue #20 item 2): given heights, the ground
+// plane, and the platforms' placement at t = 0 checked against the geometry of the shipped
+// platforms.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "poise/estimator/estimator.hpp"
+#include "poise/sim/scenario.hpp"
+
+namespace {
+
+using namespace poise;
+
+const std::string kRobot = std::string("robot: {config: ") + POISE_SOURCE_DIR +
+                           "/deploy/robots/poise_humanoid/robot.yaml}\n";
+
+sim::Scenario parse(const std::string& estimator_section) {
+  return sim::parse_scenario("name: t\nduration: 1\n" + kRobot + estimator_section, ".", "test");
+}
+
+TEST(EstimatorStart, ScenarioKeysAndDefaults) {
+  const sim::Scenario plain = parse("");
+  EXPECT_EQ(plain.estimator.type, "invariant-ekf");
+  sim::EstimatorStart s = sim::estimator_start(plain);
+  EXPECT_EQ(s.source, "ground plane");
+  EXPECT_FALSE(s.per_foot);
+  EXPECT_EQ(s.ground_height, 0.0);
+
+  const sim::Scenario g = parse("estimator: {type: leg-odometry, ground_height: 0.05}\n");
+  EXPECT_EQ(g.estimator.type, "leg-odometry");
+  EXPECT_EQ(estimator::parse_estimator_kind(g.estimator.type),
+            estimator::EstimatorKind::kLegOdometry);
+  s = sim::estimator_start(g);
+  EXPECT_EQ(s.source, "scenario ground_height");
+  EXPECT_DOUBLE_EQ(s.ground_height, 0.05);
+  EXPECT_FALSE(s.per_foot);
+
+  const sim::Scenario f = parse("estimator: {support_height: {left: 0.1, right: 0.2}}\n");
+  s = sim::estimator_start(f);
+  EXPECT_EQ(s.source, "scenario support_height");
+  ASSERT_TRUE(s.per_foot);
+  EXPECT_DOUBLE_EQ(s.support_height[0], 0.2);  // right
+  EXPECT_DOUBLE_EQ(s.support_height[1], 0.1);  // left
+}
+
+TEST(EstimatorStart, BadValuesAreRefusedNamingTheKey) {
+  const auto message = [](const std::string& section) {
+    try {
+      parse(section);
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_NE(message("estimator: {type: kalman}\n").find("estimator.type"), std::string::npos);
+  EXPECT_NE(message("estimator: {ground_height: high}\n").find("estimator.ground_height"),
+            std::string::npos);
+  EXPECT_NE(message("estimator: {support_height: {middle: 0.1}}\n")
+                .find("estimator.support_height.middle"),
+            std::string::npos);
+  EXPECT_NE(message("estimator: {support_height: 0.1}\n").find("estimator.support_height"),
+            std::string::npos);
+  EXPECT_THROW(estimator::parse_estimator_kind("kalman"), estimator::EstimatorError);
+}
+
+// The shipped platforms: 0.1 m boxes pitched +10 deg (left, toe down) and -10 deg (right); the
+// robot is lifted until its lowest sole point, the left toe (x_max = 0.14 m ahead of the foot
+// frame), touches z = 0.1. The left sole point under the foot frame is then 0.14 sin(10 deg)
+// higher; the legs are symmetric, so the right one is at the same height.
+TEST(EstimatorStart, PlatformHeightsFollowThePlacement) {
+  const sim::Scenario sc =
+      sim::load_scenario(std::string(POISE_SOURCE_DIR) + "/deploy/scenarios/platforms_in_phase.yaml");
+  const sim::EstimatorStart s = sim::estimator_start(sc);
+  EXPECT_EQ(s.source, "platforms at t = 0");
+  ASSERT_TRUE(s.per_foot);
+  const double expected = 0.1 + 0.14 * std::sin(10.0 * M_PI / 180.0);
+  EXPECT_NEAR(s.support_height[1], expected, 1e-3);
+  EXPECT_NEAR(s.support_height[0], expected, 2e-3);
+}
+
+}  // namespace
