@@ -63,6 +63,21 @@ Accuracy run(const std::string& scenario, const std::string& estimator, double d
   return a;
 }
 
+fs::path scratch() {
+  return fs::temp_directory_path() / ("poise_estimator_wire_" + std::to_string(::getpid()));
+}
+
+/// Keeps the recordings and logs of a failed test (the failure names them), removes them else.
+class EstimatorWire : public ::testing::Test {
+ protected:
+  void TearDown() override {
+    if (!HasFailure()) {
+      std::error_code ec;
+      fs::remove_all(scratch(), ec);
+    }
+  }
+};
+
 std::string read(const fs::path& p) {
   std::ifstream in(p);
   std::stringstream s;
@@ -72,7 +87,7 @@ std::string read(const fs::path& p) {
 
 // Static ground: world-frame figures of both estimators, and leg odometry really is what
 // poise-estimator published (its summary names it, and it estimates no bias).
-TEST(EstimatorWire, StandingWorldFiguresOfBothEstimators) {
+TEST_F(EstimatorWire, StandingWorldFiguresOfBothEstimators) {
   const Accuracy ekf = run("standing", "invariant-ekf", 5.0, "standing_ekf");
   ASSERT_EQ(ekf.error, "");
   EXPECT_TRUE(ekf.survived);
@@ -99,7 +114,7 @@ TEST(EstimatorWire, StandingWorldFiguresOfBothEstimators) {
 
 // An IMU without an orientation output (all zeros on the wire): leg odometry integrates the gyro
 // from the start tilt (the accelerometer's) instead of copying a quaternion it does not have.
-TEST(EstimatorWire, LegOdometryWithoutImuOrientationIntegratesTheGyro) {
+TEST_F(EstimatorWire, LegOdometryWithoutImuOrientationIntegratesTheGyro) {
   const fs::path dir = fs::temp_directory_path() /
                        ("poise_estimator_wire_" + std::to_string(::getpid()));
   fs::create_directories(dir);
@@ -135,7 +150,7 @@ TEST(EstimatorWire, LegOdometryWithoutImuOrientationIntegratesTheGyro) {
 // Moving supports: the CoM and base relative to the supporting feet are observable and
 // accurate; the world frame drifts (reported, bounded loosely), the start height is the
 // platforms' (derived by poise run), not 0.
-TEST(EstimatorWire, PlatformsInPhaseRelativeFigures) {
+TEST_F(EstimatorWire, PlatformsInPhaseRelativeFigures) {
   const Accuracy a = run("platforms_in_phase", "invariant-ekf", 8.0, "platforms_ekf");
   ASSERT_EQ(a.error, "");
   EXPECT_TRUE(a.survived);
