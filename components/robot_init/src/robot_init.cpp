@@ -1,0 +1,570 @@
+// `poise robot init URDF [-o DIR] [--name NAME] [--force] [--wn W]`: guesses a robot.yaml from a
+// URDF alone (legs, feet, soles, IMU, nominal posture, PD gains), writes it, checks it with the
+// loader and prints what it guessed. README: components/robot_init/README.md.
+#include <CLI/CLI.hpp>
+#include <urdf_parser/urdf_parser.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "poise/model/centroidal.hpp"
+#include "poise/model/dynamics.hpp"
+#include "poise/model/kinematics.hpp"
+#include "poise/model/model.hpp"
+#include "poise/model/robot_config.hpp"
+
+namespace fs = std::filesystem;
+
+namespace poise::robot_init {
+
+namespace {
+
+using model::Matrix3;
+using model::SE3;
+using model::Vector3;
+
+struct InitError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+struct Options {
+  std::string urdf;
+  std::string out_dir;
+  std::string name;
+  bool force = false;
+  double wn = 100.0;          ///< rad/s, natural frequency of each joint's PD loop
+  double knee_bend = 0.5;     ///< rad
+  double dt = 0.001;          ///< s, control period
+};
+
+// Points of one collision shape in its link frame (boxes: corners; cylinders and spheres: points
+// on their surface, enough for a bounding rectangle to 1 mm at foot sizes).
+bool shape_points(const urdf::Geometry& g, std::vector<Vector3>& out) {
+  switch (g.type) {
+    case urdf::Geometry::BOX: {
+      const auto& b = static_cast<const urdf::Box&>(g);
+      for (int i = 0; i < 8; ++i)
+        out.emplace_back((i & 1 ? 0.5 : -0.5) * b.dim.x, (i & 2 ? 0.5 : -0.5) * b.dim.y,
+                         (i & 4 ? 0.5 : -0.5) * b.dim.z);
+      return true;
+    }
+    case urdf::Geometry::CYLINDER: {
+      const auto& c = static_cast<const urdf::Cylinder&>(g);
+      for (int k = 0; k < 64; ++k) {
+        const double a = 2.0 * M_PI * k / 64.0;
+        for (double z : {-0.5 * c.length, 0.5 * c.length})
+          out.emplace_back(c.radius * std::cos(a), c.radius * std::sin(a), z);
+      }
+      return true;
+    }
+    case urdf::Geometry::SPHERE: {
+      const auto& s = static_cast<const urdf::Sphere&>(g);
+      for (int i = 0; i <= 16; ++i)
+        for (int k = 0; k < 32; ++k) {
+          const double t = M_PI * i / 16.0, a = 2.0 * M_PI * k / 32.0;
+          out.emplace_back(s.radius * std::sin(t) * std::cos(a),
+                           s.radius * std::sin(t) * std::sin(a), s.radius * std::cos(t));
+        }
+      return true;
+    }
+    default:
+      return false;  // meshes: not read here
+  }
+}
+
+SE3 pose_of(const urdf::Pose& p) {
+  double x, y, z, w;
+  p.rotation.getQuaternion(x, y, z, w);
+  const Eigen::Quaterniond q(w, x, y, z);
+  return SE3(q.normalized().toRotationMatrix(), Vector3(p.position.x, p.position.y, p.position.z));
+}
+
+struct BodyGeometry {
+  std::vector<Vector3> points_B;   ///< collision points in the body frame
+  std::vector<std::string> meshes;  ///< links with mesh collisions (not read)
+};
+
+std::string fmt(double v, int prec = 4) {
+  std::ostringstream os;
+  os << std::setprecision(prec) << std::fixed << v;
+  std::string s = os.str();
+  if (s.find('.') != std::string::npos) {
+    while (s.back() == '0') s.pop_back();
+    if (s.back() == '.') s.pop_back();
+  }
+  if (s == "-0") s = "0";
+  return s;
+}
+
+struct Leg {
+  std::string side;               ///< "left" / "right"
+  int foot_body = -1;
+  std::string foot_frame;
+  std::vector<int> joints;        ///< model joints from the hip down
+  model::SoleRectangle sole;
+  std::string sole_frame;
+  bool sole_added = false;
+  int hip = -1, knee = -1, ankle = -1;  ///< pitch joints (model indices), -1 when not found
+  double s_hip = 1, s_knee = 1, s_ankle = 1;  ///< sign of each pitch axis along world +y
+};
+
+// Joint value from a rotation about world +y, clamped to the limits.
+double clamp_limits(const model::Model& m, int j, double v) {
+  return std::clamp(v, m.limits[j].lower, m.limits[j].upper);
+}
+
+int run_init(const Options& opt) {
+  const fs::path urdf_path = fs::absolute(opt.urdf).lexically_normal();
+  if (!fs::is_regular_file(urdf_path)) throw InitError("no such file: " + opt.urdf);
+  const std::string xml = model::read_text_file_limited(urdf_path, "URDF");
+  const model::Model m = model::build_model_from_urdf_string(xml, urdf_path.string());
+  const urdf::ModelInterfaceSharedPtr u = urdf::parseURDF(xml);
+  if (!u) throw InitError(urdf_path.string() + ": urdfdom could not parse the URDF");
+
+  const std::string robot_name = !opt.name.empty() ? opt.name : m.name;
+  const fs::path out_dir = fs::absolute(opt.out_dir.empty()
+                                            ? fs::path(urdf_path.stem().string() + "_poise")
+                                            : fs::path(opt.out_dir))
+                               .lexically_normal();
+  const fs::path yaml_path = out_dir / "robot.yaml";
+  if (fs::exists(yaml_path) && !opt.force)
+    throw InitError(yaml_path.string() + " exists (--force to overwrite it)");
+  if (m.njoints < 4)
+    throw InitError("the URDF has " + std::to_string(m.njoints) +
+                    " movable joints: a humanoid needs two legs of several joints each");
+
+  std::vector<std::string> checks;  // what the user should check
+
+  // ---- collision geometry per body, in the body frame ------------------------------------------
+  std::vector<BodyGeometry> geo(m.nbodies);
+  for (const model::Frame& f : m.frames) {
+    const auto it = u->links_.find(f.name);
+    if (it == u->links_.end() || !it->second) continue;
+    for (const auto& c : it->second->collision_array) {
+      if (!c || !c->geometry) continue;
+      std::vector<Vector3> pts;
+      if (!shape_points(*c->geometry, pts)) {
+        geo[f.body].meshes.push_back(f.name);
+        continue;
+      }
+      const SE3 X_BC = f.X_BF * pose_of(c->origin);
+      for (const Vector3& p : pts) geo[f.body].points_B.push_back(X_BC.act(p));
+    }
+  }
+
+  // ---- zero configuration: base at the origin, upright ------------------------------------------
+  model::Data data(m);
+  Eigen::VectorXd q = m.neutral();
+  model::forward_kinematics(m, data, q);
+  auto lowest_z = [&](int b) {
+    double z = data.oMi[b].p.z();
+    for (const Vector3& p : geo[b].points_B) z = std::min(z, data.oMi[b].act(p).z());
+    return z;
+  };
+  auto has_shapes = [&](int b) { return !geo[b].points_B.empty(); };
+
+  // ---- feet: the lowest body, then the lowest body on another branch with y of the other sign ---
+  int a = -1;
+  for (int b = 1; b < m.nbodies; ++b)
+    if (has_shapes(b) && (a < 0 || lowest_z(b) < lowest_z(a) - 1e-9)) a = b;
+  if (a < 0)
+    throw InitError(
+        "no movable link carries a primitive collision shape (box, cylinder, sphere): the feet are "
+        "found by their collision geometry (mesh-only feet are not read yet)");
+  auto related = [&](int x, int y) {
+    return (x <= y && y <= m.subtree_end[x]) || (y <= x && x <= m.subtree_end[y]);
+  };
+  const double ya = data.oMi[a].p.y();
+  int b2 = -1;
+  for (int b = 1; b < m.nbodies; ++b) {
+    if (!has_shapes(b) || related(a, b)) continue;
+    if (data.oMi[b].p.y() * ya >= 0.0) continue;
+    if (b2 < 0 || lowest_z(b) < lowest_z(b2) - 1e-9) b2 = b;
+  }
+  if (b2 < 0 || std::abs(ya) < 1e-4)
+    throw InitError("found one leg ending in '" + m.body_name[a] + "' (lowest collision point z = " +
+                    fmt(lowest_z(a)) +
+                    " m at the zero configuration) but no second leg: no other chain from the "
+                    "floating base ends on the other side (y of the other sign) in a link with "
+                    "collision geometry");
+  if (std::abs(lowest_z(a) - lowest_z(b2)) > 0.01)
+    checks.push_back("the two feet are " + fmt(std::abs(lowest_z(a) - lowest_z(b2)) * 1000, 1) +
+                     " mm apart in height at the zero configuration: are '" + m.body_name[a] +
+                     "' and '" + m.body_name[b2] + "' the feet?");
+
+  std::vector<Leg> legs(2);  // [0] right, [1] left (model::Side)
+  legs[ya > 0 ? 1 : 0].foot_body = a;
+  legs[ya > 0 ? 0 : 1].foot_body = b2;
+  legs[0].side = "right";
+  legs[1].side = "left";
+
+  // Leg joints: those on one foot's chain from the floating base and not on the other's.
+  std::vector<std::set<int>> chain(2);
+  for (int s = 0; s < 2; ++s)
+    for (int b = legs[s].foot_body; b > 0; b = m.parent[b]) chain[s].insert(b - 1);
+  for (int s = 0; s < 2; ++s) {
+    for (int j : chain[s])
+      if (!chain[1 - s].count(j)) legs[s].joints.push_back(j);
+    std::sort(legs[s].joints.begin(), legs[s].joints.end());  // pre-order: hip first
+    if (legs[s].joints.size() < 3)
+      checks.push_back("the " + legs[s].side + " leg has only " +
+                       std::to_string(legs[s].joints.size()) + " joints of its own");
+  }
+
+  // ---- feet and soles ---------------------------------------------------------------------------
+  std::string urdf_out = xml;
+  bool urdf_modified = false;
+  for (Leg& leg : legs) {
+    const int fb = leg.foot_body;
+    leg.foot_frame = m.body_name[fb];
+    const SE3& X_WF = data.oMi[fb];
+    if (X_WF.R.col(2).z() < std::cos(1e-3))
+      throw InitError("the " + leg.side + " foot frame '" + leg.foot_frame +
+                      "' does not have its z axis up at the zero configuration: not supported yet "
+                      "(the sole rectangle is given in the foot frame, z up)");
+    if (!geo[fb].meshes.empty())
+      checks.push_back("mesh collisions of '" + geo[fb].meshes.front() +
+                       "' were not read: the sole comes from its primitive shapes only");
+    double zmin = 1e9;
+    for (const Vector3& p : geo[fb].points_B) zmin = std::min(zmin, p.z());
+    double xl = 1e9, xh = -1e9, yl = 1e9, yh = -1e9;
+    for (const Vector3& p : geo[fb].points_B)
+      if (p.z() <= zmin + 1e-3) {
+        xl = std::min(xl, p.x());
+        xh = std::max(xh, p.x());
+        yl = std::min(yl, p.y());
+        yh = std::max(yh, p.y());
+      }
+    if (!(xh - xl >= 0.02 && yh - yl >= 0.02))
+      throw InitError("the " + leg.side + " foot '" + leg.foot_frame +
+                      "' has no flat bottom face in its collision geometry (bottom " +
+                      fmt((xh - xl) * 1000, 1) + " x " + fmt((yh - yl) * 1000, 1) +
+                      " mm): poise needs a flat sole (a box)");
+    if (!(zmin < -1e-4))
+      throw InitError("the " + leg.side + " foot '" + leg.foot_frame +
+                      "': the bottom of its collision geometry is not below the foot frame origin");
+    leg.sole = {xl, xh, yl, yh, -zmin};
+    // An existing link on the sole plane, same axes?
+    for (const model::Frame& f : m.frames) {
+      if (f.body != fb || f.is_body) continue;
+      if ((f.X_BF.p - Vector3(0, 0, zmin)).norm() <= 1e-4 &&
+          f.X_BF.R.isApprox(Matrix3::Identity(), 1e-9)) {
+        leg.sole_frame = f.name;
+        break;
+      }
+    }
+    if (leg.sole_frame.empty()) {
+      std::string name = leg.foot_frame + "_sole_poise";
+      while (m.has_frame(name) || u->joints_.count(name + "_joint")) name += "_";
+      leg.sole_frame = name;
+      leg.sole_added = true;
+      std::ostringstream add;
+      add << std::setprecision(17) << "  <!-- added by poise robot init: the sole plane -->\n"
+          << "  <joint name=\"" << name << "_joint\" type=\"fixed\">\n"
+          << "    <parent link=\"" << leg.foot_frame << "\"/>\n    <child link=\"" << name
+          << "\"/>\n    <origin xyz=\"0 0 " << zmin << "\" rpy=\"0 0 0\"/>\n  </joint>\n"
+          << "  <link name=\"" << name << "\"/>\n";
+      const auto pos = urdf_out.rfind("</robot>");
+      if (pos == std::string::npos) throw InitError("no </robot> in the URDF");
+      urdf_out.insert(pos, add.str());
+      urdf_modified = true;
+    }
+  }
+
+  // ---- nominal posture: bent knees, soles flat, CoM over the sole centres -----------------------
+  const Vector3 ey(0, 1, 0);
+  for (Leg& leg : legs) {
+    std::vector<std::pair<int, double>> pitch;  // joint, sign of its world axis along +y
+    for (int j : leg.joints) {
+      if (m.joint_type[j + 1] != model::JointType::kRevolute &&
+          m.joint_type[j + 1] != model::JointType::kContinuous)
+        continue;
+      const Vector3 aw = data.oMi[j + 1].R * m.axis[j + 1];
+      if (std::abs(aw.dot(ey)) > 0.95) pitch.emplace_back(j, aw.dot(ey) > 0 ? 1.0 : -1.0);
+    }
+    if (pitch.size() >= 3) {
+      leg.hip = pitch.front().first;
+      leg.s_hip = pitch.front().second;
+      leg.knee = pitch[pitch.size() / 2].first;  // the middle one of three
+      leg.s_knee = pitch[pitch.size() / 2].second;
+      leg.ankle = pitch.back().first;
+      leg.s_ankle = pitch.back().second;
+    } else {
+      checks.push_back("the " + leg.side + " leg has " + std::to_string(pitch.size()) +
+                       " pitch joints (axis along y), not 3 (hip, knee, ankle): knees not bent");
+    }
+  }
+  const bool can_bend = legs[0].knee >= 0 && legs[1].knee >= 0;
+  // Rotations about +y (world): knee +k (the knee forward), hip -k/2 + d, ankle -k/2 - d: the sum is
+  // 0, so the sole stays parallel to the pelvis; d leans the legs to put the CoM over the feet.
+  double knee = 0.0;
+  if (can_bend) {
+    knee = opt.knee_bend;
+    for (const Leg& leg : legs) {
+      const double lim = leg.s_knee > 0 ? m.limits[leg.knee].upper : -m.limits[leg.knee].lower;
+      knee = std::min(knee, 0.9 * lim);
+    }
+    if (!(knee > 0.05)) {
+      checks.push_back("the knee limits do not allow bending the knees forward: knees straight");
+      knee = 0.0;
+    }
+  }
+  auto set_posture = [&](double d) {
+    q = m.neutral();
+    if (knee <= 0.0) return;
+    for (const Leg& leg : legs) {
+      q[m.idx_q(leg.knee)] = clamp_limits(m, leg.knee, knee * leg.s_knee);
+      q[m.idx_q(leg.hip)] = clamp_limits(m, leg.hip, (-0.5 * knee + d) * leg.s_hip);
+      q[m.idx_q(leg.ankle)] = clamp_limits(m, leg.ankle, (-0.5 * knee - d) * leg.s_ankle);
+    }
+  };
+  struct Stance {
+    Eigen::Vector2d com_error;  ///< CoM minus the mid-point of the sole centres (world xy)
+    double tilt = 0.0;          ///< worst sole tilt (rad)
+    double dz = 0.0;            ///< sole height difference
+    bool inside = false;        ///< CoM inside the bounding box of the soles
+  };
+  auto stance = [&]() {
+    Stance st;
+    q[2] = 0.0;
+    model::forward_kinematics(m, data, q);
+    double zs = 0.0;
+    for (const Leg& leg : legs) zs += data.oMi[leg.foot_body].act(Vector3(0, 0, -leg.sole.height)).z();
+    q[2] = -0.5 * zs;
+    model::forward_kinematics(m, data, q);
+    model::center_of_mass(m, data, q);
+    Eigen::Vector2d mid = Eigen::Vector2d::Zero(), lo(1e9, 1e9), hi(-1e9, -1e9);
+    std::vector<double> z;
+    for (const Leg& leg : legs) {
+      const SE3& X = data.oMi[leg.foot_body];
+      const auto& s = leg.sole;
+      mid += 0.5 * X.act(Vector3(0.5 * (s.x_min + s.x_max), 0.5 * (s.y_min + s.y_max), -s.height))
+                       .head<2>();
+      for (double x : {s.x_min, s.x_max})
+        for (double y : {s.y_min, s.y_max}) {
+          const Vector3 c = X.act(Vector3(x, y, -s.height));
+          lo = lo.cwiseMin(c.head<2>());
+          hi = hi.cwiseMax(c.head<2>());
+        }
+      st.tilt = std::max(st.tilt, std::acos(std::clamp(X.R.col(2).z(), -1.0, 1.0)));
+      z.push_back(X.act(Vector3(0, 0, -s.height)).z());
+    }
+    st.dz = std::abs(z[0] - z[1]);
+    st.com_error = data.com.head<2>() - mid;
+    st.inside = (data.com.head<2>().array() >= lo.array()).all() &&
+                (data.com.head<2>().array() <= hi.array()).all();
+    return st;
+  };
+  double d = 0.0;
+  set_posture(d);
+  Stance st = stance();
+  if (knee > 0.0) {
+    // Secant on d for the CoM x error (sagittal).
+    double d0 = 0.0, e0 = st.com_error.x(), d1 = 0.05;
+    set_posture(d1);
+    double e1 = stance().com_error.x();
+    for (int it = 0; it < 30 && std::abs(e1) > 1e-5 && std::abs(e1 - e0) > 1e-12; ++it) {
+      const double d2 = std::clamp(d1 - e1 * (d1 - d0) / (e1 - e0), -0.5, 0.5);
+      d0 = d1;
+      e0 = e1;
+      d1 = d2;
+      set_posture(d1);
+      e1 = stance().com_error.x();
+    }
+    d = d1;
+    set_posture(d);
+    st = stance();
+    if (std::abs(st.com_error.x()) > 0.005) {
+      checks.push_back("the CoM could not be put over the sole centres by leaning the legs (" +
+                       fmt(st.com_error.x() * 1000, 1) + " mm off in x)");
+    }
+  }
+  if (st.tilt > 1e-3)
+    throw InitError("in the nominal posture a sole is tilted by " + fmt(st.tilt, 4) +
+                    " rad (joint limits?)");
+  if (st.dz > 1e-3)
+    throw InitError("in the nominal posture the soles differ in height by " + fmt(st.dz * 1000, 2) +
+                    " mm");
+  if (!st.inside)
+    throw InitError("in the nominal posture the CoM is not above the feet (" +
+                    fmt(st.com_error.x() * 1000, 1) + ", " + fmt(st.com_error.y() * 1000, 1) +
+                    " mm from the mid-point of the sole centres)");
+  if (std::abs(st.com_error.y()) > 0.01)
+    checks.push_back("the CoM is " + fmt(st.com_error.y() * 1000, 1) +
+                     " mm sideways from the mid-point of the soles: is the robot symmetric?");
+
+  // ---- PD gains from the effective inertia at the nominal posture -------------------------------
+  model::crba(m, data, q);
+  const Eigen::MatrixXd Minv = data.M.inverse();
+  const double zeta = 1.0;
+  // Ceiling and floor (N m/rad): kp = I wn^2 with the floor applied only where it keeps the
+  // explicit PD loop well inside its stability bound (kp dt^2 / I <= 0.04, kd dt / I <= 0.4).
+  const double kp_max = 2000.0, kp_min = 1.0;
+  std::vector<model::JointGains> gains(m.njoints);
+  std::vector<double> inertia(m.njoints);
+  for (int j = 0; j < m.njoints; ++j) {
+    const int i = m.idx_v(j);
+    const double I = 1.0 / Minv(i, i);  // effective inertia, the rest of the robot free
+    inertia[j] = I;
+    double kp = I * opt.wn * opt.wn;
+    kp = std::min(kp, kp_max);
+    kp = std::max(kp, std::min(kp_min, 0.04 * I / (opt.dt * opt.dt)));
+    const double kd = std::min(2.0 * zeta * std::sqrt(kp * I), 0.4 * I / opt.dt);
+    gains[j] = {kp, kd};
+  }
+
+  // ---- write ------------------------------------------------------------------------------------
+  fs::create_directories(out_dir);
+  fs::path urdf_ref = urdf_path;
+  if (urdf_modified) {
+    urdf_ref = out_dir / (urdf_path.stem().string() + "_poise.urdf");
+    std::ofstream(urdf_ref) << urdf_out;
+    if (urdf_path.parent_path() != out_dir)
+      checks.push_back("the URDF was copied into " + out_dir.string() +
+                       ": relative mesh file names in it now resolve from there");
+  }
+  // Relative when the URDF is in the output folder, else absolute.
+  std::string urdf_entry = urdf_ref.parent_path() == out_dir ? urdf_ref.filename().string()
+                                                              : urdf_ref.string();
+
+  std::vector<int> leg_joints, upper;
+  for (int s : {1, 0})
+    for (int j : legs[s].joints) leg_joints.push_back(j);
+  for (int j = 0; j < m.njoints; ++j)
+    if (std::find(leg_joints.begin(), leg_joints.end(), j) == leg_joints.end()) upper.push_back(j);
+  auto names = [&](const std::vector<int>& js) {
+    std::string s = "[";
+    for (std::size_t k = 0; k < js.size(); ++k)
+      s += (k ? ", " : "") + m.joint_names[js[k]];
+    return s + "]";
+  };
+
+  std::ostringstream y;
+  y << "# Generated by `poise robot init " << urdf_path.filename().string()
+    << "` (components/robot_init/README.md): a first guess to check (schema: "
+       "deploy/robots/README.md).\n"
+    << "name: " << robot_name << "\n"
+    << "urdf: " << urdf_entry << "\n"
+    << "imu_frame: " << m.body_name[0] << "             # the floating base (URDF root)\n\n"
+    << "feet:\n";
+  for (int s : {0, 1}) {
+    const Leg& L = legs[s];
+    y << "  " << L.side << ":\n    frame: " << L.foot_frame << "\n    sole_frame: " << L.sole_frame
+      << (L.sole_added ? "   # added to the URDF copy" : "") << "\n    sole: {x_min: "
+      << fmt(L.sole.x_min) << ", x_max: " << fmt(L.sole.x_max) << ", y_min: " << fmt(L.sole.y_min)
+      << ", y_max: " << fmt(L.sole.y_max) << ", height: " << fmt(L.sole.height) << "}\n";
+  }
+  y << "\ncontact:\n  safety_margin: 0.01\n  friction_mu: 0.8\n  torsional_mu: 0.02\n\n"
+    << "joint_groups:\n  legs: " << names(leg_joints) << "\n  upper_body: " << names(upper)
+    << "\n\n# Knees bent, hip + knee + ankle pitch = 0 (soles flat), legs leaned so the CoM is over "
+       "the\n# mid-point of the sole centres. Joints not listed are 0.\nnominal_posture:\n";
+  bool any = false;
+  for (int j = 0; j < m.njoints; ++j)
+    if (q[m.idx_q(j)] != 0.0) {
+      y << "  " << m.joint_names[j] << ": " << fmt(q[m.idx_q(j)], 4) << "\n";
+      any = true;
+    }
+  if (!any) y << "  {}\n";
+  y << "\n# kp = I wn^2, kd = 2 I wn (wn = " << fmt(opt.wn, 1)
+    << " rad/s), I = 1 / (M^-1)_jj the joint's effective inertia at the\n# nominal posture "
+       "(kp <= "
+    << fmt(kp_max, 0) << ").\npd_gains:\n";
+  for (int j = 0; j < m.njoints; ++j)
+    y << "  " << m.joint_names[j] << ": {kp: " << fmt(gains[j].kp, 3) << ", kd: "
+      << fmt(gains[j].kd, 4) << "}   # I = " << std::setprecision(3) << inertia[j] << "\n";
+  {
+    std::ofstream f(yaml_path);
+    f << y.str();
+    if (!f) throw InitError("cannot write " + yaml_path.string());
+  }
+
+  // ---- check with the loader, then report --------------------------------------------------------
+  const model::RobotConfig cfg = model::load_robot_config(yaml_path);
+
+  std::cout << "poise robot init: " << urdf_path.string() << " (" << m.name << ", "
+            << fmt(m.total_mass, 2) << " kg, " << m.njoints << " joints)\n"
+            << "  floating base / IMU: " << m.body_name[0] << "\n";
+  for (int s : {1, 0}) {
+    const Leg& L = legs[s];
+    std::cout << "  " << L.side << " leg: " << names(L.joints) << "\n    foot " << L.foot_frame
+              << ", sole x [" << fmt(L.sole.x_min) << ", " << fmt(L.sole.x_max) << "] y ["
+              << fmt(L.sole.y_min) << ", " << fmt(L.sole.y_max) << "], " << fmt(L.sole.height)
+              << " m below the foot frame, sole frame " << L.sole_frame
+              << (L.sole_added ? " (added)" : " (in the URDF)") << "\n";
+    if (L.knee >= 0)
+      std::cout << "    pitch joints: hip " << m.joint_names[L.hip] << ", knee "
+                << m.joint_names[L.knee] << ", ankle " << m.joint_names[L.ankle] << "\n";
+  }
+  std::cout << "  upper body: " << names(upper) << "\n  nominal posture: knees "
+            << fmt(knee, 3) << " rad, lean " << fmt(d, 4) << " rad; CoM "
+            << fmt(st.com_error.x() * 1000, 2) << ", " << fmt(st.com_error.y() * 1000, 2)
+            << " mm from the sole centres' mid-point; CoM height "
+            << fmt(data.com.z(), 3) << " m\n  gains (wn " << fmt(opt.wn, 1)
+            << " rad/s from the effective inertia):";
+  for (int j = 0; j < m.njoints; ++j)
+    std::cout << (j % 4 == 0 ? "\n    " : "  ") << m.joint_names[j] << " " << fmt(gains[j].kp, 1)
+              << "/" << fmt(gains[j].kd, 2);
+  std::cout << "\n";
+  if (urdf_modified)
+    std::cout << "  URDF: no link on the sole plane; wrote a copy with the sole links added: "
+              << urdf_ref.string() << " (your file is unchanged)\n";
+  std::cout << "wrote " << yaml_path.string() << " (checked by the loader: "
+            << cfg.leg_joints.size() << " leg joints, " << cfg.upper_body_joints.size()
+            << " upper-body joints)\n";
+  std::cout << "check:\n"
+            << "  - the feet, soles and leg joints above; the sole rectangle is the bottom face of "
+               "the foot collision shapes\n"
+            << "  - the IMU frame: the floating base is assumed to carry it\n"
+            << "  - the gains: they make each joint a " << fmt(opt.wn, 0)
+            << " rad/s critically damped loop on its own inertia; tune for your actuators\n";
+  for (const std::string& c : checks) std::cout << "  - " << c << "\n";
+  std::cout << "next: poise model info " << yaml_path.string() << "\n";
+  return 0;
+}
+
+}  // namespace
+
+int cli_main(int argc, char** argv) {
+  CLI::App app{"Create robot configurations", "poise robot"};
+  app.require_subcommand(1);
+  Options opt;
+  CLI::App* init = app.add_subcommand(
+      "init",
+      "Guess a robot.yaml from a URDF alone: legs and feet (the two lowest chains), sole "
+      "rectangles (foot collision boxes), IMU on the floating base, a bent-knee nominal posture "
+      "with the CoM over the feet, PD gains from each joint's effective inertia. Prints what it "
+      "guessed and what to check");
+  init->add_option("urdf", opt.urdf, "URDF file")->required();
+  init->add_option("-o,--output", opt.out_dir, "output folder (default: ./<urdf stem>_poise/)");
+  init->add_option("--name", opt.name, "robot name (default: the URDF's)");
+  init->add_flag("--force", opt.force, "overwrite an existing robot.yaml");
+  init->add_option("--wn", opt.wn, "natural frequency of each joint's PD loop, rad/s")
+      ->check(CLI::Range(1.0, 200.0))
+      ->capture_default_str();
+  init->add_option("--knee", opt.knee_bend, "knee bend of the nominal posture, rad")
+      ->check(CLI::Range(0.0, 1.5))
+      ->capture_default_str();
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  try {
+    if (*init) return run_init(opt);
+  } catch (const std::exception& e) {
+    std::cerr << "poise robot init: error: " << e.what() << "\n";
+    return 1;
+  }
+  return 2;
+}
+
+}  // namespace poise::robot_init

@@ -1,0 +1,187 @@
+// `poise robot init URDF` run as users run it (a child process): the robot.yaml it writes is
+// accepted by `poise model info` and stands 10 s in process; the user's URDF is never modified;
+// URDFs it cannot read as a humanoid get an error naming the problem, never a crash.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "child_process.hpp"
+#include "poise/model/robot_config.hpp"
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+using poise::testing::bin;
+using poise::testing::ChildProcess;
+
+namespace {
+
+fs::path work_dir(const std::string& name) {
+  const fs::path d = fs::path(POISE_BINARY_DIR) / "test_output" / "robot_init" / name;
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+std::pair<int, std::string> run_cmd(std::vector<std::string> argv, std::chrono::seconds limit) {
+  ChildProcess p(std::move(argv), {}, false, true);
+  const auto c = p.wait_for(limit);
+  return {c.value_or(-1), p.output()};
+}
+
+std::string read(const fs::path& p) {
+  std::ifstream f(p);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+// init -> model info -> 10 s standing in process, the scenario pointing at the new robot.yaml.
+void init_and_stand(const fs::path& urdf, const fs::path& dir, bool expect_copy) {
+  const std::string before = read(urdf);
+  const fs::path out = dir / "robot";
+  auto [code, text] = run_cmd({bin("poise"), "robot", "init", urdf.string(), "-o", out.string()}, 60s);
+  ASSERT_EQ(code, 0) << text;
+  EXPECT_EQ(read(urdf), before) << "the user's URDF was modified";
+  EXPECT_NE(text.find("left leg:"), std::string::npos) << text;
+  EXPECT_NE(text.find("right leg:"), std::string::npos) << text;
+  EXPECT_EQ(text.find("(added)") != std::string::npos, expect_copy) << text;
+  EXPECT_EQ(text.find("wrote a copy") != std::string::npos, expect_copy) << text;
+
+  // What the loader sees: the feet and legs found, soles 0.22 x 0.11 m 0.08 m below the ankle.
+  const poise::model::RobotConfig cfg = poise::model::load_robot_config(out / "robot.yaml");
+  EXPECT_EQ(cfg.leg_joints.size(), 12u);
+  EXPECT_EQ(cfg.feet[poise::model::kLeft].frame, "l_foot");
+  EXPECT_EQ(cfg.feet[poise::model::kRight].frame, "r_foot");
+  EXPECT_EQ(cfg.imu_frame, "pelvis");
+  for (const auto& f : cfg.feet) {
+    EXPECT_NEAR(f.sole.x_min, -0.08, 1e-6);
+    EXPECT_NEAR(f.sole.x_max, 0.14, 1e-6);
+    EXPECT_NEAR(f.sole.y_max - f.sole.y_min, 0.11, 1e-6);
+    EXPECT_NEAR(f.sole.height, 0.08, 1e-6);
+  }
+  for (const auto& g : cfg.gains) {
+    EXPECT_GT(g.kp, 0.0);
+    EXPECT_GT(g.kd, 0.0);
+  }
+  // Bent knees.
+  const auto knee = [&](const std::string& name) {
+    for (std::size_t k = 0; k < cfg.leg_joints.size(); ++k)
+      if (cfg.leg_joints[k] == name)
+        return cfg.q_nominal[7 + cfg.leg_joint_indices[k]];
+    return 0.0;
+  };
+  EXPECT_GT(knee("l_knee"), 0.2);
+  EXPECT_GT(knee("r_knee"), 0.2);
+
+  auto [info_code, info] =
+      run_cmd({bin("poise"), "model", "info", (out / "robot.yaml").string()}, 30s);
+  EXPECT_EQ(info_code, 0) << info;
+
+  const fs::path scenario = dir / "standing.yaml";
+  std::ofstream(scenario) << "name: robot_init_standing\nrobot: {config: "
+                          << (out / "robot.yaml").string()
+                          << "}\nduration: 10.0\ninitial: {posture: nominal, support: double}\n"
+                             "world:\n  ground: {friction: 0.8}\nsensors: {seed: 1}\nsuccess:\n"
+                             "  com_error_max_m: 0.02\n  com_error_final_m: 0.01\n"
+                             "  foot_slip_max_m: 0.01\n  allow_non_foot_contacts: false\n"
+                             "  min_base_height_m: 0.5\n";
+  auto [run_code, run] = run_cmd({bin("poise"), "run", scenario.string(), "--in-process", "-q",
+                                  "-o", (dir / "standing.json").string()}, 120s);
+  EXPECT_EQ(run_code, 0) << run;
+  EXPECT_NE(run.find("SURVIVED"), std::string::npos) << run;
+}
+
+}  // namespace
+
+TEST(RobotInit, TheShippedUrdfGetsARobotYamlThatStands) {
+  init_and_stand(fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/poise_humanoid.urdf",
+                 work_dir("shipped"), false);
+}
+
+// The light-wrist test robot with its sole links removed: the sole links are added to a copy.
+TEST(RobotInit, AUrdfWithoutSoleLinksGetsACopyWithThemAndStands) {
+  const fs::path dir = work_dir("no_soles");
+  std::string xml = read(fs::path(POISE_SOURCE_DIR) / "tests/data/robots/light_wrist/light_wrist.urdf");
+  xml = std::regex_replace(xml, std::regex(R"(<joint name="[lr]_sole_joint"[\s\S]*?</joint>)"), "");
+  xml = std::regex_replace(xml, std::regex(R"(<link name="[lr]_sole">\s*</link>)"), "");
+  ASSERT_EQ(xml.find("_sole"), std::string::npos);
+  const fs::path urdf = dir / "no_soles.urdf";
+  std::ofstream(urdf) << xml;
+  init_and_stand(urdf, dir, true);
+  const std::string yaml = read(dir / "robot" / "robot.yaml");
+  EXPECT_NE(yaml.find("urdf: no_soles_poise.urdf"), std::string::npos) << yaml;
+  EXPECT_NE(yaml.find("sole_frame: l_foot_sole_poise"), std::string::npos) << yaml;
+  // The light wrists get light gains: the explicit PD loop at 1 kHz stays stable.
+  const poise::model::RobotConfig cfg = poise::model::load_robot_config(dir / "robot" / "robot.yaml");
+  const poise::model::Model m = poise::model::load_robot_model(cfg);
+  const int w = m.joint_index("l_wrist");
+  EXPECT_LE(cfg.gains[static_cast<std::size_t>(w)].kp, 5.0);
+  EXPECT_LE(cfg.gains[static_cast<std::size_t>(w)].kd, 0.05);
+}
+
+// What it cannot use is refused with an error naming the problem, and nothing is overwritten.
+TEST(RobotInit, BadInputsAreRefusedWithAClearError) {
+  const fs::path dir = work_dir("bad");
+  const std::string link = R"(<inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial>)";
+  auto joint = [](const std::string& n, const std::string& p, const std::string& c,
+                  const std::string& xyz, const std::string& axis) {
+    return "<joint name=\"" + n + "\" type=\"revolute\"><parent link=\"" + p + "\"/><child link=\"" +
+           c + "\"/><origin xyz=\"" + xyz + "\"/><axis xyz=\"" + axis +
+           "\"/><limit lower=\"-1\" upper=\"1\" effort=\"50\" velocity=\"5\"/></joint>";
+  };
+  // One leg only.
+  std::ostringstream one;
+  one << "<robot name=\"one_leg\"><link name=\"base\">" << link << "</link>";
+  one << "<link name=\"thigh\">" << link << "</link><link name=\"shank\">" << link
+      << "</link><link name=\"foot\">" << link
+      << "<collision><origin xyz=\"0 0 -0.05\"/><geometry><box size=\"0.2 0.1 0.04\"/></geometry>"
+         "</collision></link>";
+  one << joint("hip", "base", "thigh", "0 0.1 -0.1", "0 1 0")
+      << joint("knee", "thigh", "shank", "0 0 -0.3", "0 1 0")
+      << joint("ankle", "shank", "foot", "0 0 -0.3", "0 1 0")
+      << joint("roll", "base", "arm", "0 -0.2 0.2", "1 0 0") << "<link name=\"arm\">" << link
+      << "</link></robot>";
+  std::ofstream(dir / "one_leg.urdf") << one.str();
+  auto [c1, t1] = run_cmd({bin("poise"), "robot", "init", (dir / "one_leg.urdf").string(), "-o",
+                           (dir / "one").string()}, 30s);
+  EXPECT_EQ(c1, 1) << t1;
+  EXPECT_NE(t1.find("no second leg"), std::string::npos) << t1;
+  EXPECT_FALSE(fs::exists(dir / "one" / "robot.yaml"));
+
+  // No links with joints at all.
+  std::ofstream(dir / "empty.urdf") << "<robot name=\"empty\"><link name=\"base\"/></robot>";
+  auto [c2, t2] = run_cmd({bin("poise"), "robot", "init", (dir / "empty.urdf").string(), "-o",
+                           (dir / "empty").string()}, 30s);
+  EXPECT_EQ(c2, 1) << t2;
+  EXPECT_NE(t2.find("0 movable joints"), std::string::npos) << t2;
+
+  // Not XML, missing file.
+  std::ofstream(dir / "junk.urdf") << "\x01\x02 not xml";
+  auto [c3, t3] = run_cmd({bin("poise"), "robot", "init", (dir / "junk.urdf").string()}, 30s);
+  EXPECT_EQ(c3, 1) << t3;
+  EXPECT_NE(t3.find("poise robot init: error:"), std::string::npos) << t3;
+  auto [c4, t4] = run_cmd({bin("poise"), "robot", "init", (dir / "missing.urdf").string()}, 30s);
+  EXPECT_EQ(c4, 1) << t4;
+  EXPECT_NE(t4.find("no such file"), std::string::npos) << t4;
+
+  // An existing robot.yaml is kept without --force.
+  const std::string shipped =
+      (fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/poise_humanoid.urdf").string();
+  fs::create_directories(dir / "exists");
+  std::ofstream(dir / "exists" / "robot.yaml") << "mine\n";
+  auto [c5, t5] = run_cmd({bin("poise"), "robot", "init", shipped, "-o", (dir / "exists").string()}, 30s);
+  EXPECT_EQ(c5, 1) << t5;
+  EXPECT_NE(t5.find("--force"), std::string::npos) << t5;
+  EXPECT_EQ(read(dir / "exists" / "robot.yaml"), "mine\n");
+
+  auto [c6, t6] = run_cmd({bin("poise"), "robot", "init", "--help"}, 30s);
+  EXPECT_EQ(c6, 0) << t6;
+  EXPECT_NE(t6.find("--force"), std::string::npos) << t6;
+}
