@@ -3,7 +3,9 @@
 // URDFs it cannot read as a humanoid get an error naming the problem, never a crash.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <regex>
@@ -43,11 +45,14 @@ std::string read(const fs::path& p) {
 }
 
 // init -> model info -> 10 s standing in process, the scenario pointing at the new robot.yaml.
-void init_and_stand(const fs::path& urdf, const fs::path& dir, bool expect_copy) {
+std::string init_and_stand(const fs::path& urdf, const fs::path& dir, bool expect_copy) {
   const std::string before = read(urdf);
   const fs::path out = dir / "robot";
   auto [code, text] = run_cmd({bin("poise"), "robot", "init", urdf.string(), "-o", out.string()}, 60s);
-  ASSERT_EQ(code, 0) << text;
+  if (code != 0) {
+    ADD_FAILURE() << "poise robot init exited " << code << ":\n" << text;
+    return text;
+  }
   EXPECT_EQ(read(urdf), before) << "the user's URDF was modified";
   EXPECT_NE(text.find("left leg:"), std::string::npos) << text;
   EXPECT_NE(text.find("right leg:"), std::string::npos) << text;
@@ -96,6 +101,7 @@ void init_and_stand(const fs::path& urdf, const fs::path& dir, bool expect_copy)
                                   "-o", (dir / "standing.json").string()}, 120s);
   EXPECT_EQ(run_code, 0) << run;
   EXPECT_NE(run.find("SURVIVED"), std::string::npos) << run;
+  return text;
 }
 
 }  // namespace
@@ -124,6 +130,45 @@ TEST(RobotInit, AUrdfWithoutSoleLinksGetsACopyWithThemAndStands) {
   const int w = m.joint_index("l_wrist");
   EXPECT_LE(cfg.gains[static_cast<std::size_t>(w)].kp, 5.0);
   EXPECT_LE(cfg.gains[static_cast<std::size_t>(w)].kd, 0.05);
+}
+
+// Mesh-only feet (a binary STL box, found through package://): the sole comes from the mesh.
+TEST(RobotInit, MeshOnlyFeetGetTheirSoleFromTheMesh) {
+  const fs::path dir = work_dir("mesh_feet");
+  std::string xml = read(fs::path(POISE_SOURCE_DIR) / "tests/data/robots/light_wrist/light_wrist.urdf");
+  xml = std::regex_replace(xml, std::regex(R"(<joint name="[lr]_sole_joint"[\s\S]*?</joint>)"), "");
+  xml = std::regex_replace(xml, std::regex(R"(<link name="[lr]_sole">\s*</link>)"), "");
+  xml = std::regex_replace(
+      xml, std::regex(R"((<collision>\s*<origin[^>]*>\s*<geometry>)<box size="0.22 0.11 0.05"/>)"),
+      "$1<mesh filename=\"package://mesh_feet/meshes/foot.stl\"/>");
+  ASSERT_EQ(std::regex_search(xml, std::regex("<box size=\"0.22 0.11 0.05\"/>\\s*</geometry>\\s*</collision>")),
+            false);  // both feet's collisions are meshes now
+  fs::create_directories(dir / "meshes");
+  {
+    // Binary STL of a 0.22 x 0.11 x 0.05 m box centred on its origin: 12 triangles.
+    std::ofstream f(dir / "meshes" / "foot.stl", std::ios::binary);
+    const float h[3] = {0.11f, 0.055f, 0.025f};
+    auto corner = [&](int i, float* out) {
+      for (int k = 0; k < 3; ++k) out[k] = (i >> (2 - k) & 1) ? h[k] : -h[k];
+    };
+    const int tri[12][3] = {{0, 1, 3}, {0, 3, 2}, {4, 6, 7}, {4, 7, 5}, {0, 4, 5}, {0, 5, 1},
+                            {2, 3, 7}, {2, 7, 6}, {0, 2, 6}, {0, 6, 4}, {1, 5, 7}, {1, 7, 3}};
+    const std::string header(80, '\0');
+    f.write(header.data(), 80);
+    const std::uint32_t n = 12;
+    f.write(reinterpret_cast<const char*>(&n), 4);
+    for (const auto& t : tri) {
+      float v[12] = {0, 0, 0};
+      for (int k = 0; k < 3; ++k) corner(t[k], v + 3 + 3 * k);
+      f.write(reinterpret_cast<const char*>(v), sizeof v);
+      f.write("\0\0", 2);
+    }
+  }
+  const fs::path urdf = dir / "mesh_feet.urdf";
+  std::ofstream(urdf) << xml;
+  const std::string text = init_and_stand(urdf, dir, true);
+  EXPECT_NE(text.find("left sole comes from the mesh " + (dir / "meshes" / "foot.stl").string()),
+            std::string::npos) << text;
 }
 
 // What it cannot use is refused with an error naming the problem, and nothing is overwritten.

@@ -11,6 +11,9 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <cstdint>
+#include <cstring>
+#include <cctype>
 #include <set>
 #include <sstream>
 #include <string>
@@ -81,6 +84,71 @@ bool shape_points(const urdf::Geometry& g, std::vector<Vector3>& out) {
   }
 }
 
+// A mesh file of a URDF: "package://PKG/REST" is looked for as REST and PKG/REST in the URDF's
+// folder and its parents (no ROS package index here), "file://PATH" and plain paths as given
+// (relative: from the URDF's folder). Empty when not found.
+fs::path resolve_mesh(const std::string& name, const fs::path& urdf_dir) {
+  std::string n = name;
+  std::vector<std::string> rel;
+  if (n.rfind("package://", 0) == 0) {
+    n = n.substr(10);
+    const auto slash = n.find('/');
+    if (slash != std::string::npos) rel.push_back(n.substr(slash + 1));
+    rel.push_back(n);
+  } else {
+    if (n.rfind("file://", 0) == 0) n = n.substr(7);
+    if (fs::path(n).is_absolute()) return fs::is_regular_file(n) ? fs::path(n) : fs::path();
+    rel.push_back(n);
+  }
+  for (fs::path d = urdf_dir; !d.empty(); d = d.parent_path()) {
+    for (const std::string& r : rel)
+      if (fs::is_regular_file(d / r)) return d / r;
+    if (d == d.parent_path()) break;
+  }
+  return {};
+}
+
+// Vertices of an STL (binary or ASCII) or OBJ mesh, at most 64 MB. Throws InitError naming the file.
+std::vector<Vector3> mesh_vertices(const fs::path& path) {
+  std::string ext = path.extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  const std::string data = model::read_text_file_limited(path, "mesh", std::size_t{64} << 20);
+  std::vector<Vector3> v;
+  auto ascii_vertices = [&](const char* tag) {
+    std::istringstream in(data);
+    std::string line;
+    while (std::getline(in, line)) {
+      std::istringstream ls(line);
+      std::string t;
+      ls >> t;
+      double x, y, z;
+      if (t == tag && (ls >> x >> y >> z) && std::isfinite(x) && std::isfinite(y) && std::isfinite(z))
+        v.emplace_back(x, y, z);
+    }
+  };
+  if (ext == ".obj") {
+    ascii_vertices("v");
+  } else if (ext == ".stl") {
+    std::uint32_t n = 0;
+    if (data.size() >= 84) std::memcpy(&n, data.data() + 80, 4);
+    if (data.size() >= 84 && data.size() == 84 + std::size_t{50} * n) {
+      for (std::uint32_t i = 0; i < n; ++i)
+        for (int k = 0; k < 3; ++k) {
+          float f[3];
+          std::memcpy(f, data.data() + 84 + 50 * std::size_t{i} + 12 + 12 * k, 12);
+          if (std::isfinite(f[0]) && std::isfinite(f[1]) && std::isfinite(f[2]))
+            v.emplace_back(f[0], f[1], f[2]);
+        }
+    } else {
+      ascii_vertices("vertex");
+    }
+  } else {
+    throw InitError("mesh '" + path.string() + "': only STL and OBJ meshes are read");
+  }
+  if (v.empty()) throw InitError("mesh '" + path.string() + "': no vertices read");
+  return v;
+}
+
 SE3 pose_of(const urdf::Pose& p) {
   double x, y, z, w;
   p.rotation.getQuaternion(x, y, z, w);
@@ -90,7 +158,8 @@ SE3 pose_of(const urdf::Pose& p) {
 
 struct BodyGeometry {
   std::vector<Vector3> points_B;   ///< collision points in the body frame
-  std::vector<std::string> meshes;  ///< links with mesh collisions (not read)
+  std::vector<std::string> meshes;  ///< links with mesh collisions that could not be read
+  std::vector<std::string> mesh_files;  ///< mesh files read
 };
 
 std::string fmt(double v, int prec = 4) {
@@ -153,8 +222,16 @@ int run_init(const Options& opt) {
       if (!c || !c->geometry) continue;
       std::vector<Vector3> pts;
       if (!shape_points(*c->geometry, pts)) {
-        geo[f.body].meshes.push_back(f.name);
-        continue;
+        if (c->geometry->type != urdf::Geometry::MESH) continue;
+        const auto& mesh = static_cast<const urdf::Mesh&>(*c->geometry);
+        const fs::path file = resolve_mesh(mesh.filename, urdf_path.parent_path());
+        if (file.empty()) {
+          geo[f.body].meshes.push_back(f.name + " (" + mesh.filename + ": not found)");
+          continue;
+        }
+        for (const Vector3& p : mesh_vertices(file))
+          pts.emplace_back(p.x() * mesh.scale.x, p.y() * mesh.scale.y, p.z() * mesh.scale.z);
+        geo[f.body].mesh_files.push_back(file.string());
       }
       const SE3 X_BC = f.X_BF * pose_of(c->origin);
       for (const Vector3& p : pts) geo[f.body].points_B.push_back(X_BC.act(p));
@@ -178,8 +255,8 @@ int run_init(const Options& opt) {
     if (has_shapes(b) && (a < 0 || lowest_z(b) < lowest_z(a) - 1e-9)) a = b;
   if (a < 0)
     throw InitError(
-        "no movable link carries a primitive collision shape (box, cylinder, sphere): the feet are "
-        "found by their collision geometry (mesh-only feet are not read yet)");
+        "no movable link carries collision geometry (box, cylinder, sphere, STL or OBJ mesh): the "
+        "feet are found by their collision geometry");
   auto related = [&](int x, int y) {
     return (x <= y && y <= m.subtree_end[x]) || (y <= x && x <= m.subtree_end[y]);
   };
@@ -226,6 +303,11 @@ int run_init(const Options& opt) {
   for (Leg& leg : legs) {
     const int fb = leg.foot_body;
     leg.foot_frame = m.body_name[fb];
+    if (m.subtree_end[fb] > fb)
+      checks.push_back("the " + leg.side + " foot '" + leg.foot_frame + "' has " +
+                       std::to_string(m.subtree_end[fb] - fb) + " movable joint(s) below it (" +
+                       m.joint_names[fb] + ", ...): toes, or a foot whose collision geometry "
+                       "could not be read?");
     const SE3& X_WF = data.oMi[fb];
     if (X_WF.R.col(2).z() < std::cos(1e-3))
       throw InitError("the " + leg.side + " foot frame '" + leg.foot_frame +
@@ -233,22 +315,36 @@ int run_init(const Options& opt) {
                       "(the sole rectangle is given in the foot frame, z up)");
     if (!geo[fb].meshes.empty())
       checks.push_back("mesh collisions of '" + geo[fb].meshes.front() +
-                       "' were not read: the sole comes from its primitive shapes only");
+                       "' were not read: the sole comes from the other shapes only");
+    for (const std::string& file : geo[fb].mesh_files)
+      checks.push_back("the " + leg.side + " sole comes from the mesh " + file +
+                       ": the simulator collides a box of that rectangle, not the mesh");
     double zmin = 1e9;
     for (const Vector3& p : geo[fb].points_B) zmin = std::min(zmin, p.z());
     double xl = 1e9, xh = -1e9, yl = 1e9, yh = -1e9;
-    for (const Vector3& p : geo[fb].points_B)
-      if (p.z() <= zmin + 1e-3) {
-        xl = std::min(xl, p.x());
-        xh = std::max(xh, p.x());
-        yl = std::min(yl, p.y());
-        yh = std::max(yh, p.y());
+    // The bottom face: points within 1 mm of the lowest (5 mm for a slightly curved mesh sole).
+    for (double tol : {1e-3, 5e-3}) {
+      xl = yl = 1e9;
+      xh = yh = -1e9;
+      for (const Vector3& p : geo[fb].points_B)
+        if (p.z() <= zmin + tol) {
+          xl = std::min(xl, p.x());
+          xh = std::max(xh, p.x());
+          yl = std::min(yl, p.y());
+          yh = std::max(yh, p.y());
+        }
+      if (xh - xl >= 0.02 && yh - yl >= 0.02) {
+        if (tol > 1e-3)
+          checks.push_back("the " + leg.side + " sole is not flat: its rectangle is the collision "
+                           "points within 5 mm of the lowest");
+        break;
       }
+    }
     if (!(xh - xl >= 0.02 && yh - yl >= 0.02))
       throw InitError("the " + leg.side + " foot '" + leg.foot_frame +
                       "' has no flat bottom face in its collision geometry (bottom " +
                       fmt((xh - xl) * 1000, 1) + " x " + fmt((yh - yl) * 1000, 1) +
-                      " mm): poise needs a flat sole (a box)");
+                      " mm within 5 mm of its lowest point): poise needs a flat sole (a box)");
     if (!(zmin < -1e-4))
       throw InitError("the " + leg.side + " foot '" + leg.foot_frame +
                       "': the bottom of its collision geometry is not below the foot frame origin");
@@ -488,7 +584,13 @@ int run_init(const Options& opt) {
   }
 
   // ---- check with the loader, then report --------------------------------------------------------
-  const model::RobotConfig cfg = model::load_robot_config(yaml_path);
+  model::RobotConfig cfg;
+  try {
+    cfg = model::load_robot_config(yaml_path);
+  } catch (const std::exception& e) {
+    throw InitError("wrote " + yaml_path.string() + " but the loader refuses it (kept for "
+                    "inspection):\n" + e.what());
+  }
 
   std::cout << "poise robot init: " << urdf_path.string() << " (" << m.name << ", "
             << fmt(m.total_mass, 2) << " kg, " << m.njoints << " joints)\n"
