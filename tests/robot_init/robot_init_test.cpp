@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "child_process.hpp"
+#include "poise/model/dynamics.hpp"
 #include "poise/model/robot_config.hpp"
 
 namespace fs = std::filesystem;
@@ -71,9 +72,19 @@ std::string init_and_stand(const fs::path& urdf, const fs::path& dir, bool expec
     EXPECT_NEAR(f.sole.y_max - f.sole.y_min, 0.11, 1e-6);
     EXPECT_NEAR(f.sole.height, 0.08, 1e-6);
   }
-  for (const auto& g : cfg.gains) {
-    EXPECT_GT(g.kp, 0.0);
-    EXPECT_GT(g.kd, 0.0);
+  // Every joint's explicit PD loop at 1 kHz on its effective inertia (the rest of the robot free)
+  // stays inside the bound the generator promises: kp dt^2 / I <= 0.04, kd dt / I <= 0.4.
+  const poise::model::Model m = poise::model::load_robot_model(cfg);
+  poise::model::Data data(m);
+  poise::model::crba(m, data, cfg.q_nominal);
+  const Eigen::MatrixXd Minv = data.M.inverse();
+  for (int j = 0; j < m.njoints; ++j) {
+    const auto& g = cfg.gains[static_cast<std::size_t>(j)];
+    const double I = 1.0 / Minv(m.idx_v(j), m.idx_v(j));
+    EXPECT_GT(g.kp, 0.0) << m.joint_names[j];
+    EXPECT_GT(g.kd, 0.0) << m.joint_names[j];
+    EXPECT_LE(g.kp * 1e-6 / I, 0.04 * 1.001) << m.joint_names[j];
+    EXPECT_LE(g.kd * 1e-3 / I, 0.4 * 1.001) << m.joint_names[j];
   }
   // Bent knees.
   const auto knee = [&](const std::string& name) {

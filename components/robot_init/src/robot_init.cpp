@@ -174,6 +174,13 @@ std::string fmt(double v, int prec = 4) {
   return s;
 }
 
+// Significant digits (gains span 1e-4 to 1e3).
+std::string sig(double v, int digits = 4) {
+  std::ostringstream os;
+  os << std::setprecision(digits) << v;
+  return os.str();
+}
+
 struct Leg {
   std::string side;               ///< "left" / "right"
   int foot_body = -1;
@@ -575,8 +582,8 @@ int run_init(const Options& opt) {
        "(kp <= "
     << fmt(kp_max, 0) << ").\npd_gains:\n";
   for (int j = 0; j < m.njoints; ++j)
-    y << "  " << m.joint_names[j] << ": {kp: " << fmt(gains[j].kp, 3) << ", kd: "
-      << fmt(gains[j].kd, 4) << "}   # I = " << std::setprecision(3) << inertia[j] << "\n";
+    y << "  " << m.joint_names[j] << ": {kp: " << sig(gains[j].kp) << ", kd: " << sig(gains[j].kd)
+      << "}   # I = " << sig(inertia[j], 3) << "\n";
   {
     std::ofstream f(yaml_path);
     f << y.str();
@@ -611,10 +618,10 @@ int run_init(const Options& opt) {
             << fmt(st.com_error.x() * 1000, 2) << ", " << fmt(st.com_error.y() * 1000, 2)
             << " mm from the sole centres' mid-point; CoM height "
             << fmt(data.com.z(), 3) << " m\n  gains (wn " << fmt(opt.wn, 1)
-            << " rad/s from the effective inertia):";
+            << " rad/s from the effective inertia; joint kp/kd):";
   for (int j = 0; j < m.njoints; ++j)
-    std::cout << (j % 4 == 0 ? "\n    " : "  ") << m.joint_names[j] << " " << fmt(gains[j].kp, 1)
-              << "/" << fmt(gains[j].kd, 2);
+    std::cout << (j % 4 == 0 ? "\n    " : "  ") << m.joint_names[j] << " " << sig(gains[j].kp, 3)
+              << "/" << sig(gains[j].kd, 3);
   std::cout << "\n";
   if (urdf_modified)
     std::cout << "  URDF: no link on the sole plane; wrote a copy with the sole links added: "
