@@ -200,7 +200,8 @@ double clamp_limits(const model::Model& m, int j, double v) {
 
 int run_init(const Options& opt) {
   const fs::path urdf_path = fs::absolute(opt.urdf).lexically_normal();
-  if (!fs::is_regular_file(urdf_path)) throw InitError("no such file: " + opt.urdf);
+  if (!fs::exists(urdf_path)) throw InitError("no such file: " + opt.urdf);
+  if (!fs::is_regular_file(urdf_path)) throw InitError("not a regular file: " + opt.urdf);
   const std::string xml = model::read_text_file_limited(urdf_path, "URDF");
   const model::Model m = model::build_model_from_urdf_string(xml, urdf_path.string());
   const urdf::ModelInterfaceSharedPtr u = urdf::parseURDF(xml);
@@ -219,6 +220,21 @@ int run_init(const Options& opt) {
                     " movable joints: a humanoid needs two legs of several joints each");
 
   std::vector<std::string> checks;  // what the user should check
+
+  // IMU: the floating base's link; when the root link is massless (a "world" or "base_link"
+  // dummy), the first link with mass fixed to it.
+  std::string imu = m.body_name[0];
+  if (const urdf::LinkConstSharedPtr root = u->getRoot(); root && !root->inertial) {
+    for (const auto& child : root->child_links)
+      if (child && child->inertial && m.has_frame(child->name) &&
+          m.frames[m.frame_id(child->name)].body == 0) {
+        imu = child->name;
+        checks.push_back("the URDF root '" + m.body_name[0] + "' is massless: it is the floating "
+                         "base (q, base height criteria of scenarios, pushes on it), the IMU is "
+                         "put on '" + imu + "'; consider removing the dummy root");
+        break;
+      }
+  }
 
   // ---- collision geometry per body, in the body frame ------------------------------------------
   std::vector<BodyGeometry> geo(m.nbodies);
@@ -557,7 +573,7 @@ int run_init(const Options& opt) {
        "deploy/robots/README.md).\n"
     << "name: " << robot_name << "\n"
     << "urdf: " << urdf_entry << "\n"
-    << "imu_frame: " << m.body_name[0] << "             # the floating base (URDF root)\n\n"
+    << "imu_frame: " << imu << "             # on the floating base\n\n"
     << "feet:\n";
   for (int s : {0, 1}) {
     const Leg& L = legs[s];
@@ -601,7 +617,7 @@ int run_init(const Options& opt) {
 
   std::cout << "poise robot init: " << urdf_path.string() << " (" << m.name << ", "
             << fmt(m.total_mass, 2) << " kg, " << m.njoints << " joints)\n"
-            << "  floating base / IMU: " << m.body_name[0] << "\n";
+            << "  floating base: " << m.body_name[0] << ", IMU frame: " << imu << "\n";
   for (int s : {1, 0}) {
     const Leg& L = legs[s];
     std::cout << "  " << L.side << " leg: " << names(L.joints) << "\n    foot " << L.foot_frame
