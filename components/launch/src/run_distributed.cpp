@@ -170,7 +170,8 @@ int run_distributed(int argc, char** argv) {
   app.add_option("--log-dir", s.log_dir,
                  "children's stdout/stderr and summaries "
                  "(default: results/<scenario>.logs)");
-  app.add_option("--duration", s.duration, "override the scenario duration [s]");
+  app.add_option("--duration", s.duration, "override the scenario duration [s]")
+      ->check(CLI::Range(0.0, 1e6));
   app.add_flag("--ground-truth-state", s.ground_truth_state,
                "DEBUG: the estimator sends the simulator's ground truth as the state");
   app.add_option("--estimator", s.estimator,

@@ -98,7 +98,8 @@ int cli_main(int argc, char** argv) {
   app.add_option("--controller-config", controller_config,
                  "Controller YAML (default: built-in paper values, "
                  "controller/momentum/config/balance_controller.yaml)");
-  app.add_option("--duration", duration, "Simulated time [s] (default: the scenario's)");
+  app.add_option("--duration", duration, "Simulated time [s] (default: the scenario's)")
+      ->check(CLI::Range(0.0, 1e6));
   std::string estimator_kind;
   app.add_option("--estimator", estimator_kind,
                  "Estimator that makes the state: invariant-ekf or leg-odometry (default: the "

@@ -406,8 +406,8 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
     ImuNoiseConfig& imu = sc.sim.imu;
     if (s["seed"]) {
       const double seed = c.num(s["seed"], "sensors.seed");
-      if (seed < 0.0 || seed != std::floor(seed))
-        c.fail("sensors.seed", "must be a non-negative integer");
+      if (!(seed >= 0.0 && seed <= 9007199254740992.0) || seed != std::floor(seed))
+        c.fail("sensors.seed", "must be an integer in [0, 2^53]");
       imu.seed = static_cast<std::uint64_t>(seed);
     }
     const auto nonneg = [&](const YAML::Node& n, const char* k, const std::string& key,
