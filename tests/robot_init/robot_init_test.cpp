@@ -135,6 +135,14 @@ TEST(RobotInit, AUrdfWithoutSoleLinksGetsACopyWithThemAndStands) {
   const std::string yaml = read(dir / "robot" / "robot.yaml");
   EXPECT_NE(yaml.find("urdf: no_soles_poise.urdf"), std::string::npos) << yaml;
   EXPECT_NE(yaml.find("sole_frame: l_foot_sole_poise"), std::string::npos) << yaml;
+  // Distributed too (simulator, estimator, contact optimiser, controller over DDS, lockstep).
+  auto [d_code, d_out] =
+      run_cmd({bin("poise"), "run", (dir / "standing.yaml").string(), "-q", "--domain",
+               std::to_string(poise::testing::unique_domain_id()), "-o",
+               (dir / "distributed.json").string(), "--log-dir", (dir / "logs").string()},
+              120s);
+  EXPECT_EQ(d_code, 0) << d_out;
+  EXPECT_NE(d_out.find("SURVIVED"), std::string::npos) << d_out;
   // The light wrists get light gains: the explicit PD loop at 1 kHz stays stable.
   const poise::model::RobotConfig cfg = poise::model::load_robot_config(dir / "robot" / "robot.yaml");
   const poise::model::Model m = poise::model::load_robot_model(cfg);
