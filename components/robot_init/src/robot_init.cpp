@@ -636,7 +636,7 @@ int run_init(const Options& opt) {
             << fmt(data.com.z(), 3) << " m\n  gains (wn " << fmt(opt.wn, 1)
             << " rad/s from the effective inertia; joint kp/kd):";
   for (int j = 0; j < m.njoints; ++j)
-    std::cout << (j % 4 == 0 ? "\n    " : "  ") << m.joint_names[j] << " " << sig(gains[j].kp, 3)
+    std::cout << (j % 4 == 0 ? "\n    " : "  ") << m.joint_names[j] << " " << sig(gains[j].kp, 4)
               << "/" << sig(gains[j].kd, 3);
   std::cout << "\n";
   if (urdf_modified)
