@@ -142,6 +142,9 @@ void read_scenario_hints(const std::string& path, Deployment& d, Problems& p) {
       d.estimator_supports = root["estimator"]["supports"].as<std::string>();
     if (root["contact"] && root["contact"]["method"])
       d.contact_method = root["contact"]["method"].as<std::string>();
+    d.planned_support = "double";
+    if (root["initial"] && root["initial"]["support"])
+      d.planned_support = root["initial"]["support"].as<std::string>();
   } catch (const YAML::Exception& e) {
     p.add("scenario", path + ": " + e.what());
   }
@@ -342,6 +345,7 @@ Deployment load_deployment(const fs::path& file, const std::string& host) {
               const sim::Scenario sc = sim::load_scenario(d.scenario);
               d.estimator_supports = sc.estimator.supports;
               d.contact_method = sc.contact_method;
+              d.planned_support = sc.support;
             } catch (const std::exception& e) {
               p.add("scenario", e.what());
             }
@@ -460,8 +464,13 @@ std::vector<std::string> command_line(const Deployment& d, const Component& c,
       a.insert(a.end(), {"--supports", d.estimator_supports});
     if (c.kind == "contact" && !d.contact_method.empty())
       a.insert(a.end(), {"--method", d.contact_method});
-    if (c.kind == "controller")
+    if (c.kind == "controller") {
       a.insert(a.end(), {"--contact-deadline-us", d.realtime ? "400" : "1000000"});
+      // The scenario's planned supports from the first tick, as `poise run` plans them.
+      if (d.planned_support == "double" || d.planned_support == "left" ||
+          d.planned_support == "right")
+        a.insert(a.end(), {"--planned-support", d.planned_support});
+    }
   }
   a.insert(a.end(), c.options.begin(), c.options.end());
   return a;

@@ -359,6 +359,13 @@ int run_distributed(int argc, char** argv) {
     contact_args.insert(contact_args.end(),
                         {"--priority", contact::to_string(ccfg.contact.priority)});
     std::vector<std::string> ctrl_args = common("controller");
+    // The planned supports of the scenario from the first tick, as the in-process loop plans them
+    // (the first supports were a difference between the two modes: issue #17 item 4).
+    ctrl_args.insert(ctrl_args.end(),
+                     {"--planned-support", scenario.support == "double" || scenario.support == "left" ||
+                                                   scenario.support == "right"
+                                               ? scenario.support
+                                               : "auto"});
     if (!ctrl_config_file.empty())
       ctrl_args.insert(ctrl_args.end(), {"--config", ctrl_config_file.string()});
     ctrl_args.insert(ctrl_args.end(), {"--contact-deadline-us", std::to_string(deadline_us)});

@@ -90,6 +90,14 @@ int run(int argc, char** argv) {
   app.add_option("--description-timeout-ms", description_timeout_ms,
                  "how long to wait for the robot description at start")
       ->capture_default_str();
+  std::string planned_support = "auto";
+  app.add_option("--planned-support", planned_support,
+                 "the feet planned as supports until a balance reference says otherwise (paper "
+                 "Fig. 6 input): double, left or right loads them from the first tick; auto "
+                 "follows the state's contact flags (and measured load). `poise run` passes the "
+                 "scenario's initial.support, as `poise run --in-process` plans it")
+      ->check(CLI::IsMember({"auto", "double", "left", "right"}))
+      ->capture_default_str();
   app.add_option("--contact-wait-ms", contact_wait_ms,
                  "how long to wait at start for the contact optimiser's endpoints")
       ->capture_default_str();
@@ -110,6 +118,14 @@ int run(int argc, char** argv) {
 
   controller::RobotState state = ctrl.make_state();
   controller::BalanceReference reference = ctrl.make_reference();
+  if (planned_support != "auto") {
+    for (int side = 0; side < 2; ++side) {
+      const bool support = planned_support == "double" ||
+                           (planned_support == "left") == (side == model::kLeft);
+      reference.feet[side].mode =
+          support ? controller::FootMode::kSupport : controller::FootMode::kSwing;
+    }
+  }
   controller::JointCommand command = ctrl.make_command();
   contact::ContactProblem problem;
   contact::ContactSolution solution;

@@ -63,6 +63,7 @@ struct Deployment {
   /// What the nodes take from the scenario (its estimator.supports and contact.method; "" =
   /// the nodes' defaults), read without loading the scenario's robot.
   std::string estimator_supports, contact_method;
+  std::string planned_support;  ///< the scenario's initial.support (controller --planned-support)
   std::string robot;     ///< --robot for the nodes ("" = none: the robot of the description)
   bool realtime = false;
   std::string security;  ///< DDS Security directory (poise security init), "" = none
