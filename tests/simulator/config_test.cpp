@@ -2,8 +2,16 @@
 #include <gtest/gtest.h>
 
 #include <stdexcept>
+#include <sstream>
+#include <fstream>
+#include <filesystem>
+#include <algorithm>
 
+#include "poise/sim/scenario.hpp"
 #include "poise/sim/simulator.hpp"
+#if POISE_SIM_TEST_HAVE_MODEL
+#include "poise/model/model.hpp"
+#endif
 #include "sim_test_util.hpp"
 
 namespace poise::sim {
@@ -111,3 +119,67 @@ TEST(SimConfig, JointNamesAndMapping) {
 
 }  // namespace
 }  // namespace poise::sim
+
+#if POISE_SIM_TEST_HAVE_MODEL
+namespace poise::sim {
+namespace {
+
+// A movable <mimic> joint (a finger following the elbow) is frozen at its offset by the
+// simulator exactly as by poise::model: both see the same joints (before the fix the simulator
+// had one more, a free joint nobody commands), and the robot stands.
+TEST(SimConfig, MimicJointIsFrozenLikeTheModelFreezesIt) {
+  namespace fs = std::filesystem;
+  const fs::path src = fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid";
+  std::ifstream in(src / "poise_humanoid.urdf");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  std::string urdf = ss.str();
+  const std::string finger = R"(
+  <joint name="r_finger" type="revolute">
+    <parent link="r_hand"/>
+    <child link="r_finger_link"/>
+    <origin xyz="0 0 -0.08" rpy="0 0 0"/>
+    <axis xyz="0 1 0"/>
+    <limit lower="-1" upper="1" effort="5" velocity="5"/>
+    <mimic joint="r_elbow" multiplier="0.5" offset="0.3"/>
+  </joint>
+  <link name="r_finger_link">
+    <inertial><origin xyz="0 0 -0.02"/><mass value="0.02"/>
+      <inertia ixx="1e-6" ixy="0" ixz="0" iyy="1e-6" iyz="0" izz="1e-6"/></inertial>
+    <collision><origin xyz="0 0 -0.02"/><geometry><sphere radius="0.01"/></geometry></collision>
+  </link>
+</robot>)";
+  const auto end = urdf.rfind("</robot>");
+  ASSERT_NE(end, std::string::npos);
+  urdf = urdf.substr(0, end) + finger;
+  const fs::path dir = fs::path(POISE_BINARY_DIR) / "test_output" / "sim_mimic";
+  fs::create_directories(dir);
+  std::ofstream(dir / "finger.urdf") << urdf;
+  {
+    std::ifstream yin(src / "robot.yaml");
+    std::stringstream y;
+    y << yin.rdbuf();
+    std::string yaml = y.str();
+    const auto at = yaml.find("poise_humanoid.urdf");
+    ASSERT_NE(at, std::string::npos);
+    yaml.replace(at, std::string("poise_humanoid.urdf").size(), "finger.urdf");
+    std::ofstream(dir / "robot.yaml") << yaml;
+  }
+  std::ofstream(dir / "stand.yaml") << "name: stand\nrobot: {config: robot.yaml}\nduration: 0.5\n";
+  const model::Model m = model::build_model_from_urdf_file(dir / "finger.urdf");
+  ASSERT_EQ(m.frozen_joints.size(), 1u);
+  EXPECT_EQ(m.frozen_joints[0], "r_finger");
+
+  const Scenario sc = load_scenario(dir / "stand.yaml");
+  Simulator sim(sc.sim);
+  std::vector<std::string> sim_joints = sim.joint_names();
+  std::vector<std::string> model_joints = m.joint_names;
+  EXPECT_EQ(std::count(sim_joints.begin(), sim_joints.end(), "r_finger"), 0);
+  std::sort(model_joints.begin(), model_joints.end());
+  std::sort(sim_joints.begin(), sim_joints.end());
+  EXPECT_EQ(sim_joints, model_joints);
+}
+
+}  // namespace
+}  // namespace poise::sim
+#endif

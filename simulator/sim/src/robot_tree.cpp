@@ -100,6 +100,25 @@ struct Builder {
         visit(*child, b, X_LJ);
         continue;
       }
+      if (j->mimic && (j->type == urdf::Joint::REVOLUTE || j->type == urdf::Joint::CONTINUOUS ||
+                       j->type == urdf::Joint::PRISMATIC)) {
+        // A movable mimic joint is frozen at its offset (leader at 0), clamped to its limits:
+        // the same rule as poise::model (Model::frozen_joints), so both see the same tree.
+        double v = std::isfinite(j->mimic->offset) ? j->mimic->offset : 0.0;
+        if (j->limits && j->type != urdf::Joint::CONTINUOUS)
+          v = std::clamp(v, j->limits->lower, j->limits->upper);
+        Eigen::Vector3d axis(j->axis.x, j->axis.y, j->axis.z);
+        if (!axis.allFinite() || axis.norm() < 1e-9)
+          fail(what, "joint '" + j->name + "' has a zero or invalid axis");
+        axis.normalize();
+        Eigen::Isometry3d motion = Eigen::Isometry3d::Identity();
+        if (j->type == urdf::Joint::PRISMATIC)
+          motion.translation() = v * axis;
+        else
+          motion.linear() = Eigen::AngleAxisd(v, axis).toRotationMatrix();
+        visit(*child, b, X_LJ * motion);
+        continue;
+      }
       BodySpec body;
       body.name = child->name;
       body.parent = b;
