@@ -133,7 +133,7 @@ TEST(ContactPriority, LexicographicLinearRateIsTheBestAchievable) {
   for (int trial = 0; trial < 400; ++trial) {
     const bool right = trial % 3 != 1, left = trial % 3 != 2;
     ContactProblem p = wide_problem(rng, right, left);
-    p.weights.priority = Priority::kLexicographic;
+    ASSERT_EQ(p.weights.priority, Priority::kLexicographic);  // the default
     const double mg = p.mass * 9.81;
     const Eigen::Vector3d b = p.l_dot_desired - p.mass * p.gravity;
     // The QP and the double-support sequential stage use the pyramid; the single-support
@@ -201,7 +201,6 @@ TEST(ContactPriority, SequentialForceStageIsTheBestAngularGivenTheLinear) {
   double worst = 0.0;
   for (int trial = 0; trial < 150; ++trial) {
     ContactProblem p = wide_problem(rng, true, true);
-    p.weights.priority = Priority::kLexicographic;
     ContactSolution s;
     seq.solve(p, s);
     const SequentialStages& st = seq.stages();

@@ -298,9 +298,8 @@ TEST(Launch, TheScenarioConfiguresTheControllerAndTheVerdictNamesWhatFailed) {
                      << controller;
     return f.string();
   };
-  // lexicographic: not the default (weighted), so the section is seen to reach both modes.
-  const std::string good = scenario(
-      "lexicographic", "  contact: {priority: lexicographic}\n  momentum: {gamma22: [9, 9, 3]}\n");
+  const std::string good =
+      scenario("weighted", "  contact: {priority: weighted}\n  momentum: {gamma22: [9, 9, 3]}\n");
   const std::string bad = scenario("bad_key", "  contact: {priority: weighted, w_x: 1}\n");
 
   // In process.
@@ -309,20 +308,18 @@ TEST(Launch, TheScenarioConfiguresTheControllerAndTheVerdictNamesWhatFailed) {
   EXPECT_EQ(in_code, 1) << in_out;  // the 0.01 mm final CoM error cannot be met
   EXPECT_NE(in_out.find("FAILED on com_error_final"), std::string::npos) << in_out;
   const Json in = Json::parse(std::ifstream(dir / "in.json"));
-  EXPECT_EQ(in["contact_priority"], "lexicographic") << in.dump(2);
+  EXPECT_EQ(in["contact_priority"], "weighted") << in.dump(2);
 
   // Distributed, lockstep.
   auto [d_code, d_out] = run_cmd({bin("poise"), "run", good, "-q", "-o", (dir / "d.json").string(),
                                   "--log-dir", (dir / "d.logs").string()}, 180s);
   EXPECT_EQ(d_code, 1) << d_out;
-  EXPECT_NE(d_out.find("FAILED lexicographic (lockstep, cyclone) on com_error_final"),
-            std::string::npos)
+  EXPECT_NE(d_out.find("FAILED weighted (lockstep, cyclone) on com_error_final"), std::string::npos)
       << d_out;
   const Json d = Json::parse(std::ifstream(dir / "d.json"));
-  EXPECT_EQ(d["contact_priority"], "lexicographic") << d.dump(2);
+  EXPECT_EQ(d["contact_priority"], "weighted") << d.dump(2);
   const Json contact = Json::parse(std::ifstream(dir / "d.logs" / "contact.summary.json"));
-  EXPECT_NE(contact.dump().find("\"priority\":\"lexicographic\""), std::string::npos)
-      << contact.dump();
+  EXPECT_NE(contact.dump().find("\"priority\":\"weighted\""), std::string::npos) << contact.dump();
   std::ifstream written(dir / "d.logs" / "controller.yaml");
   std::stringstream text;
   text << written.rdbuf();

@@ -7,8 +7,8 @@
 //                                                         reliable, keep-last 1
 //               poise/diagnostics       Diagnostics      ~10 Hz best-effort, keep-last 1
 //   method      --method sequential (paper: NNLS + BVLS) | qp (one Goldfarb-Idnani QP)
-//   priority    --priority weighted (eq. (21) as written, default) | lexicographic (linear
-//               momentum first, strictly); not in the problem message, so `poise run` passes the controller
+//   priority    --priority lexicographic (linear momentum first, strictly) | weighted (eq. (21)
+//               as written); not in the problem message, so `poise run` passes the controller
 //               configuration's contact.priority here
 //   bad input   a problem with a non-finite number, a bad length or an inconsistent geometry is
 //               answered with status CONTACT_INVALID_INPUT and the library's safe answer (every
@@ -46,7 +46,7 @@ struct Incoming {
 int run(int argc, char** argv) {
   node::NodeOptions options;
   std::string method_name = "sequential";
-  std::string priority_name = "weighted";
+  std::string priority_name = "lexicographic";
   CLI::App app{"Contact-force optimiser node: contact problem k in, contact solution k out."};
   node::add_node_options(app, options, "contact");
   app.add_option("--method", method_name, "sequential (paper) or qp")

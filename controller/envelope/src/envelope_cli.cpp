@@ -367,7 +367,7 @@ int envelope_main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--priority", o.priority,
                  "contact optimiser priority for every run (default: the base scenario's "
-                 "controller section, else weighted)")
+                 "controller section, else lexicographic)")
       ->check(CLI::IsMember({"lexicographic", "weighted"}));
   app.add_option("--output-dir,-o", o.output_dir, "where the CSV, the summary and the plots go")
       ->capture_default_str();
@@ -620,7 +620,7 @@ int envelope_main(int argc, char** argv) {
          << runner.count() << " runs, "
          << fmt(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 0)
          << " s). Every run: runs.csv. Priority: "
-         << (o.priority.empty() ? "the base scenarios' (default weighted)" : o.priority)
+         << (o.priority.empty() ? "the base scenarios' (default lexicographic)" : o.priority)
          << ". State: " << (o.ground_truth_state ? "ground truth (debug)" : "the estimator's")
          << ".\n\n";
       if (!dirs.empty()) {

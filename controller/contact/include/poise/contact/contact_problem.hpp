@@ -42,16 +42,13 @@ struct FootContact {
 
 /// How the optimiser ranks the linear against the angular momentum rate.
 enum class Priority : std::uint8_t {
-  /// Linear first, strictly (`contact.priority: lexicographic`): the admissible linear rate is the
-  /// best achievable one (closest to
+  /// Linear first, strictly: the admissible linear rate is the best achievable one (closest to
   /// l_dot_d over every admissible force set), and the angular rate is the best given that (the
   /// paper's stated priority, Sec. 3.3). Solved as the weighted problem with w_k, eps_f and eps_tau
   /// multiplied by kLexicographicScale: the linear rate is then within ~1e-4 relative of the
   /// lexicographic optimum, far inside kLinearTolerance.
   kLexicographic = 0,
   /// The paper's eq. (21) as written: one weighted sum, w_k trading angular against linear.
-  /// The default: measured, it recovers better from a hold (a restarted component) than the
-  /// lexicographic priority, which pitches the trunk to catch up (controller/contact/README.md).
   kWeighted = 1,
 };
 
@@ -69,9 +66,9 @@ struct ContactWeights {
   double eps_f = 0.01;    ///< force regularisation, eq. (21): sequential on rho, QP on f
   double eps_cop = 0.01;  ///< CoP / normal-torque regularisation towards eta_d, eq. (29)
   double eps_tau = 1e-4;  ///< QP only: ankle-torque regularisation (paper eq. (20), w_tau)
-  /// The weighted sum of eq. (21) (default) or linear first strictly. Not on the wire
+  /// Linear first strictly (default) or the weighted sum of eq. (21). Not on the wire
   /// (idl/contact_problem.idl): the contact node takes it as an option (`--priority`).
-  Priority priority = Priority::kWeighted;
+  Priority priority = Priority::kLexicographic;
   /// The weights the solvers use: w_k, eps_f, eps_tau scaled for the lexicographic priority.
   double scale() const { return priority == Priority::kLexicographic ? kLexicographicScale : 1.0; }
 };

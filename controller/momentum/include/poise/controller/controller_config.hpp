@@ -42,7 +42,7 @@ struct ContactWeights {
   double eps_cop = 1e-4;  ///< CoP / normal torque regularisation in (29) (same reading)
   /// Linear momentum first strictly (lexicographic, the paper's stated priority) or eq. (21)'s
   /// weighted sum. Not on the wire: `poise run` passes it to poise-contact as --priority.
-  contact::Priority priority = contact::Priority::kWeighted;
+  contact::Priority priority = contact::Priority::kLexicographic;
 };
 
 /// Eq (36): a_d = kp log(T^-1 T_d) + kd (v_d - v) for each foot.
