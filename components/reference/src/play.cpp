@@ -12,9 +12,11 @@
 #include <poise/msg/state.h>
 
 #include "poise/model/robot_config.hpp"
+#include "poise/node/convert.hpp"
 #include "poise/node/mailbox.hpp"
 #include "poise/node/node.hpp"
 #include "poise/node/robot_description.hpp"
+#include "poise/reference/sampler.hpp"
 #include "poise/reference/trajectory.hpp"
 
 namespace poise::reference {
@@ -33,7 +35,10 @@ int play(int argc, char** argv) {
       "poise/state: on the state of tick k it sends the references of the ticks up to k + "
       "--lead-ticks, each stamped with its tick, and poise-controller applies each at exactly "
       "its tick (also in lockstep). CoM shifts are relative to the measured CoM when the first "
-      "move is sent; joint swings are about the robot's nominal posture. Ends (code 0) once "
+      "move is sent; joint swings are about the robot's nominal posture; a step swings the "
+      "foot (FOOT_SWING) up and back down to the pose it stood at when its first reference is "
+      "sent, the other foot FOOT_SUPPORT (with feet: every foot not stepping is FOOT_SUPPORT "
+      "from the first reference on). Ends (code 0) once "
       "the state has reached the trajectory's last tick."};
   app.name(argc > 0 ? argv[0] : "poise reference play");
   app.add_option("file", path, "trajectory YAML")->required()->check(CLI::ExistingFile);
@@ -90,6 +95,11 @@ int play(int argc, char** argv) {
   node.watch(states);
   dds::Publisher<msg::BalanceReference> pub(node.participant(), dds::Qos::latched(kWriterHistory));
 
+  // Steps: the stood pose of the step foot, taken from the state when the step's first
+  // reference is sent (lead_ticks before it starts: the foot is a support then).
+  int step_index = -1;
+  model::SE3 X_stood, X_target;
+  model::Motion V_target;
   const double t_begin = traj.begin(), t_end = traj.end();
   std::uint64_t seen = 0, next = 0, sent = 0, first_sent = 0, last_sent = 0;
   std::uint64_t end_tick = 0;
@@ -135,6 +145,26 @@ int play(int argc, char** argv) {
         swing_offset(traj.joints[s], t, q, qd, qdd);
         ref.upper_body_q()[swing_wire[s]] += q;
         ref.upper_body_qdd()[swing_wire[s]] += qdd;
+      }
+      if (!traj.feet.empty()) {
+        const FootStep* step = active_step(traj, t);
+        const int index = step != nullptr ? static_cast<int>(step - traj.feet.data()) : -1;
+        if (step != nullptr && index != step_index) {
+          step_index = index;
+          const msg::Pose& p = in.feet()[static_cast<std::size_t>(step->side)].pose_W();
+          X_stood = model::SE3(node::rotation(p), node::vec3(p.position()));
+        }
+        for (int side = 0; side < 2; ++side) {
+          msg::FootReference& f = ref.feet()[static_cast<std::size_t>(side)];
+          const bool swing = step != nullptr && step->side == side;
+          f.mode(swing ? msg::FOOT_SWING : msg::FOOT_SUPPORT);
+          f.has_target(swing);
+          if (!swing) continue;
+          step_target(*step, t, X_stood, X_target, V_target);
+          node::put_pose(X_target.R, X_target.p, f.target_W());
+          node::put3(V_target.head<3>(), f.target_velocity_W().linear());
+          node::put3(V_target.tail<3>(), f.target_velocity_W().angular());
+        }
       }
       if (!node.publish(pub, ref)) continue;
       if (sent++ == 0) first_sent = j;

@@ -66,6 +66,8 @@ double Trajectory::begin() const {
     b = std::min(b, m.start);
   for (const auto& s : joints)
     b = std::min(b, s.start);
+  for (const auto& s : feet)
+    b = std::min(b, s.start);
   return b;
 }
 
@@ -74,6 +76,8 @@ double Trajectory::end() const {
   for (const auto& m : com)
     e = std::max(e, m.start + m.duration);
   for (const auto& s : joints)
+    e = std::max(e, s.start + s.duration);
+  for (const auto& s : feet)
     e = std::max(e, s.start + s.duration);
   return e;
 }
@@ -85,7 +89,7 @@ Trajectory load_trajectory(const std::string& path) {
   } catch (const YAML::Exception& e) {
     throw std::runtime_error(path + ": " + e.what());
   }
-  check_keys(path, "", root, {"name", "description", "lead_ticks", "com", "joints"});
+  check_keys(path, "", root, {"name", "description", "lead_ticks", "com", "joints", "feet"});
   Trajectory t;
   if (!root["name"]) fail(path, "name", "missing");
   t.name = root["name"].as<std::string>();
@@ -134,7 +138,39 @@ Trajectory load_trajectory(const std::string& path) {
       t.joints.push_back(s);
     }
   }
-  if (t.com.empty() && t.joints.empty()) fail(path, "com", "neither CoM moves nor joint swings");
+  if (const YAML::Node feet = root["feet"]) {
+    if (!feet.IsSequence()) fail(path, "feet", "expected a list of steps");
+    for (std::size_t i = 0; i < feet.size(); ++i) {
+      const std::string key = "feet[" + std::to_string(i) + "]";
+      check_keys(path, key, feet[i], {"foot", "start", "duration", "lift"});
+      FootStep s;
+      if (!feet[i]["foot"]) fail(path, key + ".foot", "missing (right or left)");
+      try {
+        s.foot = feet[i]["foot"].as<std::string>();
+      } catch (const YAML::Exception&) {
+        fail(path, key + ".foot", "expected right or left");
+      }
+      if (s.foot == "right")
+        s.side = 0;
+      else if (s.foot == "left")
+        s.side = 1;
+      else
+        fail(path, key + ".foot", "'" + s.foot + "': expected right or left");
+      s.start = number(path, key + ".start", feet[i]["start"], 0.0, true);
+      s.duration = number(path, key + ".duration", feet[i]["duration"], 0.0, true);
+      s.lift = number(path, key + ".lift", feet[i]["lift"], s.lift);
+      if (s.start < 0.0) fail(path, key + ".start", "must be >= 0");
+      if (!(s.duration >= 0.1) || s.duration > 10.0)
+        fail(path, key + ".duration", "must be in [0.1, 10] s");
+      if (!(s.lift > 0.0) || s.lift > 0.10) fail(path, key + ".lift", "must be in (0, 0.10] m");
+      if (!t.feet.empty() && s.start < t.feet.back().start + t.feet.back().duration)
+        fail(path, key + ".start",
+             "steps must be in time order and must not overlap (one foot in the air at a time)");
+      t.feet.push_back(s);
+    }
+  }
+  if (t.com.empty() && t.joints.empty() && t.feet.empty())
+    fail(path, "com", "neither CoM moves, joint swings nor steps");
   return t;
 }
 
@@ -177,6 +213,31 @@ void swing_offset(const JointSwing& s, double t, double& q, double& qd, double& 
   q = e * A * sn;
   qd = de * A * sn + e * A * w * cs;
   qdd = dde * A * sn + 2.0 * de * A * w * cs - e * A * w * w * sn;
+}
+
+bool step_lift(const FootStep& s, double t, double& z, double& zd, double& zdd) noexcept {
+  z = zd = zdd = 0.0;
+  const double tau = t - s.start;
+  if (!(tau >= 0.0) || tau >= s.duration) return false;
+  // Up over the first half, down over the second: z = lift * step(x), x the phase of the half.
+  const double half = 0.5 * s.duration;
+  double a = 0.0, da = 0.0, dda = 0.0;
+  if (tau < half) {
+    smooth_step(tau / half, a, da, dda);
+    zd = s.lift * da / half;
+  } else {
+    smooth_step((s.duration - tau) / half, a, da, dda);
+    zd = -s.lift * da / half;
+  }
+  z = s.lift * a;
+  zdd = s.lift * dda / (half * half);
+  return true;
+}
+
+const FootStep* active_step(const Trajectory& traj, double t) noexcept {
+  for (const FootStep& s : traj.feet)
+    if (t >= s.start && t < s.start + s.duration) return &s;
+  return nullptr;
 }
 
 bool has_joint_motion(const Trajectory& traj, double t) noexcept {

@@ -30,12 +30,27 @@ struct JointSwing {
   double fade = 0.5;       ///< [s], <= duration / 2
 };
 
+/// A step in place: the foot leaves support at `start`, its sole rises `lift` [m] above where it
+/// stood along a quintic smooth step over the first half of `duration`, comes back down along the
+/// mirrored one over the second half, and is a support again from start + duration. The player
+/// sends it as FOOT_SWING with the target pose (the stood pose raised by the profile) and
+/// velocity of eq. (36); the other foot is FOOT_SUPPORT meanwhile. The CoM is not moved by the
+/// step: put it over the stance foot with `com:` moves before `start` (the file says so).
+struct FootStep {
+  std::string foot;  ///< "right" or "left"
+  int side = 0;      ///< model::Side: 0 right, 1 left
+  double start = 0.0;
+  double duration = 0.6;
+  double lift = 0.03;  ///< [m], in (0, 0.10]
+};
+
 struct Trajectory {
   std::string name;
   std::string description;
   int lead_ticks = 200;      ///< how far ahead of the state the player sends each reference
   std::vector<ComMove> com;  ///< in time order, not overlapping
   std::vector<JointSwing> joints;
+  std::vector<FootStep> feet;  ///< in time order, not overlapping (one foot in the air at a time)
   /// First and last time at which the trajectory changes anything [s].
   double begin() const;
   double end() const;
@@ -53,6 +68,13 @@ bool com_offset(const Trajectory& traj, double t, Eigen::Vector3d& offset,
 /// Offset of one swing from the nominal angle at time t, with its first and second derivatives
 /// (all zero outside [start, start + duration]).
 void swing_offset(const JointSwing& s, double t, double& q, double& qd, double& qdd) noexcept;
+
+/// Height of a step's swing foot above where it stood at time t, with its first and second
+/// derivatives. False outside [start, start + duration) (the foot is a support then).
+bool step_lift(const FootStep& s, double t, double& z, double& zd, double& zdd) noexcept;
+
+/// The step whose foot is in the air at time t, or nullptr.
+const FootStep* active_step(const Trajectory& traj, double t) noexcept;
 
 /// True once any joint swing has started (t >= its start): the reference then carries an
 /// upper-body posture target.
