@@ -189,6 +189,8 @@ struct Leg {
   model::SoleRectangle sole;
   std::string sole_frame;
   bool sole_added = false;
+  SE3 X_BA;                       ///< foot frame in the foot body (an added upright frame or I)
+  bool frame_added = false;       ///< the foot frame is an upright frame added to the URDF copy
   int hip = -1, knee = -1, ankle = -1;  ///< pitch joints (model indices), -1 when not found
   double s_hip = 1, s_knee = 1, s_ankle = 1;  ///< sign of each pitch axis along world +y
 };
@@ -331,11 +333,40 @@ int run_init(const Options& opt) {
                        std::to_string(m.subtree_end[fb] - fb) + " movable joint(s) below it (" +
                        m.joint_names[fb] + ", ...): toes, or a foot whose collision geometry "
                        "could not be read?");
-    const SE3& X_WF = data.oMi[fb];
-    if (X_WF.R.col(2).z() < std::cos(1e-3))
-      throw InitError("the " + leg.side + " foot frame '" + leg.foot_frame +
-                      "' does not have its z axis up at the zero configuration: not supported yet "
-                      "(the sole rectangle is given in the foot frame, z up)");
+    // A foot link whose z axis is not up at the zero configuration (z down, tilted): the foot
+    // frame becomes an upright frame added to the URDF copy at the link's origin (z up, x along
+    // the link's heading), and the sole is found in it.
+    leg.X_BA = SE3(Matrix3::Identity(), Vector3::Zero());
+    const SE3& X_WB = data.oMi[fb];
+    if (X_WB.R.col(2).z() < std::cos(1e-3)) {
+      const Vector3 xw = X_WB.R.col(0);
+      const double yaw = std::hypot(xw.x(), xw.y()) > 1e-6 ? std::atan2(xw.y(), xw.x()) : 0.0;
+      const Matrix3 R_WA = Eigen::AngleAxisd(yaw, Vector3::UnitZ()).toRotationMatrix();
+      leg.X_BA = SE3(X_WB.R.transpose() * R_WA, Vector3::Zero());
+      std::string name = leg.foot_frame + "_upright_poise";
+      while (m.has_frame(name) || u->joints_.count(name + "_joint")) name += "_";
+      const Vector3 ypr = leg.X_BA.R.eulerAngles(2, 1, 0);  // R = Rz(yaw) Ry(pitch) Rx(roll)
+      std::ostringstream add;
+      add << std::setprecision(17)
+          << "  <!-- added by poise robot init: the foot frame, z up at the zero configuration -->\n"
+          << "  <joint name=\"" << name << "_joint\" type=\"fixed\">\n"
+          << "    <parent link=\"" << leg.foot_frame << "\"/>\n    <child link=\"" << name
+          << "\"/>\n    <origin xyz=\"0 0 0\" rpy=\"" << ypr[2] << " " << ypr[1] << " " << ypr[0]
+          << "\"/>\n  </joint>\n  <link name=\"" << name << "\"/>\n";
+      const auto pos = urdf_out.rfind("</robot>");
+      if (pos == std::string::npos) throw InitError("no </robot> in the URDF");
+      urdf_out.insert(pos, add.str());
+      urdf_modified = true;
+      checks.push_back("the " + leg.side + " foot link '" + leg.foot_frame + "' has its z axis " +
+                       (X_WB.R.col(2).z() < -std::cos(1e-3) ? "down" : "tilted") +
+                       " at the zero configuration: the foot frame is '" + name +
+                       "', added to the URDF copy at its origin with z up");
+      leg.foot_frame = name;
+      leg.frame_added = true;
+    }
+    const SE3 A_inv = leg.X_BA.inverse();
+    std::vector<Vector3> pts_A;
+    for (const Vector3& p : geo[fb].points_B) pts_A.push_back(A_inv.act(p));
     if (!geo[fb].meshes.empty())
       checks.push_back("mesh collisions of '" + geo[fb].meshes.front() +
                        "' were not read: the sole comes from the other shapes only");
@@ -343,13 +374,13 @@ int run_init(const Options& opt) {
       checks.push_back("the " + leg.side + " sole comes from the mesh " + file +
                        ": the simulator collides a box of that rectangle, not the mesh");
     double zmin = 1e9;
-    for (const Vector3& p : geo[fb].points_B) zmin = std::min(zmin, p.z());
+    for (const Vector3& p : pts_A) zmin = std::min(zmin, p.z());
     double xl = 1e9, xh = -1e9, yl = 1e9, yh = -1e9;
     // The bottom face: points within 1 mm of the lowest (5 mm for a slightly curved mesh sole).
     for (double tol : {1e-3, 5e-3}) {
       xl = yl = 1e9;
       xh = yh = -1e9;
-      for (const Vector3& p : geo[fb].points_B)
+      for (const Vector3& p : pts_A)
         if (p.z() <= zmin + tol) {
           xl = std::min(xl, p.x());
           xh = std::max(xh, p.x());
@@ -374,7 +405,7 @@ int run_init(const Options& opt) {
     leg.sole = {xl, xh, yl, yh, -zmin};
     // An existing link on the sole plane, same axes?
     for (const model::Frame& f : m.frames) {
-      if (f.body != fb || f.is_body) continue;
+      if (f.body != fb || f.is_body || leg.frame_added) continue;
       if ((f.X_BF.p - Vector3(0, 0, zmin)).norm() <= 1e-4 &&
           f.X_BF.R.isApprox(Matrix3::Identity(), 1e-9)) {
         leg.sole_frame = f.name;
@@ -457,14 +488,15 @@ int run_init(const Options& opt) {
     q[2] = 0.0;
     model::forward_kinematics(m, data, q);
     double zs = 0.0;
-    for (const Leg& leg : legs) zs += data.oMi[leg.foot_body].act(Vector3(0, 0, -leg.sole.height)).z();
+    for (const Leg& leg : legs)
+      zs += (data.oMi[leg.foot_body] * leg.X_BA).act(Vector3(0, 0, -leg.sole.height)).z();
     q[2] = -0.5 * zs;
     model::forward_kinematics(m, data, q);
     model::center_of_mass(m, data, q);
     Eigen::Vector2d mid = Eigen::Vector2d::Zero(), lo(1e9, 1e9), hi(-1e9, -1e9);
     std::vector<double> z;
     for (const Leg& leg : legs) {
-      const SE3& X = data.oMi[leg.foot_body];
+      const SE3 X = data.oMi[leg.foot_body] * leg.X_BA;
       const auto& s = leg.sole;
       mid += 0.5 * X.act(Vector3(0.5 * (s.x_min + s.x_max), 0.5 * (s.y_min + s.y_max), -s.height))
                        .head<2>();
