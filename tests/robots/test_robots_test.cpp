@@ -1,0 +1,227 @@
+// Issue #18 item 5: test robots nobody here tuned for (tests/robots/README.md). For each robot,
+// `poise robot init URDF -o DIR` with no hand edit, then `poise run` on a scenario written here:
+// stand 10 s, a forward push at 3 s and a lateral push at 6 s of 0.2 N s/kg each (2 * mass N
+// for 0.1 s on the floating base), in process and distributed (lockstep, loopback DDS, a domain
+// of this test's own). The run must survive (exit 0, result JSON "survived": true, no failed
+// criterion); the figures (CoM error, foot slip, trunk pitch/roll) go to the test's output.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "child_process.hpp"
+#include "poise/model/dynamics.hpp"
+#include "poise/model/kinematics.hpp"
+#include "poise/model/robot_config.hpp"
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+using poise::testing::bin;
+using poise::testing::ChildProcess;
+
+namespace {
+
+// What each robot is (tests/robots/generate_robots.py): the figures the generator was given, so
+// that what `poise robot init` found is checked against something it did not compute.
+struct Robot {
+  const char* name;
+  double mass;              ///< kg, as generated
+  const char* left_foot;    ///< the URDF link of the robot's own left foot
+  const char* right_foot;
+  std::vector<std::string> init_says;  ///< lines `poise robot init` must print (traits handled)
+};
+
+void PrintTo(const Robot& r, std::ostream* os) { *os << r.name; }
+
+const std::vector<Robot>& robots() {
+  static const std::vector<Robot> r = {
+      {"wren", 30.0, "L_FOOT_LINK", "R_FOOT_LINK",
+       {"sole frame L_FOOT_LINK_sole_poise (added)", "IMU frame: PELVIS",
+        "joint 'L_FINGER_B' mimics 'L_FINGER_A': frozen"}},
+      {"auroch", 90.0, "leg_left_foot_link", "leg_right_foot_link",
+       {"'leg_left_foot_link' has its z axis down", "joint 'arm_left_finger_b' mimics 'arm_left_finger_a': frozen"}},
+      {"heron", 55.0, "foot_link_left", "foot_link_right",
+       {"left sole comes from the mesh", "IMU frame: pelvis"}},
+  };
+  return r;
+}
+
+fs::path work_dir(const std::string& name) {
+  const fs::path d = fs::path(POISE_BINARY_DIR) / "test_output" / "test_robots" / name;
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+std::pair<int, std::string> run_cmd(std::vector<std::string> argv, std::chrono::seconds limit) {
+  ChildProcess p(std::move(argv), {}, false, true);
+  const auto c = p.wait_for(limit);
+  return {c.value_or(-1), p.output()};
+}
+
+std::string read(const fs::path& p) {
+  std::ifstream f(p);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+fs::path urdf_of(const Robot& r) {
+  return fs::path(POISE_SOURCE_DIR) / "tests/robots" / r.name / (std::string(r.name) + ".urdf");
+}
+
+// `poise robot init`, checked against the generator's figures; then the push scenario written
+// next to the robot.yaml. Returns the scenario path (empty on failure).
+fs::path init_and_write_scenario(const Robot& r, const fs::path& dir) {
+  const fs::path urdf = urdf_of(r);
+  const std::string before = read(urdf);
+  const fs::path out = dir / "robot";
+  auto [code, text] = run_cmd({bin("poise"), "robot", "init", urdf.string(), "-o", out.string()}, 60s);
+  std::cout << text;
+  if (code != 0) {
+    ADD_FAILURE() << "poise robot init " << r.name << " exited " << code << ":\n" << text;
+    return {};
+  }
+  EXPECT_EQ(read(urdf), before) << "the URDF was modified";
+  for (const std::string& s : r.init_says) EXPECT_NE(text.find(s), std::string::npos) << s;
+
+  const poise::model::RobotConfig cfg = poise::model::load_robot_config(out / "robot.yaml");
+  const poise::model::Model m = poise::model::load_robot_model(cfg);
+  EXPECT_NEAR(m.total_mass, r.mass, 0.01 * r.mass);
+  EXPECT_EQ(cfg.leg_joints.size(), 12u);
+  // The feet found are the robot's own left and right foot links (their frame may be one added
+  // by init on the same body).
+  const auto foot_body = [&](poise::model::Side s) {
+    return m.body_name[m.frames[cfg.feet[s].frame_id].body];
+  };
+  EXPECT_EQ(foot_body(poise::model::kLeft), r.left_foot);
+  EXPECT_EQ(foot_body(poise::model::kRight), r.right_foot);
+
+  // Standing height of the floating base in the nominal posture (soles on the ground).
+  poise::model::Data data(m);
+  poise::model::forward_kinematics(m, data, cfg.q_nominal);
+  const double sole_z =
+      poise::model::frame_placement(m, data, cfg.feet[poise::model::kLeft].sole_frame_id).p.z();
+  const double base_height = cfg.q_nominal[2] - sole_z;
+  EXPECT_GT(base_height, 0.3);
+
+  auto [info_code, info] = run_cmd({bin("poise"), "model", "info", (out / "robot.yaml").string()}, 30s);
+  EXPECT_EQ(info_code, 0) << info;
+
+  // 0.2 N s/kg: 2 * mass N for 0.1 s, forward (+x) at 3 s, leftward (+y) at 6 s.
+  const double f = 2.0 * m.total_mass;
+  const std::string base = m.body_name[0];
+  const fs::path scenario = dir / "push.yaml";
+  std::ofstream(scenario) << "name: " << r.name << "_push\nrobot: {config: " << (out / "robot.yaml").string()
+                          << "}\nduration: 10.0\ninitial: {posture: nominal, support: double}\n"
+                             "world:\n  ground: {friction: 0.8}\n"
+                             "disturbances:\n  pushes:\n"
+                          << "    - {link: " << base << ", point: [0, 0, 0], force: [" << f
+                          << ", 0, 0], start: 3.0, duration: 0.1}\n"
+                          << "    - {link: " << base << ", point: [0, 0, 0], force: [0, " << f
+                          << ", 0], start: 6.0, duration: 0.1}\n"
+                          << "sensors: {seed: 1}\nsuccess:\n  com_error_max_m: 0.05\n"
+                             "  com_error_final_m: 0.01\n  foot_slip_max_m: 0.01\n"
+                             "  allow_non_foot_contacts: false\n  min_base_height_m: "
+                          << 0.8 * base_height << "\n";
+  return scenario;
+}
+
+// The verdict from the result JSON, and the figures into the test's output.
+void check_result(const Robot& r, const std::string& mode, int code, const std::string& out,
+                  const fs::path& json_path, double seconds) {
+  EXPECT_EQ(code, 0) << out;
+  ASSERT_TRUE(fs::exists(json_path)) << out;
+  const nlohmann::json j = nlohmann::json::parse(read(json_path));
+  EXPECT_TRUE(j.at("survived").get<bool>()) << j.dump(2);
+  EXPECT_TRUE(j.at("failed_criteria").empty()) << j.dump(2);
+  EXPECT_DOUBLE_EQ(j.at("sim_time_s").get<double>(), 10.0) << j.dump(2);
+  std::ostringstream fig;
+  fig << r.name << " " << mode << ": survived " << j.at("survived").get<bool>()
+      << ", CoM error max " << j.at("com_error_max_m").get<double>() * 1000 << " mm, final "
+      << j.at("com_error_final_m").get<double>() * 1000 << " mm, foot slip max "
+      << j.at("foot_slip_max_m").get<double>() * 1000 << " mm, trunk pitch/roll max "
+      << j.at("trunk_pitch_max_deg").get<double>() << "/" << j.at("trunk_roll_max_deg").get<double>()
+      << " deg, run " << seconds << " s wall";
+  std::cout << fig.str() << "\n";
+  ::testing::Test::RecordProperty("figures", fig.str());
+}
+
+class TestRobot : public ::testing::TestWithParam<Robot> {};
+
+TEST_P(TestRobot, InitThenStandAndPushInProcess) {
+  const Robot& r = GetParam();
+  const fs::path dir = work_dir(std::string(r.name) + "_inprocess");
+  const fs::path scenario = init_and_write_scenario(r, dir);
+  ASSERT_FALSE(scenario.empty());
+  const auto t0 = std::chrono::steady_clock::now();
+  auto [code, out] = run_cmd({bin("poise"), "run", scenario.string(), "--in-process", "-q", "-o",
+                              (dir / "result.json").string()}, 120s);
+  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  check_result(r, "in process", code, out, dir / "result.json", s);
+}
+
+TEST_P(TestRobot, InitThenStandAndPushDistributed) {
+  const Robot& r = GetParam();
+  const fs::path dir = work_dir(std::string(r.name) + "_distributed");
+  const fs::path scenario = init_and_write_scenario(r, dir);
+  ASSERT_FALSE(scenario.empty());
+  const auto t0 = std::chrono::steady_clock::now();
+  auto [code, out] = run_cmd({bin("poise"), "run", scenario.string(), "-q", "--lockstep", "--domain",
+                              std::to_string(poise::testing::unique_domain_id()), "-o",
+                              (dir / "result.json").string(), "--log-dir", (dir / "logs").string(),
+                              "--timeout", "150"},
+                             180s);
+  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  check_result(r, "distributed", code, out, dir / "result.json", s);
+}
+
+INSTANTIATE_TEST_SUITE_P(Robots, TestRobot, ::testing::ValuesIn(robots()),
+                         [](const ::testing::TestParamInfo<Robot>& i) { return std::string(i.param.name); });
+
+// The traits the README lists are in the committed files.
+TEST(TestRobotFiles, CarryTheirTraits) {
+  const auto urdf = [](const char* n) { return read(urdf_of(Robot{n, 0, "", "", {}})); };
+  const std::string wren = urdf("wren"), auroch = urdf("auroch"), heron = urdf("heron");
+  EXPECT_FALSE(std::regex_search(wren, std::regex(R"(<link name="[^"]*(sole|SOLE))")));
+  EXPECT_NE(wren.find(R"(<joint name="imu_mount" type="fixed">
+    <parent link="CHEST"/>)"), std::string::npos);
+  EXPECT_TRUE(std::regex_search(wren, std::regex(R"(<joint name="L_FINGER_B" type="revolute">[\s\S]*?<mimic joint="L_FINGER_A")")));
+  // auroch: a fixed joint with <mimic>, the foot frame turned upside down, degenerate leaves.
+  EXPECT_TRUE(std::regex_search(auroch, std::regex(R"(type="fixed">[^/]*/>\s*<child[^/]*/>\s*<origin[^/]*/>\s*<mimic )")));
+  EXPECT_TRUE(std::regex_search(auroch, std::regex(R"(<child link="leg_left_foot_link"/>\s*<origin xyz="0 0 0" rpy="3.14159 0 0"/>)")));
+  EXPECT_NE(auroch.find(R"(<inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/>)"), std::string::npos);
+  EXPECT_NE(auroch.find(R"(ixx="1e-05" ixy="0" ixz="0" iyy="1e-05" iyz="0" izz="0.002")"), std::string::npos);
+  // heron: the feet collide as meshes only.
+  EXPECT_TRUE(std::regex_search(heron, std::regex(R"(<link name="foot_link_left">[\s\S]*?<collision>\s*<origin[^>]*>\s*<geometry><mesh )")));
+  EXPECT_EQ(std::regex_search(heron, std::regex(R"(<link name="foot_link_left">(?:(?!</link>)[\s\S])*<box)")), false);
+}
+
+// The committed files are what the generator writes (python3 is part of Debian; skipped without).
+TEST(TestRobotFiles, AreWhatTheGeneratorWrites) {
+  if (std::system("python3 --version > /dev/null 2>&1") != 0) GTEST_SKIP() << "no python3";
+  const fs::path dir = work_dir("generated");
+  const fs::path src = fs::path(POISE_SOURCE_DIR) / "tests/robots";
+  auto [code, out] = run_cmd({"/usr/bin/env", "python3", (src / "generate_robots.py").string(),
+                              "--out", dir.string()}, 60s);
+  ASSERT_EQ(code, 0) << out;
+  int files = 0;
+  for (const auto& e : fs::recursive_directory_iterator(dir)) {
+    if (!e.is_regular_file()) continue;
+    const fs::path rel = fs::relative(e.path(), dir);
+    EXPECT_EQ(read(e.path()), read(src / rel)) << rel << ": re-run tests/robots/generate_robots.py";
+    ++files;
+  }
+  EXPECT_GE(files, 6);
+}
+
+}  // namespace
