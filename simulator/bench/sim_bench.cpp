@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "poise/sim/scenario.hpp"
+#include "poise/sim/world.hpp"
 #include "poise/sim/simulator.hpp"
 
 namespace {
@@ -25,9 +25,9 @@ void run(benchmark::State& state, const std::string& scenario_name) {
   const double residual = std::pow(10.0, -static_cast<double>(state.range(3)));
   const std::filesystem::path file =
       std::filesystem::path(POISE_SOURCE_DIR) / "deploy/scenarios" / (scenario_name + ".yaml");
-  Scenario sc;
+  World sc;
   try {
-    sc = load_scenario(file);
+    sc = load_world(file);
   } catch (const std::exception& e) {
     state.SkipWithError(e.what());
     return;

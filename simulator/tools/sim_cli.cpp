@@ -7,7 +7,7 @@
 #include <exception>
 #include <string>
 
-#include "poise/sim/scenario.hpp"
+#include "poise/sim/world.hpp"
 #include "poise/sim/simulator.hpp"
 
 namespace poise::sim {
@@ -26,7 +26,7 @@ int sim_cli_main(int argc, char** argv) {
   app.add_flag("-q,--quiet", quiet, "only the verdict line");
   CLI11_PARSE(app, argc, argv);
   try {
-    const Scenario sc = load_scenario(file);
+    const World sc = load_world(file);
     Simulator sim(sc.sim);
     SensorFrame s = sim.make_sensor_frame();
     GroundTruth g = sim.make_ground_truth();

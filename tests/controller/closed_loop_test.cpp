@@ -17,12 +17,12 @@
 namespace poise::inprocess {
 namespace {
 
-sim::Scenario scenario(const std::string& name) {
-  return sim::load_scenario(std::string(POISE_SOURCE_DIR) + "/deploy/scenarios/" + name + ".yaml");
+scenario::Scenario scenario(const std::string& name) {
+  return scenario::load_scenario(std::string(POISE_SOURCE_DIR) + "/deploy/scenarios/" + name + ".yaml");
 }
 
-sim::Scenario standing(double duration) {
-  sim::Scenario s = scenario("forward_push_double_support");
+scenario::Scenario standing(double duration) {
+  scenario::Scenario s = scenario("forward_push_double_support");
   s.name = "stand";
   s.sim.pushes.clear();
   s.duration = duration;
@@ -232,7 +232,7 @@ struct RateGap {
 };
 
 RateGap push_rates(double force) {
-  sim::Scenario s = scenario("forward_push_double_support");
+  scenario::Scenario s = scenario("forward_push_double_support");
   s.sim.pushes[0].force_W = Eigen::Vector3d(force, 0, 0);
   const double start = s.sim.pushes[0].start;
   s.duration = start + 1.5;
@@ -285,7 +285,7 @@ struct PlatformRun {
   bool survived = false;
 };
 
-PlatformRun ride_platforms(sim::Scenario s, contact::Method method, const char* name,
+PlatformRun ride_platforms(scenario::Scenario s, contact::Method method, const char* name,
                            const std::optional<controller::ControllerConfig>& config = {}) {
   LoopOptions opt = ground_truth();
   opt.contact_method = method;
@@ -350,7 +350,7 @@ void expect_rode_the_platforms(const PlatformRun& r) {
 // with their mean velocity. Before the simulator's padded platform boxes, Bullet dropped a
 // resting sole's contact points for single steps and this run fell at 8.5 s.
 TEST(ClosedLoop, RidesLevelPlatformsMovingInSync) {
-  sim::Scenario s = scenario("platforms_in_phase");
+  scenario::Scenario s = scenario("platforms_in_phase");
   ASSERT_EQ(s.sim.world.platforms.size(), 2u);
   for (auto& p : s.sim.world.platforms)
     p.pitch = 0.0;
@@ -377,7 +377,7 @@ TEST(ClosedLoop, RidesInclinedPlatformsInSyncWithQpContacts) {
 // as written asks a resting foot zero acceleration, and the robot falls; with the feet's
 // measured acceleration fed forward (foot.support_acceleration_tau) it rides them.
 TEST(ClosedLoop, RidesSmallOutOfPhasePlatformsOnlyWithSupportAccelerationFeedForward) {
-  sim::Scenario s = scenario("platforms_out_of_phase");
+  scenario::Scenario s = scenario("platforms_out_of_phase");
   ASSERT_EQ(s.sim.world.platforms.size(), 2u);
   for (auto& p : s.sim.world.platforms)
     p.translation.amplitude = 0.1;
@@ -401,7 +401,7 @@ class ClosedLoopPush : public ::testing::TestWithParam<StateSource> {};
 
 TEST_P(ClosedLoopPush, SurvivesForwardPushInDoubleSupport) {
   // Paper Fig. 8: 120 N for 0.1 s at the CoM, forward. Back within 1 cm within 3 s of the push.
-  sim::Scenario s = scenario("forward_push_double_support");
+  scenario::Scenario s = scenario("forward_push_double_support");
   ASSERT_EQ(s.sim.pushes.size(), 1u);
   // The IMU of the paper's simulation (ideal): with the shipped industrial MEMS IMU the gyro's
   // white noise (3.1e-3 rad/s per sample) random-walks the weakly held trunk by 1-3.6 deg of roll,
@@ -426,7 +426,7 @@ TEST_P(ClosedLoopPush, SurvivesForwardPushInDoubleSupport) {
 
 TEST_P(ClosedLoopPush, SurvivesLateralPushInSingleSupport) {
   // Paper Fig. 9: 100 N for 0.1 s, leftward, standing on the left foot.
-  sim::Scenario s = scenario("lateral_push_single_support");
+  scenario::Scenario s = scenario("lateral_push_single_support");
   ASSERT_EQ(s.sim.pushes.size(), 1u);
   const double push_end = s.sim.pushes[0].start + s.sim.pushes[0].duration;
   s.duration = push_end + 3.2;

@@ -17,7 +17,7 @@
 
 #include "poise/inprocess/in_process_loop.hpp"
 #include "poise/model/robot_config.hpp"
-#include "poise/sim/scenario.hpp"
+#include "poise/scenario/scenario.hpp"
 
 namespace poise::inprocess {
 namespace {
@@ -67,8 +67,8 @@ using Reference = std::function<void(InProcessLoop&, double)>;
 
 Result run(const std::string& file, double duration, const Reference& reference = {},
            double push_scale = 1.0) {
-  sim::Scenario sc =
-      sim::load_scenario(std::string(POISE_SOURCE_DIR) + "/deploy/scenarios/" + file);
+  scenario::Scenario sc =
+      scenario::load_scenario(std::string(POISE_SOURCE_DIR) + "/deploy/scenarios/" + file);
   for (sim::Push& p : sc.sim.pushes)
     p.force_W *= push_scale;
   LoopOptions opt;

@@ -16,7 +16,7 @@
 #include "poise/inprocess/estimator_frame.hpp"
 #include "poise/inprocess/in_process_loop.hpp"
 #include "poise/model/spatial.hpp"
-#include "poise/sim/scenario.hpp"
+#include "poise/scenario/scenario.hpp"
 
 namespace poise::estimator {
 namespace {
@@ -46,13 +46,13 @@ struct PlatformResult {
   std::uint64_t orientation_rejections = 0;  ///< kTranslating's gated foot orientations
 };
 
-sim::Scenario scenario(const std::string& name) {
-  return sim::load_scenario(std::string(POISE_SOURCE_DIR) + "/deploy/scenarios/" + name + ".yaml");
+scenario::Scenario scenario(const std::string& name) {
+  return scenario::load_scenario(std::string(POISE_SOURCE_DIR) + "/deploy/scenarios/" + name + ".yaml");
 }
 
 /// With `until_fall`, the errors cover the run until the robot falls (base below 0.9 m or a
 /// non-foot contact): the estimator is judged while the robot stands.
-PlatformResult run(sim::Scenario s, contact::Method method, const char* label,
+PlatformResult run(scenario::Scenario s, contact::Method method, const char* label,
                    bool add_biases = false, bool until_fall = false) {
   // The sensors these thresholds were measured with (before the industrial defaults of #20:
   // simulator/sim/SENSORS.md, where supports=moving measured 0.04-0.09 m/s on the level
@@ -174,8 +174,8 @@ void expect_moving_models_meet_the_targets(const PlatformResult& r) {
 }
 
 // Level supports moving in sync (platforms_in_phase with the pitch taken out), 1 m at 0.12 Hz.
-sim::Scenario level_platforms_in_sync() {
-  sim::Scenario s = scenario("platforms_in_phase");
+scenario::Scenario level_platforms_in_sync() {
+  scenario::Scenario s = scenario("platforms_in_phase");
   for (auto& p : s.sim.world.platforms)
     p.pitch = 0.0;
   for (std::size_t j = 0; j < s.sim.initial.joint_names.size(); ++j)
@@ -190,7 +190,7 @@ TEST(EstimatorPlatforms, LevelSupportsMovingInSync) {
   const std::uint64_t seeds[] = {1, 2, 3, 4};
   for (const std::uint64_t seed : seeds) {
     SCOPED_TRACE("IMU noise seed " + std::to_string(seed));
-    sim::Scenario s = level_platforms_in_sync();
+    scenario::Scenario s = level_platforms_in_sync();
     s.sim.imu.seed = seed;
     const std::string label = "level supports in sync, IMU seed " + std::to_string(seed);
     const PlatformResult r = run(s, contact::Method::kSequential, label.c_str());
@@ -213,7 +213,7 @@ TEST(EstimatorPlatforms, LevelSupportsMovingInSyncWithImuBiases) {
 // The paper's Fig. 10 top as shipped: +10 / -10 deg supports in sync (QP contact optimiser, the
 // one that rides them; see tests/controller/closed_loop_test.cpp).
 TEST(EstimatorPlatforms, InclinedSupportsMovingInSync) {
-  const sim::Scenario s = scenario("platforms_in_phase");
+  const scenario::Scenario s = scenario("platforms_in_phase");
   EXPECT_EQ(s.estimator.supports, "translating")
       << "the shipped scenario configures the estimator";
   expect_moving_models_meet_the_targets(
@@ -225,7 +225,7 @@ TEST(EstimatorPlatforms, InclinedSupportsMovingInSync) {
 // start, the feet tipping on their supports first. Judged until the fall; a tipping foot's
 // orientation is refused by kTranslating's chi2 gate and taken again.
 TEST(EstimatorPlatforms, OutOfPhaseSupportsUntilTheRobotFalls) {
-  const sim::Scenario s = scenario("platforms_out_of_phase");
+  const scenario::Scenario s = scenario("platforms_out_of_phase");
   ASSERT_EQ(s.sim.world.platforms.size(), 2u);
   const double motion_start = s.sim.world.platforms[0].motion_start;
   const PlatformResult r = run(s, contact::Method::kQp, "out of phase, qp, until the fall", false,
@@ -248,7 +248,7 @@ TEST(EstimatorPlatforms, SupportModelNamesAndBadConfig) {
     EXPECT_NE(std::string(e.what()).find("'ship'"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("fixed, moving, translating"), std::string::npos);
   }
-  const sim::Scenario s = scenario("forward_push_double_support");
+  const scenario::Scenario s = scenario("forward_push_double_support");
   const model::RobotConfig rc = model::load_robot_config(
       std::string(POISE_SOURCE_DIR) + "/deploy/robots/poise_humanoid/robot.yaml");
   const model::Model model = model::load_robot_model(rc);

@@ -15,7 +15,7 @@
 #include "poise/model/dynamics.hpp"
 #include "poise/model/kinematics.hpp"
 #include "poise/model/robot_config.hpp"
-#include "poise/sim/scenario.hpp"
+#include "poise/scenario/scenario.hpp"
 #include "poise/sim/simulator.hpp"
 
 namespace poise::estimator {
@@ -63,7 +63,7 @@ std::string scenario_path(const std::string& name) {
 /// Runs `duration` seconds of the scenario with the estimator in the loop.
 RunResult run(const std::string& scenario_name, double duration, bool add_biases,
               bool remove_pushes = false) {
-  sim::Scenario sc = sim::load_scenario(scenario_path(scenario_name));
+  scenario::Scenario sc = scenario::load_scenario(scenario_path(scenario_name));
   if (remove_pushes) sc.sim.pushes.clear();
   if (add_biases) {
     sc.sim.imu.gyro_bias = Eigen::Vector3d(0.002, -0.0015, 0.001);

@@ -1,5 +1,5 @@
 // The scenario's estimator section (type, ground_height, support_height) and where `poise run`
-// starts the estimator's soles (sim::estimator_start, issue #20 item 2): given heights, the ground
+// starts the estimator's soles (scenario::estimator_start, issue #20 item 2): given heights, the ground
 // plane, and the platforms' placement at t = 0 checked against the geometry of the shipped
 // platforms.
 #include <gtest/gtest.h>
@@ -9,7 +9,7 @@
 #include <string>
 
 #include "poise/estimator/estimator.hpp"
-#include "poise/sim/scenario.hpp"
+#include "poise/scenario/scenario.hpp"
 
 namespace {
 
@@ -18,29 +18,29 @@ using namespace poise;
 const std::string kRobot = std::string("robot: {config: ") + POISE_SOURCE_DIR +
                            "/deploy/robots/poise_humanoid/robot.yaml}\n";
 
-sim::Scenario parse(const std::string& estimator_section) {
-  return sim::parse_scenario("name: t\nduration: 1\n" + kRobot + estimator_section, ".", "test");
+scenario::Scenario parse(const std::string& estimator_section) {
+  return scenario::parse_scenario("name: t\nduration: 1\n" + kRobot + estimator_section, ".", "test");
 }
 
 TEST(EstimatorStart, ScenarioKeysAndDefaults) {
-  const sim::Scenario plain = parse("");
+  const scenario::Scenario plain = parse("");
   EXPECT_EQ(plain.estimator.type, "invariant-ekf");
-  sim::EstimatorStart s = sim::estimator_start(plain);
+  scenario::EstimatorStart s = scenario::estimator_start(plain);
   EXPECT_EQ(s.source, "ground plane");
   EXPECT_FALSE(s.per_foot);
   EXPECT_EQ(s.ground_height, 0.0);
 
-  const sim::Scenario g = parse("estimator: {type: leg-odometry, ground_height: 0.05}\n");
+  const scenario::Scenario g = parse("estimator: {type: leg-odometry, ground_height: 0.05}\n");
   EXPECT_EQ(g.estimator.type, "leg-odometry");
   EXPECT_EQ(estimator::parse_estimator_kind(g.estimator.type),
             estimator::EstimatorKind::kLegOdometry);
-  s = sim::estimator_start(g);
+  s = scenario::estimator_start(g);
   EXPECT_EQ(s.source, "scenario ground_height");
   EXPECT_DOUBLE_EQ(s.ground_height, 0.05);
   EXPECT_FALSE(s.per_foot);
 
-  const sim::Scenario f = parse("estimator: {support_height: {left: 0.1, right: 0.2}}\n");
-  s = sim::estimator_start(f);
+  const scenario::Scenario f = parse("estimator: {support_height: {left: 0.1, right: 0.2}}\n");
+  s = scenario::estimator_start(f);
   EXPECT_EQ(s.source, "scenario support_height");
   ASSERT_TRUE(s.per_foot);
   EXPECT_DOUBLE_EQ(s.support_height[0], 0.2);  // right
@@ -72,9 +72,9 @@ TEST(EstimatorStart, BadValuesAreRefusedNamingTheKey) {
 // frame), touches z = 0.1. The left sole point under the foot frame is then 0.14 sin(10 deg)
 // higher; the legs are symmetric, so the right one is at the same height.
 TEST(EstimatorStart, PlatformHeightsFollowThePlacement) {
-  const sim::Scenario sc =
-      sim::load_scenario(std::string(POISE_SOURCE_DIR) + "/deploy/scenarios/platforms_in_phase.yaml");
-  const sim::EstimatorStart s = sim::estimator_start(sc);
+  const scenario::Scenario sc =
+      scenario::load_scenario(std::string(POISE_SOURCE_DIR) + "/deploy/scenarios/platforms_in_phase.yaml");
+  const scenario::EstimatorStart s = scenario::estimator_start(sc);
   EXPECT_EQ(s.source, "platforms at t = 0");
   ASSERT_TRUE(s.per_foot);
   const double expected = 0.1 + 0.14 * std::sin(10.0 * M_PI / 180.0);

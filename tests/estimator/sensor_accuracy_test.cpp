@@ -14,7 +14,7 @@
 
 #include "poise/inprocess/in_process_loop.hpp"
 #include "poise/model/spatial.hpp"
-#include "poise/sim/scenario.hpp"
+#include "poise/scenario/scenario.hpp"
 
 namespace poise::inprocess {
 namespace {
@@ -31,8 +31,8 @@ enum class Imu { kIdeal, kIndustrial, kNoOrientation };
 
 Errors run(const std::string& name, double duration, Imu imu,
            const std::string& estimator = "invariant-ekf") {
-  sim::Scenario sc =
-      sim::load_scenario(std::string(POISE_SOURCE_DIR) + "/deploy/scenarios/" + name + ".yaml");
+  scenario::Scenario sc =
+      scenario::load_scenario(std::string(POISE_SOURCE_DIR) + "/deploy/scenarios/" + name + ".yaml");
   if (imu == Imu::kIdeal) {
     const std::uint64_t seed = sc.sim.imu.seed;
     sc.sim.imu = sim::ImuNoiseConfig{};

@@ -28,7 +28,7 @@
 #include "test_util.hpp"
 
 #ifdef POISE_MUTATED_WITH_SCENARIO
-#include "poise/sim/scenario.hpp"
+#include "poise/scenario/scenario.hpp"
 #endif
 
 namespace poise::model {
@@ -640,7 +640,7 @@ const std::string& scenario_text() {
 }
 std::string scenario_error(const std::string& text) {
   return error_of([&] {
-    sim::parse_scenario(text, std::string(POISE_SOURCE_DIR) + "/deploy/scenarios", "mutant");
+    scenario::parse_scenario(text, std::string(POISE_SOURCE_DIR) + "/deploy/scenarios", "mutant");
   });
 }
 
@@ -715,13 +715,13 @@ TEST(MutatedScenario, TopLevelFields) {
   expect_names(scenario_error(sub("../robots/poise_humanoid/robot.yaml",
                                   (dir / "robot.yaml").string())),
                {"robot.config", "colour"}, "scenario with a bad robot.yaml");
-  expect_names(error_of([] { sim::load_scenario("/dev/zero"); }), {"/dev/zero", "16 MB"},
+  expect_names(error_of([] { scenario::load_scenario("/dev/zero"); }), {"/dev/zero", "16 MB"},
                "scenario /dev/zero");
   fs::remove_all(dir);
   // shipped scenarios all still load
   for (const auto& e : fs::directory_iterator(std::string(POISE_SOURCE_DIR) + "/deploy/scenarios"))
     if (e.path().extension() == ".yaml")
-      EXPECT_EQ(error_of([&] { sim::load_scenario(e.path()); }), "(no error)") << e.path();
+      EXPECT_EQ(error_of([&] { scenario::load_scenario(e.path()); }), "(no error)") << e.path();
 }
 #endif
 

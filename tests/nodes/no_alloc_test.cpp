@@ -54,8 +54,8 @@ TEST(NodesNoAlloc, OneTickOfEveryConversionAllocatesNothing) {
     auto p = std::make_unique<double>(1.0);
     EXPECT_EQ(c.count(), 1);
   }
-  const sim::Scenario sc =
-      sim::load_scenario(std::string(POISE_SOURCE_DIR) + "/tests/nodes/standing_short.yaml");
+  const sim::World sc =
+      sim::load_world(std::string(POISE_SOURCE_DIR) + "/tests/nodes/standing_short.yaml");
   sim::Simulator simulator(sc.sim);
   const auto feet = sim_node::foot_order(simulator);
   const auto robot = model::load_robot_config(sc.robot_config);

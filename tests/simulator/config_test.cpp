@@ -7,7 +7,7 @@
 #include <filesystem>
 #include <algorithm>
 
-#include "poise/sim/scenario.hpp"
+#include "poise/sim/world.hpp"
 #include "poise/sim/simulator.hpp"
 #if POISE_SIM_TEST_HAVE_MODEL
 #include "poise/model/model.hpp"
@@ -170,7 +170,7 @@ TEST(SimConfig, MimicJointIsFrozenLikeTheModelFreezesIt) {
   ASSERT_EQ(m.frozen_joints.size(), 1u);
   EXPECT_EQ(m.frozen_joints[0], "r_finger");
 
-  const Scenario sc = load_scenario(dir / "stand.yaml");
+  const World sc = load_world(dir / "stand.yaml");
   Simulator sim(sc.sim);
   std::vector<std::string> sim_joints = sim.joint_names();
   std::vector<std::string> model_joints = m.joint_names;

@@ -1,5 +1,6 @@
 // Scenario files: the shipped paper scenarios load and put the robot on its supports; schema
-// errors name the key; the monitor's verdict quantities.
+// errors name the key; the monitor's verdict quantities. The format is poise::scenario
+// (deploy/scenario), the world part of it and the monitor poise::sim (simulator/sim).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -8,7 +9,7 @@
 #include <filesystem>
 #include <vector>
 
-#include "poise/sim/scenario.hpp"
+#include "poise/scenario/scenario.hpp"
 #include "poise/sim/simulator.hpp"
 #include "sim_test_util.hpp"
 
@@ -16,6 +17,9 @@ namespace poise::sim {
 namespace {
 
 namespace fs = std::filesystem;
+using scenario::load_scenario;
+using scenario::parse_scenario;
+using scenario::Scenario;
 
 // PD hold of the posture in `s` (kp 300, kd 6 on every joint).
 JointCommand hold_posture_command(const Simulator& sim, const SensorFrame& s) {

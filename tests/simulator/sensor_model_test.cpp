@@ -10,7 +10,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "poise/sim/scenario.hpp"
+#include "poise/sim/world.hpp"
 #include "sim_test_util.hpp"
 
 namespace poise::sim {
@@ -220,12 +220,12 @@ TEST(SimSensorModel, ScenarioDefaultsAreIndustrialAndKeysAreChecked) {
   const std::string base =
       "name: t\nduration: 1\nrobot:\n  config: deploy/robots/poise_humanoid/robot.yaml\n";
   const std::filesystem::path dir(POISE_SOURCE_DIR);
-  const Scenario d = parse_scenario(base, dir, "t.yaml");
+  const World d = parse_world(base, dir, "t.yaml");
   EXPECT_EQ(d.sim.imu.orientation, ImuOrientationOutput::kFilter);
   EXPECT_EQ(d.sim.imu.gyro_noise_density, industrial_mems_imu().gyro_noise_density);
   EXPECT_EQ(d.sim.encoders.counts_per_rev, industrial_encoder().counts_per_rev);
   EXPECT_EQ(d.sim.foot_ft.force_noise_std, industrial_foot_ft().force_noise_std);
-  const Scenario ideal = parse_scenario(
+  const World ideal = parse_world(
       base + "sensors: {preset: ideal, imu: {orientation: off, delay_ticks: 2}}\n", dir, "t.yaml");
   EXPECT_EQ(ideal.sim.imu.gyro_noise_density, 0.0);
   EXPECT_EQ(ideal.sim.imu.orientation, ImuOrientationOutput::kOff);
@@ -233,7 +233,7 @@ TEST(SimSensorModel, ScenarioDefaultsAreIndustrialAndKeysAreChecked) {
   EXPECT_EQ(ideal.sim.encoders.counts_per_rev, 0.0);
   const auto error_of = [&](const std::string& sensors) -> std::string {
     try {
-      parse_scenario(base + sensors, dir, "t.yaml");
+      parse_world(base + sensors, dir, "t.yaml");
     } catch (const std::runtime_error& e) {
       return e.what();
     }

@@ -35,7 +35,7 @@
 #include "poise/contact/contact_optimizer.hpp"
 #include "poise/inprocess/in_process_loop.hpp"
 #include "poise/plot/balance_plot.hpp"
-#include "poise/sim/scenario.hpp"
+#include "poise/scenario/scenario.hpp"
 
 namespace poise::envelope {
 
@@ -129,7 +129,7 @@ class Runner {
       if (o_.mode == "in-process") {
         YAML::Emitter e;
         e << scenario;
-        const sim::Scenario sc = sim::parse_scenario(e.c_str(), work_, "scenario " + name);
+        const scenario::Scenario sc = scenario::parse_scenario(e.c_str(), work_, "scenario " + name);
         inprocess::LoopOptions lo;
         if (o_.ground_truth_state) lo.state_source = inprocess::StateSource::kGroundTruth;
         inprocess::InProcessLoop loop(sc, lo);
@@ -280,7 +280,7 @@ YAML::Node load_base(const std::string& path) {
     throw std::runtime_error("base scenario " + path + ": " + e.what());
   }
   // Validate it once as a whole (clear errors before hundreds of runs).
-  (void)sim::load_scenario(path);
+  (void)scenario::load_scenario(path);
   absolutise_paths(n, fs::absolute(path).parent_path());
   return n;
 }

@@ -19,7 +19,7 @@
 
 #include "contact_corpus.hpp"
 #include "poise/inprocess/in_process_loop.hpp"
-#include "poise/sim/scenario.hpp"
+#include "poise/scenario/scenario.hpp"
 
 namespace {
 
@@ -65,7 +65,7 @@ int main(int argc, char** argv) {
       "recorded by poise-contact-record from BalanceController::problem() in the in-process loop"};
   try {
     for (const std::string& name : scenarios) {
-      const sim::Scenario scenario = sim::load_scenario(resolve_scenario(name));
+      const scenario::Scenario scenario = scenario::load_scenario(resolve_scenario(name));
       inprocess::LoopOptions opt;
       opt.state_source = ground_truth || !inprocess::estimator_available()
                              ? inprocess::StateSource::kGroundTruth

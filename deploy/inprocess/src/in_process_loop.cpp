@@ -39,7 +39,7 @@ struct InProcessLoop::EstimatorParts {
 struct InProcessLoop::EstimatorParts {};
 #endif
 
-InProcessLoop::InProcessLoop(const sim::Scenario& scenario, const LoopOptions& options)
+InProcessLoop::InProcessLoop(const scenario::Scenario& scenario, const LoopOptions& options)
     : scenario_(scenario),
       options_(options),
       optimizer_(options.contact_method),
@@ -93,7 +93,7 @@ InProcessLoop::InProcessLoop(const sim::Scenario& scenario, const LoopOptions& o
     ecfg.kind = estimator::parse_estimator_kind(
         options_.estimator.empty() ? scenario_.estimator.type : options_.estimator);
     // Where the soles start: the scenario's estimator section, or the platforms at t = 0.
-    const sim::EstimatorStart start = sim::estimator_start(scenario_);
+    const scenario::EstimatorStart start = scenario::estimator_start(scenario_);
     ecfg.ground_height = start.ground_height;
     for (int side = 0; side < 2; ++side)
       ecfg.support_height[static_cast<std::size_t>(side)] =

@@ -112,7 +112,7 @@ int cli_main(int argc, char** argv) {
     return app.exit(e);
   }
   try {
-    const sim::Scenario scenario = sim::load_scenario(resolve_scenario(scenario_arg));
+    const scenario::Scenario scenario = scenario::load_scenario(resolve_scenario(scenario_arg));
     LoopOptions opt;
     opt.state_source = ground_truth ? StateSource::kGroundTruth : StateSource::kEstimator;
     if (opt.state_source == StateSource::kEstimator && !estimator_available()) {

@@ -46,7 +46,7 @@ struct InProcessResult {
 
 InProcessResult run_in_process(const std::string& file, double duration, bool verbose,
                                int settle_ticks) {
-  const sim::Scenario sc = sim::load_scenario(file);
+  const sim::World sc = sim::load_world(file);
   sim::Simulator sim(sc.sim);
   const auto feet = sim_node::foot_order(sim);
   const model::RobotConfig robot = model::load_robot_config(

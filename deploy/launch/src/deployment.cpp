@@ -11,7 +11,7 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include "poise/sim/scenario.hpp"
+#include "poise/scenario/scenario.hpp"
 
 namespace poise::launch {
 namespace fs = std::filesystem;
@@ -342,7 +342,7 @@ Deployment load_deployment(const fs::path& file, const std::string& host) {
             sim_here = sim_here || (c.kind == "sim" && c.host == host);
           if (sim_here) {
             try {
-              const sim::Scenario sc = sim::load_scenario(d.scenario);
+              const scenario::Scenario sc = scenario::load_scenario(d.scenario);
               d.estimator_supports = sc.estimator.supports;
               d.contact_method = sc.contact_method;
               d.planned_support = sc.support;

@@ -23,7 +23,7 @@
 #include "poise/launch/launch.hpp"
 #include "poise/contact/contact_optimizer.hpp"
 #include "poise/controller/controller_config.hpp"
-#include "poise/sim/scenario.hpp"
+#include "poise/scenario/scenario.hpp"
 
 namespace poise::launch {
 namespace {
@@ -236,7 +236,7 @@ int run_distributed(int argc, char** argv) {
 
   try {
     s.scenario = resolve_scenario(s.scenario);  // a file, or a name in deploy/scenarios/
-    const sim::Scenario scenario = sim::load_scenario(s.scenario);
+    const scenario::Scenario scenario = scenario::load_scenario(s.scenario);
     const double duration = s.duration > 0 ? s.duration : scenario.duration;
     if (s.method.empty())
       s.method = scenario.contact_method.empty() ? "sequential" : scenario.contact_method;
@@ -317,7 +317,7 @@ int run_distributed(int argc, char** argv) {
     if (s.estimator.empty()) s.estimator = scenario.estimator.type;
     est_args.insert(est_args.end(), {"--estimator", s.estimator});
     // Where the soles start (scenario estimator section, or derived from the platforms' placement).
-    const sim::EstimatorStart start = sim::estimator_start(scenario);
+    const scenario::EstimatorStart start = scenario::estimator_start(scenario);
     est_args.insert(est_args.end(), {"--ground-height", std::to_string(start.ground_height)});
     if (start.per_foot) {
       // Feet without a given height stand on the ground.

@@ -27,7 +27,7 @@
 #include "poise/model/kinematics.hpp"
 #include "poise/model/robot_config.hpp"
 #include "poise/record/mcap_reader.hpp"
-#include "poise/sim/scenario.hpp"
+#include "poise/sim/world.hpp"
 
 namespace poise::estimator_bench {
 namespace {
@@ -74,7 +74,7 @@ bool decode(const record::MessageView& m, T& out) {
 
 Accuracy analyse_recording(const std::string& mcap, const std::string& scenario_file) {
   Accuracy acc;
-  const sim::Scenario scenario = sim::load_scenario(scenario_file);
+  const sim::World scenario = sim::load_world(scenario_file);
   acc.scenario = scenario.name;
   if (scenario.robot_config.empty()) {
     acc.error = "the scenario has no robot.config (the model is built from it)";

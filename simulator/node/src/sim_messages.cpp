@@ -44,7 +44,7 @@ FootOrder foot_order(const sim::Simulator& sim) {
   return order;
 }
 
-msg::RobotDescription make_robot_description(const sim::Scenario& scenario,
+msg::RobotDescription make_robot_description(const sim::World& scenario,
                                              const sim::Simulator& sim, const FootOrder& feet) {
   msg::RobotDescription d;
   std::ifstream file(scenario.sim.robot.urdf_path);

@@ -52,7 +52,7 @@
 #include "poise/node/mailbox.hpp"
 #include "poise/node/node.hpp"
 #include "poise/node/shutdown.hpp"
-#include "poise/sim/scenario.hpp"
+#include "poise/sim/world.hpp"
 #include "poise/sim/simulator.hpp"
 #include "poise/safety/safety_layer.hpp"
 #include "poise/model/robot_config.hpp"
@@ -101,7 +101,7 @@ class SimNode {
   SimNode(node::Node& node, const Settings& settings)
       : node_(node),
         settings_(settings),
-        scenario_(sim::load_scenario(settings.scenario)),
+        scenario_(sim::load_world(settings.scenario)),
         sim_(scenario_.sim),
         feet_(sim_node::foot_order(sim_)),
         monitor_(scenario_, sim::platforms_of_feet(scenario_)),
@@ -133,7 +133,7 @@ class SimNode {
              truth_.X_WB.translation().z(), truth_.com_W.x(), truth_.com_W.y(), truth_.com_W.z());
   }
 
-  const sim::Scenario& scenario() const { return scenario_; }
+  const sim::World& scenario() const { return scenario_; }
   double duration() const {
     return settings_.duration > 0 ? settings_.duration : scenario_.duration;
   }
@@ -245,7 +245,7 @@ class SimNode {
  private:
   /// The safety layer of this robot: gains from the scenario's robot configuration (or the
   /// URDF alone), bounded by each joint's inertia.
-  static safety::Config make_safety_config(const sim::Scenario& scenario, const sim::Simulator& sim,
+  static safety::Config make_safety_config(const sim::World& scenario, const sim::Simulator& sim,
                                            const Settings& settings) {
     std::unique_ptr<model::RobotConfig> robot;
     model::Model model;
@@ -601,7 +601,7 @@ class SimNode {
 
   node::Node& node_;
   Settings settings_;
-  sim::Scenario scenario_;
+  sim::World scenario_;
   sim::Simulator sim_;
   sim_node::FootOrder feet_;
   sim::ScenarioMonitor monitor_;

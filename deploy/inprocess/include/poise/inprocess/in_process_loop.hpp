@@ -22,7 +22,7 @@
 
 #include "poise/contact/contact_optimizer.hpp"
 #include "poise/controller/balance_controller.hpp"
-#include "poise/sim/scenario.hpp"
+#include "poise/scenario/scenario.hpp"
 #include "poise/sim/simulator.hpp"
 
 namespace poise::inprocess {
@@ -85,7 +85,7 @@ class InProcessLoop {
   /// Builds the simulator, the robot model, the estimator (if used), the controller and the
   /// contact optimiser. Throws std::runtime_error naming the problem (bad scenario, robot config,
   /// controller config, estimator requested but not built).
-  InProcessLoop(const sim::Scenario& scenario, const LoopOptions& options);
+  InProcessLoop(const scenario::Scenario& scenario, const LoopOptions& options);
   ~InProcessLoop();
   InProcessLoop(const InProcessLoop&) = delete;
   InProcessLoop& operator=(const InProcessLoop&) = delete;
@@ -106,13 +106,13 @@ class InProcessLoop {
   sim::Simulator& simulator() { return *sim_; }
   const sim::GroundTruth& truth() const { return truth_; }
   const controller::RobotState& state() const { return state_; }
-  const sim::Scenario& scenario() const { return scenario_; }
+  const scenario::Scenario& scenario() const { return scenario_; }
 
  private:
   struct EstimatorParts;
   void read_state();
 
-  sim::Scenario scenario_;
+  scenario::Scenario scenario_;
   LoopOptions options_;
   double duration_ = 0.0;
   model::RobotConfig robot_;

@@ -15,7 +15,7 @@
 #include <poise/msg/robot_description.h>
 #include <poise/msg/sensors.h>
 
-#include "poise/sim/scenario.hpp"
+#include "poise/sim/world.hpp"
 #include "poise/sim/simulator.hpp"
 
 namespace poise::sim_node {
@@ -30,7 +30,7 @@ FootOrder foot_order(const sim::Simulator& sim);
 /// The robot description of a scenario: URDF text (read from the file), joint order, IMU frame,
 /// soles (geometry from the scenario; safety margin and friction from the robot configuration
 /// when the scenario names one, else 0 margin and the ground friction). Throws on I/O errors.
-msg::RobotDescription make_robot_description(const sim::Scenario& scenario,
+msg::RobotDescription make_robot_description(const sim::World& scenario,
                                              const sim::Simulator& sim, const FootOrder& feet);
 
 /// SensorFrame -> Sensors.

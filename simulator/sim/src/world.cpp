@@ -1,0 +1,663 @@
+#include "poise/sim/world.hpp"
+#include "poise/sim/simulator.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+#ifdef POISE_SIM_HAVE_MODEL
+#include "poise/model/model.hpp"
+#include "poise/model/robot_config.hpp"
+#endif
+
+namespace poise::sim {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Ctx {
+  std::string what;
+  fs::path base_dir;
+  [[noreturn]] void fail(const std::string& key, const std::string& msg) const {
+    throw std::runtime_error(what + ": " + key + ": " + msg);
+  }
+  void allow(const YAML::Node& n, const std::string& key,
+             std::initializer_list<const char*> keys) const {
+    if (!n) return;
+    if (!n.IsMap()) fail(key, "must be a mapping");
+    for (const auto& kv : n) {
+      const std::string k = kv.first.as<std::string>();
+      if (std::none_of(keys.begin(), keys.end(), [&](const char* a) { return k == a; })) {
+        std::string list;
+        for (const char* a : keys)
+          list += std::string(list.empty() ? "" : ", ") + a;
+        fail(key.empty() ? k : key + "." + k, "unknown key (allowed: " + list + ")");
+      }
+    }
+  }
+  double num(const YAML::Node& n, const std::string& key) const {
+    try {
+      if (!n.IsScalar()) fail(key, "must be a number");
+      const double v = n.as<double>();
+      if (!std::isfinite(v)) fail(key, "must be a finite number");
+      return v;
+    } catch (const YAML::Exception&) {
+      fail(key, "must be a number, got '" + n.Scalar().substr(0, 40) + "'");
+    }
+  }
+  double num(const YAML::Node& parent, const char* k, const std::string& key, double dflt) const {
+    return parent[k] ? num(parent[k], key + "." + k) : dflt;
+  }
+  bool boolean(const YAML::Node& parent, const char* k, const std::string& key, bool dflt) const {
+    if (!parent[k]) return dflt;
+    try {
+      return parent[k].as<bool>();
+    } catch (const YAML::Exception&) {
+      fail(key + "." + k, "must be true or false");
+    }
+  }
+  std::string str(const YAML::Node& n, const std::string& key) const {
+    if (!n.IsScalar()) fail(key, "must be a string");
+    return n.as<std::string>();
+  }
+  Eigen::Vector3d vec3(const YAML::Node& n, const std::string& key) const {
+    if (!n.IsSequence() || n.size() != 3) fail(key, "must be a list of 3 numbers");
+    Eigen::Vector3d v;
+    for (int i = 0; i < 3; ++i)
+      v[i] = num(n[i], key + "[" + std::to_string(i) + "]");
+    return v;
+  }
+  fs::path path(const YAML::Node& n, const std::string& key) const {
+    const fs::path p = str(n, key);
+    if (p.is_absolute()) return p;
+    const fs::path a = base_dir / p;
+    if (fs::exists(a)) return fs::weakly_canonical(a);
+#ifdef POISE_SIM_SOURCE_DIR
+    const fs::path b = fs::path(POISE_SIM_SOURCE_DIR) / p;
+    if (fs::exists(b)) return fs::weakly_canonical(b);
+#endif
+    fail(key, "file '" + p.string() + "' not found (relative to " + base_dir.string() +
+                  " or the source tree)");
+  }
+};
+
+constexpr double kDeg = M_PI / 180.0;
+
+Sinusoid sinusoid(const Ctx& c, const YAML::Node& n, const std::string& key, bool angular,
+                  Eigen::Vector3d& axis) {
+  c.allow(n, key, {"axis", "amplitude", "amplitude_deg", "frequency", "phase_deg"});
+  Sinusoid s;
+  if (n["axis"]) {
+    axis = c.vec3(n["axis"], key + ".axis");
+    if (axis.norm() < 1e-9) c.fail(key + ".axis", "must be non-zero");
+    axis.normalize();
+  }
+  if (angular) {
+    if (n["amplitude"]) c.fail(key + ".amplitude", "use amplitude_deg for rotations");
+    s.amplitude = c.num(n, "amplitude_deg", key, 0.0) * kDeg;
+  } else {
+    if (n["amplitude_deg"]) c.fail(key + ".amplitude_deg", "use amplitude (m) for translations");
+    s.amplitude = c.num(n, "amplitude", key, 0.0);
+  }
+  s.frequency = c.num(n, "frequency", key, 0.0);
+  if (s.frequency < 0.0) c.fail(key + ".frequency", "must be >= 0");
+  s.phase = c.num(n, "phase_deg", key, 0.0) * kDeg;
+  return s;
+}
+
+void load_robot(const Ctx& c, const YAML::Node& n, World& sc,
+                std::vector<std::pair<std::string, double>>& nominal,
+                std::map<std::string, std::pair<double, double>>& limits) {
+  const std::string key = "robot";
+  if (!n) c.fail(key, "is required");
+  c.allow(n, key, {"config", "urdf", "feet", "imu_frame", "self_collision", "damping_mode_kd"});
+  RobotConfig& r = sc.sim.robot;
+  if (n["config"]) {
+    if (n["urdf"] || n["feet"] || n["imu_frame"])
+      c.fail(key, "give either 'config' (robot configuration file) or 'urdf' + 'feet', not both");
+    sc.robot_config = c.path(n["config"], key + ".config");
+#ifdef POISE_SIM_HAVE_MODEL
+    model::RobotConfig rc;
+    try {
+      rc = model::load_robot_config(sc.robot_config);
+    } catch (const std::exception& e) {
+      c.fail(key + ".config", e.what());
+    }
+    r.urdf_path = rc.urdf_path.string();
+    r.imu_frame = rc.imu_frame;
+    r.feet.clear();
+    const char* side_name[2] = {"right", "left"};
+    for (int s = 0; s < 2; ++s) {
+      const model::FootConfig& f = rc.feet[static_cast<std::size_t>(s)];
+      FootConfig ff;
+      ff.name = side_name[s];
+      ff.frame = f.frame;
+      ff.has_sole = true;
+      ff.sole.x_min = f.sole.x_min;
+      ff.sole.x_max = f.sole.x_max;
+      ff.sole.y_min = f.sole.y_min;
+      ff.sole.y_max = f.sole.y_max;
+      ff.sole.height = f.sole.height;
+      r.feet.push_back(ff);
+    }
+    // nominal posture: joint entries of q_nominal (q = [p (3); quat (4); joints])
+    const model::Model m = model::load_robot_model(rc);
+    for (std::size_t j = 0; j < m.joint_names.size(); ++j) {
+      nominal.emplace_back(m.joint_names[j], rc.q_nominal[7 + static_cast<Eigen::Index>(j)]);
+      limits[m.joint_names[j]] = {m.limits[j].lower, m.limits[j].upper};
+    }
+#else
+    c.fail(key + ".config",
+           "this build has no robot-configuration loader (poise_model); use "
+           "'urdf' + 'feet'");
+#endif
+  } else {
+    if (!n["urdf"]) c.fail(key, "needs 'config' or 'urdf'");
+    r.urdf_path = c.path(n["urdf"], key + ".urdf").string();
+    {  // the simulator reads it whole later: refuse what is not a file of sane size now
+      std::error_code ec;
+      if (!fs::is_regular_file(r.urdf_path, ec))
+        c.fail(key + ".urdf", "'" + r.urdf_path + "' is not a regular file");
+      if (fs::file_size(r.urdf_path, ec) > (std::uintmax_t{16} << 20))
+        c.fail(key + ".urdf", "'" + r.urdf_path + "' is larger than the limit of 16 MB");
+    }
+    if (n["imu_frame"]) r.imu_frame = c.str(n["imu_frame"], key + ".imu_frame");
+    const YAML::Node feet = n["feet"];
+    if (!feet || !feet.IsMap() || feet.size() == 0)
+      c.fail(key + ".feet", "a mapping of foot name -> {frame, sole} is required");
+    r.feet.clear();
+    for (const auto& kv : feet) {
+      const std::string name = kv.first.as<std::string>();
+      const std::string fk = key + ".feet." + name;
+      c.allow(kv.second, fk, {"frame", "sole"});
+      FootConfig f;
+      f.name = name;
+      if (!kv.second["frame"]) c.fail(fk + ".frame", "is required");
+      f.frame = c.str(kv.second["frame"], fk + ".frame");
+      if (const YAML::Node s = kv.second["sole"]) {
+        c.allow(s, fk + ".sole", {"x_min", "x_max", "y_min", "y_max", "height", "thickness"});
+        for (const char* k : {"x_min", "x_max", "y_min", "y_max", "height"})
+          if (!s[k]) c.fail(fk + ".sole." + k, "is required");
+        f.has_sole = true;
+        f.sole.x_min = c.num(s["x_min"], fk + ".sole.x_min");
+        f.sole.x_max = c.num(s["x_max"], fk + ".sole.x_max");
+        f.sole.y_min = c.num(s["y_min"], fk + ".sole.y_min");
+        f.sole.y_max = c.num(s["y_max"], fk + ".sole.y_max");
+        f.sole.height = c.num(s["height"], fk + ".sole.height");
+        f.sole.thickness = c.num(s, "thickness", fk + ".sole", f.sole.thickness);
+      }
+      r.feet.push_back(f);
+    }
+  }
+  r.self_collision = c.boolean(n, "self_collision", key, false);
+  r.damping_mode_kd = c.num(n, "damping_mode_kd", key, r.damping_mode_kd);
+  // A negative damping gain would turn the safety damping into an energy source.
+  if (r.damping_mode_kd < 0.0) c.fail(key + ".damping_mode_kd", "must be >= 0");
+}
+
+void load_world(const Ctx& c, const YAML::Node& n, World& sc) {
+  const std::string key = "world";
+  c.allow(n, key, {"gravity", "ground", "platforms"});
+  WorldConfig& w = sc.sim.world;
+  if (!n) return;
+  if (n["gravity"]) w.gravity = c.vec3(n["gravity"], key + ".gravity");
+  if (const YAML::Node g = n["ground"]) {
+    c.allow(g, key + ".ground", {"enabled", "height", "friction"});
+    w.ground.enabled = c.boolean(g, "enabled", key + ".ground", true);
+    w.ground.height = c.num(g, "height", key + ".ground", 0.0);
+    w.ground.friction = c.num(g, "friction", key + ".ground", w.ground.friction);
+    if (w.ground.friction < 0.0) c.fail(key + ".ground.friction", "must be >= 0");
+  }
+  if (const YAML::Node ps = n["platforms"]) {
+    if (!ps.IsSequence()) c.fail(key + ".platforms", "must be a list");
+    for (std::size_t i = 0; i < ps.size(); ++i) {
+      const YAML::Node p = ps[i];
+      const std::string pk = key + ".platforms[" + std::to_string(i) + "]";
+      c.allow(p, pk,
+              {"name", "foot", "size", "position", "auto_place", "roll_deg", "pitch_deg", "yaw_deg",
+               "friction", "translation", "rotation", "motion_start", "motion_ramp"});
+      PlatformConfig pc;
+      pc.name = p["name"] ? c.str(p["name"], pk + ".name") : "platform" + std::to_string(i);
+      if (p["foot"]) pc.foot = c.str(p["foot"], pk + ".foot");
+      if (p["size"]) {
+        const Eigen::Vector3d s = c.vec3(p["size"], pk + ".size");
+        if ((s.array() <= 0.0).any()) c.fail(pk + ".size", "all three sizes must be > 0");
+        pc.half_extents = 0.5 * s;
+      }
+      pc.auto_place = c.boolean(p, "auto_place", pk, !pc.foot.empty());
+      if (pc.auto_place && pc.foot.empty()) c.fail(pk + ".foot", "auto_place needs a foot");
+      if (p["position"]) pc.position = c.vec3(p["position"], pk + ".position");
+      pc.roll = c.num(p, "roll_deg", pk, 0.0) * kDeg;
+      pc.pitch = c.num(p, "pitch_deg", pk, 0.0) * kDeg;
+      pc.yaw = c.num(p, "yaw_deg", pk, 0.0) * kDeg;
+      pc.friction = c.num(p, "friction", pk, pc.friction);
+      if (pc.friction < 0.0) c.fail(pk + ".friction", "must be >= 0");
+      if (p["translation"])
+        pc.translation =
+            sinusoid(c, p["translation"], pk + ".translation", false, pc.translation_axis);
+      if (p["rotation"])
+        pc.rotation = sinusoid(c, p["rotation"], pk + ".rotation", true, pc.rotation_axis);
+      pc.motion_start = c.num(p, "motion_start", pk, 0.0);
+      pc.motion_ramp = c.num(p, "motion_ramp", pk, 0.0);
+      if (pc.motion_start < 0.0) c.fail(pk + ".motion_start", "must be >= 0");
+      if (pc.motion_ramp < 0.0) c.fail(pk + ".motion_ramp", "must be >= 0");
+      w.platforms.push_back(pc);
+    }
+  }
+}
+
+}  // namespace
+
+World parse_world(const std::string& yaml_text, const fs::path& base_dir,
+                  const std::string& what) {
+  Ctx c{what, base_dir};
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    throw std::runtime_error(what + ": invalid YAML: " + e.what());
+  }
+  if (!root.IsMap()) throw std::runtime_error(what + ": the top level must be a mapping");
+  c.allow(root, "",
+          {"name", "description", "robot", "world", "initial", "disturbances", "duration",
+           "success", "sensors", "solver", "dds", "estimator", "contact", "controller"});
+  // dds, estimator, contact, controller configure the other components: the scenario format
+  // (deploy/scenario, poise::scenario::parse_scenario) reads and checks them; the world skips them.
+  World sc;
+  if (!root["name"]) c.fail("name", "is required");
+  sc.name = c.str(root["name"], "name");
+  if (root["description"]) sc.description = c.str(root["description"], "description");
+  if (!root["duration"]) c.fail("duration", "is required");
+  sc.duration = c.num(root["duration"], "duration");
+  if (!(sc.duration > 0.0)) c.fail("duration", "must be > 0");
+  if (sc.duration > 1e6) c.fail("duration", "must be at most 1e6 s");
+
+  std::vector<std::pair<std::string, double>> nominal;
+  std::map<std::string, std::pair<double, double>> limits;  // joint -> (lower, upper)
+  load_robot(c, root["robot"], sc, nominal, limits);
+  load_world(c, root["world"], sc);
+
+  // initial state
+  InitialState& ini = sc.sim.initial;
+  if (const YAML::Node n = root["initial"]) {
+    c.allow(
+        n, "initial",
+        {"posture", "joints", "base_xy", "base_height", "base_rpy_deg", "clearance", "support"});
+    std::string posture = n["posture"] ? c.str(n["posture"], "initial.posture") : "nominal";
+    if (posture != "nominal" && posture != "zero")
+      c.fail("initial.posture", "must be 'nominal' or 'zero'");
+    if (posture == "nominal")
+      for (const auto& [name, v] : nominal) {
+        ini.joint_names.push_back(name);
+        ini.joint_positions.push_back(v);
+      }
+    if (const YAML::Node j = n["joints"]) {
+      if (!j.IsMap()) c.fail("initial.joints", "must be a mapping joint -> angle (rad)");
+      for (const auto& kv : j) {
+        const std::string name = kv.first.as<std::string>();
+        const double v = c.num(kv.second, "initial.joints." + name);
+        if (const auto l = limits.find(name);
+            l != limits.end() && (v < l->second.first || v > l->second.second)) {
+          std::ostringstream os;
+          os << v << " is outside the joint limits [" << l->second.first << ", "
+             << l->second.second << "]";
+          c.fail("initial.joints." + name, os.str());
+        }
+        auto it = std::find(ini.joint_names.begin(), ini.joint_names.end(), name);
+        if (it != ini.joint_names.end())
+          ini.joint_positions[static_cast<std::size_t>(it - ini.joint_names.begin())] = v;
+        else {
+          ini.joint_names.push_back(name);
+          ini.joint_positions.push_back(v);
+        }
+      }
+    }
+    if (n["base_xy"]) {
+      if (!n["base_xy"].IsSequence() || n["base_xy"].size() != 2)
+        c.fail("initial.base_xy", "must be a list of 2 numbers");
+      ini.base_position.x() = c.num(n["base_xy"][0], "initial.base_xy[0]");
+      ini.base_position.y() = c.num(n["base_xy"][1], "initial.base_xy[1]");
+    }
+    if (n["base_height"] &&
+        !(n["base_height"].IsScalar() && n["base_height"].as<std::string>() == "auto")) {
+      ini.auto_base_height = false;
+      ini.base_position.z() = c.num(n["base_height"], "initial.base_height");
+      const double ground = sc.sim.world.ground.height;
+      if (ini.base_position.z() < ground || ini.base_position.z() > ground + 100.0)
+        c.fail("initial.base_height", "must be between the ground height and 100 m above it");
+    }
+    if (n["base_rpy_deg"]) {
+      const Eigen::Vector3d rpy = c.vec3(n["base_rpy_deg"], "initial.base_rpy_deg") * kDeg;
+      const Eigen::Quaterniond q(Eigen::AngleAxisd(rpy.z(), Eigen::Vector3d::UnitZ()) *
+                                 Eigen::AngleAxisd(rpy.y(), Eigen::Vector3d::UnitY()) *
+                                 Eigen::AngleAxisd(rpy.x(), Eigen::Vector3d::UnitX()));
+      ini.base_orientation_wxyz << q.w(), q.x(), q.y(), q.z();
+    }
+    ini.clearance = c.num(n, "clearance", "initial", 0.0);
+    if (n["support"]) sc.support = c.str(n["support"], "initial.support");
+  } else {
+    for (const auto& [name, v] : nominal) {
+      ini.joint_names.push_back(name);
+      ini.joint_positions.push_back(v);
+    }
+  }
+  bool support_ok = sc.support == "double";
+  for (const auto& f : sc.sim.robot.feet)
+    support_ok = support_ok || f.name == sc.support;
+  if (!support_ok)
+    c.fail("initial.support", "must be 'double' or a foot name, got '" + sc.support + "'");
+
+  // disturbances
+  if (const YAML::Node d = root["disturbances"]) {
+    c.allow(d, "disturbances", {"pushes"});
+    if (const YAML::Node ps = d["pushes"]) {
+      if (!ps.IsSequence()) c.fail("disturbances.pushes", "must be a list");
+      for (std::size_t i = 0; i < ps.size(); ++i) {
+        const std::string pk = "disturbances.pushes[" + std::to_string(i) + "]";
+        const YAML::Node p = ps[i];
+        c.allow(p, pk, {"link", "point", "force", "start", "duration"});
+        for (const char* k : {"link", "force", "start", "duration"})
+          if (!p[k]) c.fail(pk + "." + k, "is required");
+        Push push;
+        push.link = c.str(p["link"], pk + ".link");
+        if (p["point"]) push.point_L = c.vec3(p["point"], pk + ".point");
+        push.force_W = c.vec3(p["force"], pk + ".force");
+        push.start = c.num(p["start"], pk + ".start");
+        push.duration = c.num(p["duration"], pk + ".duration");
+        if (push.start < 0.0) c.fail(pk + ".start", "must be >= 0");
+        if (push.duration <= 0.0) c.fail(pk + ".duration", "must be > 0");
+        sc.sim.pushes.push_back(push);
+      }
+    }
+  }
+
+  // sensors: a file without this section gets the industrial defaults (SENSORS.md).
+  sc.sim.imu = industrial_mems_imu();
+  sc.sim.encoders = industrial_encoder();
+  sc.sim.foot_ft = industrial_foot_ft();
+  if (const YAML::Node s = root["sensors"]) {
+    c.allow(s, "sensors", {"preset", "imu", "encoders", "foot_ft", "seed"});
+    if (s["preset"]) {
+      const std::string p = c.str(s["preset"], "sensors.preset");
+      if (p == "ideal") {
+        sc.sim.imu = ImuNoiseConfig{};
+        sc.sim.encoders = EncoderConfig{};
+        sc.sim.foot_ft = ForceTorqueSensorConfig{};
+      } else if (p != "industrial_mems") {
+        c.fail("sensors.preset", "must be industrial_mems or ideal (got '" + p + "')");
+      }
+    }
+    ImuNoiseConfig& imu = sc.sim.imu;
+    if (s["seed"]) {
+      const double seed = c.num(s["seed"], "sensors.seed");
+      if (!(seed >= 0.0 && seed <= 9007199254740992.0) || seed != std::floor(seed))
+        c.fail("sensors.seed", "must be an integer in [0, 2^53]");
+      imu.seed = static_cast<std::uint64_t>(seed);
+    }
+    const auto nonneg = [&](const YAML::Node& n, const char* k, const std::string& key,
+                            double& v) {
+      if (!n[k]) return;
+      v = c.num(n[k], key + "." + k);
+      if (v < 0.0) c.fail(key + "." + k, "must be >= 0");
+    };
+    const auto vec = [&](const YAML::Node& n, const char* k, const std::string& key,
+                         Eigen::Vector3d& v, double scale) {
+      if (n[k]) v = scale * c.vec3(n[k], key + "." + k);
+    };
+    if (const YAML::Node i = s["imu"]) {
+      const std::string key = "sensors.imu";
+      c.allow(i, key,
+              {"orientation", "gyro_noise_std", "gyro_noise_density", "gyro_bias",
+               "gyro_bias_walk", "gyro_scale_error", "gyro_misalignment_deg", "gyro_range",
+               "accel_noise_std", "accel_noise_density", "accel_bias", "accel_bias_walk",
+               "accel_scale_error", "accel_misalignment_deg", "accel_range", "rate_hz",
+               "delay_ticks", "filter_gain", "filter_accel_gate"});
+      if (i["orientation"]) {
+        const std::string o = c.str(i["orientation"], key + ".orientation");
+        if (o == "off")
+          imu.orientation = ImuOrientationOutput::kOff;
+        else if (o == "filter")
+          imu.orientation = ImuOrientationOutput::kFilter;
+        else if (o == "truth")
+          imu.orientation = ImuOrientationOutput::kTruth;
+        else
+          c.fail(key + ".orientation", "must be off, filter or truth (got '" + o + "')");
+      }
+      nonneg(i, "gyro_noise_std", key, imu.gyro_noise_std);
+      nonneg(i, "gyro_noise_density", key, imu.gyro_noise_density);
+      nonneg(i, "gyro_bias_walk", key, imu.gyro_bias_walk);
+      nonneg(i, "gyro_range", key, imu.gyro_range);
+      nonneg(i, "accel_noise_std", key, imu.accel_noise_std);
+      nonneg(i, "accel_noise_density", key, imu.accel_noise_density);
+      nonneg(i, "accel_bias_walk", key, imu.accel_bias_walk);
+      nonneg(i, "accel_range", key, imu.accel_range);
+      nonneg(i, "rate_hz", key, imu.rate_hz);
+      nonneg(i, "filter_gain", key, imu.filter_gain);
+      nonneg(i, "filter_accel_gate", key, imu.filter_accel_gate);
+      if (i["filter_accel_gate"] && imu.filter_accel_gate <= 0.0)
+        c.fail(key + ".filter_accel_gate", "must be > 0");
+      vec(i, "gyro_bias", key, imu.gyro_bias, 1.0);
+      vec(i, "gyro_scale_error", key, imu.gyro_scale_error, 1.0);
+      vec(i, "gyro_misalignment_deg", key, imu.gyro_misalignment, kDeg);
+      vec(i, "accel_bias", key, imu.accel_bias, 1.0);
+      vec(i, "accel_scale_error", key, imu.accel_scale_error, 1.0);
+      vec(i, "accel_misalignment_deg", key, imu.accel_misalignment, kDeg);
+      if (i["delay_ticks"]) {
+        const double d = c.num(i["delay_ticks"], key + ".delay_ticks");
+        if (d < 0.0 || d > 1000.0 || d != std::floor(d))
+          c.fail(key + ".delay_ticks", "must be an integer in [0, 1000]");
+        imu.delay_ticks = static_cast<int>(d);
+      }
+    }
+    if (const YAML::Node e = s["encoders"]) {
+      c.allow(e, "sensors.encoders", {"counts_per_rev", "velocity_filter_hz"});
+      nonneg(e, "counts_per_rev", "sensors.encoders", sc.sim.encoders.counts_per_rev);
+      nonneg(e, "velocity_filter_hz", "sensors.encoders", sc.sim.encoders.velocity_filter_hz);
+    }
+    if (const YAML::Node f = s["foot_ft"]) {
+      const std::string key = "sensors.foot_ft";
+      c.allow(f, key, {"force_noise_std", "torque_noise_std", "force_offset", "torque_offset"});
+      nonneg(f, "force_noise_std", key, sc.sim.foot_ft.force_noise_std);
+      nonneg(f, "torque_noise_std", key, sc.sim.foot_ft.torque_noise_std);
+      vec(f, "force_offset", key, sc.sim.foot_ft.force_offset, 1.0);
+      vec(f, "torque_offset", key, sc.sim.foot_ft.torque_offset, 1.0);
+    }
+  }
+
+  // solver
+  if (const YAML::Node s = root["solver"]) {
+    c.allow(s, "solver",
+            {"dt", "iterations", "contact_erp", "contact_cfm", "friction_anchor",
+             "residual_threshold", "joint_friction_constraint", "joint_friction_velocity",
+             "warm_start", "warm_start_factor"});
+    SolverConfig& sv = sc.sim.solver;
+    sv.dt = c.num(s, "dt", "solver", sv.dt);
+    if (!(sv.dt > 0.0 && sv.dt <= 0.01)) c.fail("solver.dt", "must be in (0, 0.01] s");
+    const double it = c.num(s, "iterations", "solver", sv.iterations);
+    if (!(it >= 1 && it <= 10000) || it != std::floor(it))
+      c.fail("solver.iterations", "must be an integer in [1, 10000]");
+    sv.iterations = static_cast<int>(it);
+    sv.contact_erp = c.num(s, "contact_erp", "solver", sv.contact_erp);
+    sv.contact_cfm = c.num(s, "contact_cfm", "solver", sv.contact_cfm);
+    sv.friction_anchor = c.boolean(s, "friction_anchor", "solver", sv.friction_anchor);
+    sv.residual_threshold = c.num(s, "residual_threshold", "solver", sv.residual_threshold);
+    sv.joint_friction_constraint =
+        c.boolean(s, "joint_friction_constraint", "solver", sv.joint_friction_constraint);
+    sv.joint_friction_velocity =
+        c.num(s, "joint_friction_velocity", "solver", sv.joint_friction_velocity);
+    if (!(sv.joint_friction_velocity > 0.0))
+      c.fail("solver.joint_friction_velocity", "must be > 0");
+    sv.warm_start = c.boolean(s, "warm_start", "solver", sv.warm_start);
+    sv.warm_start_factor = c.num(s, "warm_start_factor", "solver", sv.warm_start_factor);
+    if (!(sv.warm_start_factor >= 0.0 && sv.warm_start_factor <= 1.0))
+      c.fail("solver.warm_start_factor", "must be in [0, 1]");
+  }
+
+  // success criteria
+  if (const YAML::Node s = root["success"]) {
+    c.allow(s, "success",
+            {"com_error_max_m", "com_error_final_m", "foot_slip_max_m", "recovery_time_s",
+             "allow_non_foot_contacts", "min_base_height_m", "max_damping_ticks"});
+    SuccessCriteria& k = sc.success;
+    k.com_error_max_m = c.num(s, "com_error_max_m", "success", k.com_error_max_m);
+    k.com_error_final_m = c.num(s, "com_error_final_m", "success", k.com_error_final_m);
+    k.foot_slip_max_m = c.num(s, "foot_slip_max_m", "success", k.foot_slip_max_m);
+    k.recovery_time_s = c.num(s, "recovery_time_s", "success", k.recovery_time_s);
+    k.allow_non_foot_contacts = c.boolean(s, "allow_non_foot_contacts", "success", false);
+    k.min_base_height_m = c.num(s, "min_base_height_m", "success", k.min_base_height_m);
+    const double damping = c.num(s, "max_damping_ticks", "success",
+                                 static_cast<double>(k.max_damping_ticks));
+    if (!(damping >= 0.0 && damping <= 1e15) || damping != std::floor(damping))
+      c.fail("success.max_damping_ticks", "must be a whole number in [0, 1e15]");
+    else
+      k.max_damping_ticks = static_cast<long long>(damping);
+  }
+
+  // platforms must name existing feet
+  for (std::size_t i = 0; i < sc.sim.world.platforms.size(); ++i) {
+    const std::string& foot = sc.sim.world.platforms[i].foot;
+    if (foot.empty()) continue;
+    bool found = false;
+    for (const auto& f : sc.sim.robot.feet)
+      found = found || f.name == foot;
+    if (!found)
+      c.fail("world.platforms[" + std::to_string(i) + "].foot",
+             "'" + foot + "' is not a foot of the robot");
+  }
+  return sc;
+}
+
+std::string read_scenario_text(const fs::path& path) {
+  std::error_code ec;
+  if (fs::is_directory(path, ec))
+    throw std::runtime_error("scenario '" + path.string() + "' is a directory, not a file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error("scenario file '" + path.string() + "' cannot be opened");
+  // Read at most 16 MB (a scenario is a few kB; /dev/zero must not fill the memory).
+  constexpr std::size_t kMaxBytes = std::size_t{16} << 20;
+  std::string text;
+  char buf[65536];
+  while (in) {
+    in.read(buf, sizeof buf);
+    const auto got = static_cast<std::size_t>(in.gcount());
+    if (got == 0) break;
+    if (text.size() + got > kMaxBytes)
+      throw std::runtime_error("scenario file '" + path.string() +
+                               "' is larger than the limit of 16 MB; refused");
+    text.append(buf, got);
+  }
+  return text;
+}
+
+World load_world(const fs::path& path) {
+  const std::string text = read_scenario_text(path);
+  const fs::path abs = fs::absolute(path);
+  World w = parse_world(text, abs.parent_path(), "scenario '" + path.string() + "'");
+  w.file = abs;
+  return w;
+}
+
+std::vector<int> platforms_of_feet(const World& sc) {
+  std::vector<int> out(sc.sim.robot.feet.size(), -1);
+  for (std::size_t f = 0; f < out.size(); ++f)
+    for (std::size_t k = 0; k < sc.sim.world.platforms.size(); ++k)
+      if (sc.sim.world.platforms[k].foot == sc.sim.robot.feet[f].name) out[f] = static_cast<int>(k);
+  return out;
+}
+
+ScenarioMonitor::ScenarioMonitor(const World& scenario, std::vector<int> platform_of_foot)
+    : scenario_(scenario), platform_of_foot_(std::move(platform_of_foot)) {
+  for (std::size_t f = 0; f < scenario.sim.robot.feet.size(); ++f)
+    if (scenario.support == "double" || scenario.sim.robot.feet[f].name == scenario.support)
+      support_feet_.push_back(static_cast<int>(f));
+  for (const Push& p : scenario.sim.pushes)
+    last_push_end_ = std::max(last_push_end_, p.start + p.duration);
+  foot_in_support_0_.assign(scenario.sim.robot.feet.size(), Eigen::Vector3d::Zero());
+  r_.last_recovery_time_s = std::numeric_limits<double>::infinity();
+}
+
+void ScenarioMonitor::update(const GroundTruth& g) {
+  auto support_pose = [&](int f) {
+    const int k = platform_of_foot_[static_cast<std::size_t>(f)];
+    return k >= 0 && static_cast<std::size_t>(k) < g.platform_X_WP.size()
+               ? g.platform_X_WP[static_cast<std::size_t>(k)]
+               : Eigen::Isometry3d::Identity();
+  };
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  for (int f : support_feet_)
+    centre += g.feet[static_cast<std::size_t>(f)].X_WF.translation().head<2>();
+  centre /= static_cast<double>(std::max<std::size_t>(1, support_feet_.size()));
+  if (!initialised_) {
+    com_offset_ = g.com_W.head<2>() - centre;
+    for (int f : support_feet_)
+      foot_in_support_0_[static_cast<std::size_t>(f)] =
+          support_pose(f).inverse() * g.feet[static_cast<std::size_t>(f)].X_WF.translation();
+    initialised_ = true;
+  }
+  time_ = g.time;
+  const double err = (g.com_W.head<2>() - (centre + com_offset_)).norm();
+  r_.com_error_max_m = std::max(r_.com_error_max_m, err);
+  r_.com_error_final_m = err;
+  if (err > scenario_.success.com_error_final_m) last_bad_time_ = g.time;
+  for (int f : support_feet_) {
+    const auto& ft = g.feet[static_cast<std::size_t>(f)];
+    if (!ft.in_contact) continue;
+    const Eigen::Vector3d p = support_pose(f).inverse() * ft.X_WF.translation();
+    r_.foot_slip_max_m = std::max(
+        r_.foot_slip_max_m, (p - foot_in_support_0_[static_cast<std::size_t>(f)]).head<2>().norm());
+  }
+  if (g.num_non_foot_contacts > 0) ++r_.non_foot_contacts;
+  {
+    const Eigen::Matrix3d R = g.X_WB.rotation();
+    const double pitch = std::asin(std::clamp(-R(2, 0), -1.0, 1.0)) * 180.0 / M_PI;
+    const double roll = std::atan2(R(2, 1), R(2, 2)) * 180.0 / M_PI;
+    r_.trunk_pitch_max_deg = std::max(r_.trunk_pitch_max_deg, std::abs(pitch));
+    r_.trunk_roll_max_deg = std::max(r_.trunk_roll_max_deg, std::abs(roll));
+  }
+  r_.min_base_height_m = std::min(r_.min_base_height_m, g.X_WB.translation().z());
+}
+
+ScenarioMonitor::Result ScenarioMonitor::result() const {
+  Result r = r_;
+  const SuccessCriteria& k = scenario_.success;
+  r.last_recovery_time_s = r.com_error_final_m <= k.com_error_final_m
+                               ? std::max(0.0, last_bad_time_ - last_push_end_)
+                               : std::numeric_limits<double>::infinity();
+  r.survived = initialised_ && r.com_error_max_m <= k.com_error_max_m &&
+               r.com_error_final_m <= k.com_error_final_m &&
+               r.foot_slip_max_m <= k.foot_slip_max_m &&
+               (k.allow_non_foot_contacts || r.non_foot_contacts == 0) &&
+               r.min_base_height_m >= k.min_base_height_m &&
+               (std::isinf(k.recovery_time_s) || r.last_recovery_time_s <= k.recovery_time_s);
+  auto over = [&](const char* name, double value, double limit, const char* unit, bool bad) {
+    if (!bad) return;
+    char line[160];
+    std::snprintf(line, sizeof(line), "%s %.4g %s %s %.4g %s", name, value, unit,
+                  std::string(name) == "min_base_height" ? "<" : ">", limit, unit);
+    r.failed.emplace_back(line);
+  };
+  if (!initialised_) r.failed.emplace_back("no ground truth seen");
+  over("com_error_max", r.com_error_max_m, k.com_error_max_m, "m",
+       !(r.com_error_max_m <= k.com_error_max_m));
+  over("com_error_final", r.com_error_final_m, k.com_error_final_m, "m",
+       !(r.com_error_final_m <= k.com_error_final_m));
+  over("foot_slip_max", r.foot_slip_max_m, k.foot_slip_max_m, "m",
+       !(r.foot_slip_max_m <= k.foot_slip_max_m));
+  if (!k.allow_non_foot_contacts && r.non_foot_contacts > 0)
+    r.failed.push_back("non_foot_contacts on " + std::to_string(r.non_foot_contacts) + " ticks");
+  over("min_base_height", r.min_base_height_m, k.min_base_height_m, "m",
+       !(r.min_base_height_m >= k.min_base_height_m));
+  if (!std::isinf(k.recovery_time_s) && !(r.last_recovery_time_s <= k.recovery_time_s))
+    over("recovery_time", r.last_recovery_time_s, k.recovery_time_s, "s", true);
+  return r;
+}
+
+}  // namespace poise::sim
