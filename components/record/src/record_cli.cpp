@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <cstring>
 #include <map>
+#include <memory>
 #include <thread>
 
 #include <CLI/CLI.hpp>
@@ -128,6 +129,14 @@ int record_main(int argc, char** argv) {
                "run every thread of the recorder under SCHED_IDLE: it never preempts the control "
                "loop's processes and runs only on CPU time they leave (what it then misses is "
                "counted as tick gaps)");
+  app.add_flag("--passive", options.passive,
+               "record without subscribing: read the domain's UDP datagrams on --interface and "
+               "take the samples out of them (the writers do no extra work for the recorder; "
+               "needs CAP_NET_RAW; only traffic passing this machine; no repair of a datagram "
+               "the capture missed, counted as lost: components/record/README.md)");
+  app.add_option("--interface", options.capture_interface,
+                 "network interface of --passive (default lo)")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   // Before any thread exists: DDS and writer threads inherit it.
   if (idle) {
@@ -157,10 +166,25 @@ int record_main(int argc, char** argv) {
   std::signal(SIGXFSZ, SIG_IGN);
 
   dds::set_log_name("poise-record");
+  // Passive: the capture starts before the participant, whose discovery makes every writer of
+  // the domain announce itself (SEDP) to this machine: the capture must see those announcements.
+  std::unique_ptr<Recorder> passive_recorder;
+  if (options.passive) {
+    try {
+      passive_recorder = std::make_unique<Recorder>(dds_options.domain_id, options);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "poise record: error: %s\n", e.what());
+      return 1;
+    }
+  }
   dds::Participant participant(dds_options);
-  Recorder recorder(participant, options);
+  std::unique_ptr<Recorder> subscribing_recorder;
+  if (!options.passive) subscribing_recorder = std::make_unique<Recorder>(participant, options);
+  Recorder& recorder = options.passive ? *passive_recorder : *subscribing_recorder;
   std::fprintf(stderr, "poise record: %s, domain %d, %s -> %s\n",
-               std::string(dds::to_string(participant.vendor())).c_str(), participant.domain_id(),
+               options.passive ? ("passive capture on " + options.capture_interface).c_str()
+                               : std::string(dds::to_string(participant.vendor())).c_str(),
+               participant.domain_id(),
                options.topics.empty() ? "every Poise topic" : "the topics named",
                options.output.c_str());
   const auto start = std::chrono::steady_clock::now();

@@ -83,7 +83,18 @@ struct Recorder::Topic {
 };
 
 Recorder::Recorder(dds::Participant& participant, RecorderOptions options)
-    : participant_(participant), options_(std::move(options)) {
+    : participant_(&participant), domain_(participant.domain_id()), options_(std::move(options)) {
+  options_.passive = false;
+  init();
+}
+
+Recorder::Recorder(int domain, RecorderOptions options)
+    : domain_(domain), options_(std::move(options)) {
+  options_.passive = true;
+  init();
+}
+
+void Recorder::init() {
   std::vector<const dds::TopicDescription*> chosen;
   if (options_.topics.empty()) {
     for (const auto& t : dds::topic_table())
@@ -116,12 +127,23 @@ Recorder::Recorder(dds::Participant& participant, RecorderOptions options)
   }
   channel_of_.assign(topics_.size(), kNoChannel);
   thread_ = std::thread([this] { writer_loop(); });
+  if (options_.passive) {
+    try {
+      capture_ = std::make_unique<RtpsCapture>(
+          CaptureOptions{options_.capture_interface, domain_},
+          [this](const CapturedSample& s) { on_captured(s); });
+    } catch (...) {
+      finish();
+      throw;
+    }
+    return;
+  }
   for (auto& topic : topics_) {
     Topic* tp = topic.get();
     tp->subscriber = std::make_unique<dds::RawSubscriber>(
-        participant_, tp->name, tp->type_name, recorder_qos(dds::find_topic(tp->name)->qos),
+        *participant_, tp->name, tp->type_name, recorder_qos(dds::find_topic(tp->name)->qos),
         [this, tp](const std::vector<std::uint8_t>& bytes, const dds::SampleMeta& meta) {
-          on_sample(*tp, bytes, meta);
+          on_sample(*tp, bytes.data(), bytes.size(), meta);
         });
   }
 }
@@ -130,9 +152,24 @@ Recorder::~Recorder() {
   finish();
 }
 
-void Recorder::on_sample(Topic& topic, const std::vector<std::uint8_t>& bytes,
+void Recorder::on_captured(const CapturedSample& s) {
+  for (auto& t : topics_) {
+    if (t->name != *s.topic) continue;
+    if (*s.type_name != t->type_name) break;  // a foreign type under a Poise topic name
+    dds::SampleMeta meta;
+    meta.writer_id = s.writer_key;
+    meta.source_timestamp_ns = s.source_timestamp_ns;
+    meta.reception_timestamp_ns = s.receive_timestamp_ns;
+    on_sample(*t, s.data, s.size, meta);
+    return;
+  }
+  foreign_.fetch_add(1, std::memory_order_relaxed);
+}
+
+void Recorder::on_sample(Topic& topic, const std::uint8_t* data, std::size_t size,
                          const dds::SampleMeta& meta) {
   if (!accepting_.load(std::memory_order_relaxed)) return;  // after the end of the recording
+  std::vector<std::uint8_t> bytes(data, data + size);
   if (std::uint64_t tick = 0; topic.per_tick && tick_of(bytes, tick))
     topic.count_tick(meta.writer_id, tick);
   const std::uint64_t sequence = topic.received.fetch_add(1, std::memory_order_relaxed) + 1;
@@ -146,9 +183,9 @@ void Recorder::on_sample(Topic& topic, const std::vector<std::uint8_t>& bytes,
       topic.dropped.fetch_add(1, std::memory_order_relaxed);
       return;
     }
-    queue_.push_back(
-        Item{&topic, static_cast<std::uint32_t>(sequence), log_time, publish_time, bytes});
-    queue_bytes_ += bytes.size();
+    queue_.push_back(Item{&topic, static_cast<std::uint32_t>(sequence), log_time, publish_time,
+                          std::move(bytes)});
+    queue_bytes_ += size;
   }
   queue_cv_.notify_one();
 }
@@ -174,8 +211,11 @@ bool Recorder::open_file() {
   char host[256] = {};
   ::gethostname(host, sizeof(host) - 1);
   writer_->write_metadata("poise_recording",
-                          {{"dds_vendor", std::string(dds::to_string(participant_.vendor()))},
-                           {"domain", std::to_string(participant_.domain_id())},
+                          {{"dds_vendor", participant_ ? std::string(dds::to_string(participant_->vendor()))
+                                                       : std::string("any (passive capture)")},
+                           {"domain", std::to_string(domain_)},
+                           {"capture", options_.passive ? "passive:" + options_.capture_interface
+                                                        : std::string("dds reader")},
                            {"host", host},
                            {"file_index", std::to_string(file_index_)},
                            {"compression", std::string(to_string(options_.writer.compression))}});
@@ -188,8 +228,15 @@ bool Recorder::open_file() {
 std::map<std::string, std::string> Recorder::loss_metadata() const {
   std::map<std::string, std::string> m;
   std::uint64_t dropped = 0, lost = 0, gaps = 0;
+  const auto capture_lost =
+      capture_ ? capture_->lost_per_topic() : std::map<std::string, std::uint64_t>{};
   for (const auto& t : topics_) {
-    const auto losses = t->subscriber ? t->subscriber->losses() : dds::ReaderLosses{};
+    auto losses = t->subscriber ? t->subscriber->losses() : dds::ReaderLosses{};
+    if (capture_) {
+      // Passive: sequence numbers of announced writers never seen on the wire.
+      const auto it = capture_lost.find(t->name);
+      if (it != capture_lost.end()) losses.lost = it->second;
+    }
     if (t->received.load() == 0 && losses.lost == 0 && losses.rejected == 0) continue;
     m[t->name + ".received"] = std::to_string(t->received.load());
     m[t->name + ".written"] = std::to_string(t->written.load());
@@ -204,6 +251,16 @@ std::map<std::string, std::string> Recorder::loss_metadata() const {
   m["total.dropped"] = std::to_string(dropped);
   m["total.vendor_lost"] = std::to_string(lost);
   m["total.tick_gaps"] = std::to_string(gaps);
+  if (capture_) {
+    const CaptureCounters c = capture_->counters();
+    m["capture.datagrams"] = std::to_string(c.datagrams);
+    m["capture.samples"] = std::to_string(c.samples);
+    m["capture.duplicates"] = std::to_string(c.duplicates);
+    m["capture.kernel_drops"] = std::to_string(c.kernel_drops);
+    m["capture.unknown_writer"] = std::to_string(c.unknown_writer);
+    m["capture.malformed"] = std::to_string(c.malformed);
+    m["capture.foreign"] = std::to_string(foreign_.load());
+  }
   return m;
 }
 
@@ -287,9 +344,18 @@ void Recorder::writer_loop() {
 
 RecorderStatus Recorder::status() const {
   RecorderStatus s;
+  const auto capture_writers = capture_ ? capture_->writers_per_topic() : std::map<std::string, int>{};
+  const auto capture_lost =
+      capture_ ? capture_->lost_per_topic() : std::map<std::string, std::uint64_t>{};
   for (const auto& t : topics_) {
     TopicCounts c;
     c.writers = t->subscriber ? t->subscriber->matched() : 0;
+    if (capture_) {
+      const auto w = capture_writers.find(t->name);
+      c.writers = w == capture_writers.end() ? 0 : w->second;
+      const auto l = capture_lost.find(t->name);
+      c.vendor_lost = l == capture_lost.end() ? 0 : l->second;
+    }
     c.received = t->received.load();
     if (c.writers == 0 && c.received == 0) continue;
     c.topic = t->name;
@@ -318,7 +384,9 @@ RecorderStatus Recorder::status() const {
 RecorderStatus Recorder::finish() {
   if (finished_) return status();
   finished_ = true;
-  // Stop taking new samples, but keep the subscribers (their loss counters) until the end.
+  // Stop taking new samples, but keep the subscribers (their loss counters) until the end. The
+  // capture delivers what it has read first.
+  if (capture_) capture_->stop();
   accepting_.store(false);
   {
     std::lock_guard lock(queue_mutex_);

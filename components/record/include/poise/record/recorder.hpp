@@ -41,6 +41,7 @@
 #include <poise/dds/subscriber.hpp>
 
 #include "poise/record/mcap_writer.hpp"
+#include "poise/record/rtps_capture.hpp"
 
 namespace poise::record {
 
@@ -52,6 +53,10 @@ struct RecorderOptions {
   double flush_interval_s = 0.1;    ///< write the open chunk at least this often
   std::size_t max_queue_bytes = 256u << 20;
   WriterOptions writer;
+  /// Passive capture (rtps_capture.hpp): no DDS reader of any Poise topic; the samples are taken
+  /// from the UDP datagrams on `capture_interface`.
+  bool passive = false;
+  std::string capture_interface = "lo";
 };
 
 /// Totals of one topic.
@@ -83,6 +88,11 @@ class Recorder {
   /// Subscribes and opens the first file. Throws std::invalid_argument naming an unknown topic,
   /// std::runtime_error when the file cannot be created.
   Recorder(dds::Participant& participant, RecorderOptions options);
+  /// Passive (options.passive): opens the file and starts capturing domain `domain`'s datagrams.
+  /// Create the DDS participant that makes the domain's writers announce themselves to this
+  /// machine AFTER this (an announcement sent before the capture began is not seen again).
+  /// Throws as above, and std::runtime_error when the capture cannot start (names the cause).
+  Recorder(int domain, RecorderOptions options);
   ~Recorder();
   Recorder(const Recorder&) = delete;
   Recorder& operator=(const Recorder&) = delete;
@@ -101,7 +111,10 @@ class Recorder {
     std::uint64_t log_time, publish_time;
     std::vector<std::uint8_t> bytes;
   };
-  void on_sample(Topic& topic, const std::vector<std::uint8_t>& bytes, const dds::SampleMeta& m);
+  void init();
+  void on_sample(Topic& topic, const std::uint8_t* data, std::size_t size,
+                 const dds::SampleMeta& m);
+  void on_captured(const CapturedSample& s);
   void writer_loop();
   bool open_file();
   bool close_file();
@@ -109,8 +122,11 @@ class Recorder {
   std::string next_path();
   std::map<std::string, std::string> loss_metadata() const;
 
-  dds::Participant& participant_;
+  dds::Participant* participant_ = nullptr;  // null when passive
+  int domain_ = 0;
   RecorderOptions options_;
+  std::unique_ptr<RtpsCapture> capture_;
+  std::atomic<std::uint64_t> foreign_{0};  // passive: samples of topics not recorded
   std::vector<std::unique_ptr<Topic>> topics_;
 
   mutable std::mutex queue_mutex_;
