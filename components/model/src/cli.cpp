@@ -54,8 +54,9 @@ int run_info(const std::string& path_arg, const std::string& config_arg) {
     cfg = load_robot_config(urdf);
   }
   if (cfg) urdf = cfg->urdf_path;
-  const Model model = build_model_from_urdf_file(urdf);
+  Model model = build_model_from_urdf_file(urdf);
   if (!cfg) cfg = config_beside(urdf);
+  if (cfg) add_config_frames(model, *cfg);  // sole frames given as offsets in robot.yaml
 
   std::cout << "robot: " << model.name << "  (" << urdf.string() << ")\n";
   std::cout << "DoF: " << model.njoints << " joints + 6 floating base  (nq = " << model.nq
@@ -91,10 +92,19 @@ int run_info(const std::string& path_arg, const std::string& config_arg) {
     for (int s : {kRight, kLeft}) {
       const FootConfig& f = cfg->feet[s];
       std::cout << "  " << (s == kRight ? "right" : "left") << " foot: frame " << f.frame
-                << ", sole frame " << f.sole_frame << ", sole x [" << f.sole.x_min << ", "
-                << f.sole.x_max << "] y [" << f.sole.y_min << ", " << f.sole.y_max << "], "
-                << f.sole.height << " m below the foot frame\n";
+                << ", sole frame " << f.sole_frame;
+      if (f.sole_from_offset)
+        std::cout << " (added: offset [" << f.X_link_sole.p.transpose() << "] in '" << f.link
+                  << "')";
+      std::cout << ", sole x [" << f.sole.x_min << ", " << f.sole.x_max << "] y [" << f.sole.y_min
+                << ", " << f.sole.y_max << "], " << f.sole.height << " m below the foot frame";
+      if (std::isfinite(f.collision_bottom))
+        std::cout << ", collision bottom " << f.collision_bottom * 1000.0
+                  << " mm from the sole plane";
+      std::cout << "\n";
     }
+    std::cout << "  forward axis (base frame): [" << cfg->forward_axis.transpose() << "]\n";
+    // cfg->warnings: printed once to stderr by load_robot_config
     std::cout << "  friction mu " << cfg->friction_mu << ", torsional mu " << cfg->torsional_mu
               << ", safety margin " << cfg->safety_margin << " m\n";
     std::cout << "  leg joints: " << cfg->leg_joints.size()

@@ -153,13 +153,23 @@ std::vector<std::string> robot_differences(const RobotConfig& ca, const Model& m
     const FootConfig &fa = ca.feet[s], &fb = cb.feet[s];
     const std::string k = std::string("feet.") + side[s];
     d.text(k + ".frame", fa.frame, fb.frame);
+    d.text(k + ".link", fa.link, fb.link);
     d.text(k + ".sole_frame", fa.sole_frame, fb.sole_frame);
+    for (int i = 0; i < 3; ++i) {
+      d.number(k + ".sole_frame.offset[" + std::to_string(i) + "] [m]", fa.X_link_sole.p[i],
+               fb.X_link_sole.p[i]);
+      for (int c = 0; c < 3; ++c)
+        d.number(k + ".sole_frame rotation(" + std::to_string(i) + "," + std::to_string(c) + ")",
+                 fa.X_link_sole.R(i, c), fb.X_link_sole.R(i, c));
+    }
     d.number(k + ".sole.x_min [m]", fa.sole.x_min, fb.sole.x_min);
     d.number(k + ".sole.x_max [m]", fa.sole.x_max, fb.sole.x_max);
     d.number(k + ".sole.y_min [m]", fa.sole.y_min, fb.sole.y_min);
     d.number(k + ".sole.y_max [m]", fa.sole.y_max, fb.sole.y_max);
     d.number(k + ".sole.height [m]", fa.sole.height, fb.sole.height);
   }
+  for (int i = 0; i < 3; ++i)
+    d.number("forward_axis[" + std::to_string(i) + "]", ca.forward_axis[i], cb.forward_axis[i]);
   d.number("contact.safety_margin [m]", ca.safety_margin, cb.safety_margin);
   d.number("contact.friction_mu", ca.friction_mu, cb.friction_mu);
   d.number("contact.torsional_mu [m]", ca.torsional_mu, cb.torsional_mu);

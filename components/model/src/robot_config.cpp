@@ -15,6 +15,9 @@
 #include "poise/model/data.hpp"
 #include "poise/model/kinematics.hpp"
 
+#include <Eigen/Geometry>
+#include <urdf_parser/urdf_parser.h>
+
 namespace poise::model {
 
 namespace {
@@ -70,6 +73,13 @@ class Reader {
     } catch (const YAML::Exception&) {
       fail(key, "expected a number, got '" + n.Scalar().substr(0, 40) + "'");
     }
+  }
+  Vector3 vector3(const YAML::Node& n, const std::string& key) const {
+    if (!n.IsSequence() || n.size() != 3) fail(key, "expected a list of 3 numbers [x, y, z]");
+    Vector3 v;
+    for (std::size_t i = 0; i < 3; ++i)
+      v[static_cast<Eigen::Index>(i)] = number(n[i], key + "[" + std::to_string(i) + "]");
+    return v;
   }
   std::string text(const YAML::Node& n, const std::string& key) const {
     if (!n.IsScalar()) fail(key, "expected a string");
@@ -129,9 +139,88 @@ class Reader {
 
 namespace {
 
+
+// URDF convention: R = Rz(yaw) Ry(pitch) Rx(roll).
+Matrix3 rpy_to_matrix(const Vector3& rpy) {
+  return (Eigen::AngleAxisd(rpy.z(), Vector3::UnitZ()) *
+          Eigen::AngleAxisd(rpy.y(), Vector3::UnitY()) *
+          Eigen::AngleAxisd(rpy.x(), Vector3::UnitX()))
+      .toRotationMatrix();
+}
+
+SE3 urdf_pose(const urdf::Pose& p) {
+  double x, y, z, w;
+  p.rotation.getQuaternion(x, y, z, w);
+  const Eigen::Quaterniond q(w, x, y, z);
+  return SE3(q.normalized().toRotationMatrix(), Vector3(p.position.x, p.position.y, p.position.z));
+}
+
+// Lowest point of one collision primitive along +z of frame S (X_SG: the primitive in S);
+// +infinity for meshes (the simulator does not collide them).
+double lowest_z(const urdf::Geometry& g, const SE3& X_SG) {
+  switch (g.type) {
+    case urdf::Geometry::BOX: {
+      const auto& b = static_cast<const urdf::Box&>(g);
+      const Vector3 h(0.5 * b.dim.x, 0.5 * b.dim.y, 0.5 * b.dim.z);
+      return X_SG.p.z() - X_SG.R.row(2).cwiseAbs().dot(h);
+    }
+    case urdf::Geometry::SPHERE:
+      return X_SG.p.z() - static_cast<const urdf::Sphere&>(g).radius;
+    case urdf::Geometry::CYLINDER: {
+      const auto& c = static_cast<const urdf::Cylinder&>(g);
+      const double az = std::min(1.0, std::abs(X_SG.R(2, 2)));
+      return X_SG.p.z() - c.radius * std::sqrt(std::max(0.0, 1.0 - az * az)) - 0.5 * c.length * az;
+    }
+    default:
+      return std::numeric_limits<double>::infinity();
+  }
+}
+
+
+
+// Each foot's collision bottom relative to its sole plane (FootConfig::collision_bottom); a
+// difference beyond 1 mm is a warning with both heights (the simulator places and collides
+// the robot by the collision geometry, the controller by the sole plane).
+void collision_bottoms(const Model& model, RobotConfig& cfg, const Reader& r) {
+  const urdf::ModelInterfaceSharedPtr u = urdf::parseURDF(cfg.urdf_xml);
+  if (!u) return;  // the model was built from it: not expected
+  const char* side_name[2] = {"right", "left"};
+  for (int side = 0; side < 2; ++side) {
+    FootConfig& f = cfg.feet[static_cast<std::size_t>(side)];
+    const Frame& sole = model.frames[static_cast<std::size_t>(f.sole_frame_id)];
+    double lo = std::numeric_limits<double>::infinity();
+    for (const auto& [name, link] : u->links_) {
+      if (!link || !model.has_frame(name)) continue;
+      const Frame& lf = model.frames[static_cast<std::size_t>(model.frame_id(name))];
+      if (lf.body != sole.body) continue;
+      for (const auto& c : link->collision_array) {
+        if (!c || !c->geometry) continue;
+        lo = std::min(lo, lowest_z(*c->geometry,
+                                   sole.X_BF.inverse() * lf.X_BF * urdf_pose(c->origin)));
+      }
+    }
+    if (!std::isfinite(lo)) continue;
+    f.collision_bottom = lo;
+    if (std::abs(lo) > 1e-3) {
+      std::ostringstream os;
+      os.setf(std::ios::fixed);
+      os.precision(4);
+      os << "feet." << side_name[side] << ": the sole plane is at z = " << -f.sole.height
+         << " m in the foot frame '" << f.frame << "' but the foot's collision geometry bottom is at z = "
+         << -f.sole.height + lo << " m (" << (lo < 0 ? "below" : "above") << " the sole plane by ";
+      os.precision(1);
+      os << std::abs(lo) * 1000.0 << " mm): the simulator places and collides the robot by its "
+            "collision geometry, the controller assumes the sole plane; check sole.height or the "
+            "URDF foot collision";
+      cfg.warnings.push_back(os.str());
+    }
+  }
+  (void)r;
+}
+
 // Everything of robot.yaml but `name` and `urdf`, checked against `model`; `urdf_origin` names
 // the model's source in messages.
-void read_config_body(const YAML::Node& root, const Reader& r, const Model& model,
+void read_config_body(const YAML::Node& root, const Reader& r, Model& model,
                       const std::string& urdf_origin, RobotConfig& cfg) {
   auto frame = [&](const std::string& name, const std::string& key) {
     if (!model.has_frame(name)) r.fail(key, "'" + name + "' is not a link of " + urdf_origin);
@@ -169,10 +258,8 @@ void read_config_body(const YAML::Node& root, const Reader& r, const Model& mode
     const YAML::Node fn = r.child(feet, "feet", key);
     r.keys(fn, base, {"frame", "sole_frame", "sole"});
     FootConfig& foot = cfg.feet[side];
-    foot.frame = r.text(r.child(fn, base, "frame"), base + ".frame");
-    foot.frame_id = frame(foot.frame, base + ".frame");
-    foot.sole_frame = r.text(r.child(fn, base, "sole_frame"), base + ".sole_frame");
-    foot.sole_frame_id = frame(foot.sole_frame, base + ".sole_frame");
+    foot.link = r.text(r.child(fn, base, "frame"), base + ".frame");
+    const int link_id = frame(foot.link, base + ".frame");
     const YAML::Node sn = r.child(fn, base, "sole");
     const std::string sb = base + ".sole";
     r.keys(sn, sb, {"x_min", "x_max", "y_min", "y_max", "height"});
@@ -187,18 +274,55 @@ void read_config_body(const YAML::Node& root, const Reader& r, const Model& mode
     if (!(s.height >= 0.0)) r.fail(sb + ".height", "must be >= 0");
     for (double v : {s.x_min, s.x_max, s.y_min, s.y_max, s.height})
       if (std::abs(v) > 10.0) r.fail(sb, "implausible: a sole coordinate beyond 10 m");
-    const Frame& ff = model.frames[foot.frame_id];
-    const Frame& sf = model.frames[foot.sole_frame_id];
-    if (ff.body != sf.body)
-      r.fail(base + ".sole_frame",
-             "'" + foot.sole_frame + "' is not rigidly attached to '" + foot.frame + "'");
-    const SE3 X_FS = ff.X_BF.inverse() * sf.X_BF;
-    if ((X_FS.p - Vector3(0.0, 0.0, -s.height)).norm() > 1e-3 ||
-        !X_FS.R.isApprox(Matrix3::Identity(), 1e-6)) {
-      std::ostringstream os;
-      os << "sole frame '" << foot.sole_frame << "' is at " << X_FS.p.transpose() << " in '"
-         << foot.frame << "'; expected (0, 0, " << -s.height << ") with the same axes";
-      r.fail(base, os.str());
+    const Frame& lf = model.frames[link_id];
+    const YAML::Node sfn = r.child(fn, base, "sole_frame");
+    const std::string sk = base + ".sole_frame";
+    if (sfn.IsMap()) {
+      // The sole frame given as an offset and rotation in the foot link: no URDF link needed.
+      r.keys(sfn, sk, {"offset", "rpy"});
+      const Vector3 offset = r.vector3(r.child(sfn, sk, "offset"), sk + ".offset");
+      const Vector3 rpy = sfn["rpy"] ? r.vector3(sfn["rpy"], sk + ".rpy") : Vector3::Zero();
+      if (offset.norm() > 10.0) r.fail(sk + ".offset", "implausible: more than 10 m from the link");
+      for (int k = 0; k < 3; ++k)
+        if (std::abs(rpy[k]) > 2.0 * M_PI + 1e-9)
+          r.fail(sk + ".rpy", "bad rotation: an angle beyond 2 pi (radians, not degrees)");
+      foot.sole_from_offset = true;
+      foot.X_link_sole = SE3(rpy_to_matrix(rpy), offset);
+      foot.sole_frame = foot.link + "_poise_sole";
+      foot.X_link_foot = foot.X_link_sole * SE3(Matrix3::Identity(), Vector3(0.0, 0.0, s.height));
+      if (foot.X_link_foot.is_approx(SE3::Identity(), 1e-12)) {
+        foot.frame = foot.link;  // F is the link itself
+        foot.X_link_foot = SE3::Identity();
+      } else {
+        foot.frame = foot.link + "_poise_foot";
+      }
+      for (const std::string& n : {foot.sole_frame, foot.frame})
+        if (n != foot.link && model.has_frame(n))
+          r.fail(sk, "'" + n + "' (the frame this entry adds) is already a link of " + urdf_origin);
+    } else {
+      foot.frame = foot.link;
+      foot.sole_frame = r.text(sfn, sk + " (a link name, or {offset: [x, y, z], rpy: [r, p, y]})");
+      foot.sole_frame_id = frame(foot.sole_frame, sk);
+      const Frame& sf = model.frames[foot.sole_frame_id];
+      if (lf.body != sf.body)
+        r.fail(sk, "'" + foot.sole_frame + "' is not rigidly attached to '" + foot.link + "'");
+      foot.X_link_sole = lf.X_BF.inverse() * sf.X_BF;
+      const SE3& X_FS = foot.X_link_sole;
+      const bool at = (X_FS.p - Vector3(0.0, 0.0, -s.height)).norm() <= 1e-3;
+      const bool axes = X_FS.R.isApprox(Matrix3::Identity(), 1e-6);
+      if (!at || !axes) {
+        std::ostringstream os;
+        os << "sole frame '" << foot.sole_frame << "' is at (" << X_FS.p.transpose() << ") in '"
+           << foot.link << "'";
+        if (!axes)
+          os << " and its axes differ from the foot frame's (its z axis is (" << X_FS.R.col(2).transpose()
+             << ") in '" << foot.link << "')";
+        os << "; expected (0, 0, " << -s.height
+           << ") with the same axes. Give the sole instead as sole_frame: {offset: [x, y, z], "
+              "rpy: [roll, pitch, yaw]} in '"
+           << foot.link << "' (no URDF link needed; deploy/robots/README.md)";
+        r.fail(base, os.str());
+      }
     }
     });
   }
@@ -206,6 +330,25 @@ void read_config_body(const YAML::Node& root, const Reader& r, const Model& mode
     r.fail("feet", "left and right use the same frame");
   });
   if (r.count() != errors_before_feet) feet_ok = false;
+  if (feet_ok) {
+    add_config_frames(model, cfg);
+    for (FootConfig& f : cfg.feet) {
+      f.frame_id = model.frame_id(f.frame);
+      f.sole_frame_id = model.frame_id(f.sole_frame);
+    }
+    collision_bottoms(model, cfg, r);
+  }
+
+  // ---- forward axis ---------------------------------------------------------------------------
+  r.attempt([&] {
+    if (!root["forward_axis"]) return;
+    const Vector3 a = r.vector3(root["forward_axis"], "forward_axis");
+    if (a.norm() < 1e-6) r.fail("forward_axis", "must not be zero");
+    const Vector3 u = a.normalized();
+    if (std::abs(u.z()) > 0.1)
+      r.fail("forward_axis", "must be (nearly) horizontal in the base frame (z component <= 0.1)");
+    cfg.forward_axis = Vector3(u.x(), u.y(), 0.0).normalized();
+  });
 
   // ---- contact --------------------------------------------------------------------------------
   r.attempt([&] {
@@ -365,7 +508,7 @@ void check_structure(const YAML::Node& root, const Reader& r) {
   r.duplicates(root, "", budget);
   r.keys(root, "",
          {"name", "urdf", "imu_frame", "feet", "contact", "joint_groups", "nominal_posture",
-          "pd_gains"});
+          "pd_gains", "forward_axis"});
 }
 
 // Builds the model; a URDF problem is recorded with the robot.yaml ones and all are thrown.
@@ -413,12 +556,14 @@ RobotConfig load_robot_config(const std::filesystem::path& path) {
     }
   });
   if (!have_urdf) r.throw_if_errors();
-  const Model model = model_or_throw(
+  Model model = model_or_throw(
       r, [&] { return build_model_from_urdf_string(cfg.urdf_xml, "'" + cfg.urdf_path.string() + "'"); });
   read_config_body(root, r, model, cfg.urdf_path.string(), cfg);
   r.throw_if_errors();
   for (const std::string& n : model.notes)
     std::fprintf(stderr, "robot config '%s': note: %s\n", path.string().c_str(), n.c_str());
+  for (const std::string& w : cfg.warnings)
+    std::fprintf(stderr, "robot config '%s': warning: %s\n", path.string().c_str(), w.c_str());
   return cfg;
 }
 
@@ -439,7 +584,7 @@ RobotConfig parse_robot_config(const std::string& yaml_text, const std::string& 
   RobotConfig cfg;
   r.attempt([&] { cfg.name = r.text(r.child(root, "", "name"), "name"); });
   const std::string urdf_origin = "the URDF of " + origin;
-  const Model model =
+  Model model =
       model_or_throw(r, [&] { return build_model_from_urdf_string(urdf_text, urdf_origin); });
   cfg.urdf_xml = urdf_text;
   read_config_body(root, r, model, urdf_origin, cfg);
@@ -448,11 +593,32 @@ RobotConfig parse_robot_config(const std::string& yaml_text, const std::string& 
 }
 
 Model load_robot_model(const RobotConfig& config) {
-  if (!config.urdf_xml.empty())
-    return build_model_from_urdf_string(
-        config.urdf_xml,
-        config.urdf_path.empty() ? "of robot '" + config.name + "'" : "'" + config.urdf_path.string() + "'");
-  return build_model_from_urdf_file(config.urdf_path);
+  Model model =
+      !config.urdf_xml.empty()
+          ? build_model_from_urdf_string(config.urdf_xml, config.urdf_path.empty()
+                                                              ? "of robot '" + config.name + "'"
+                                                              : "'" + config.urdf_path.string() + "'")
+          : build_model_from_urdf_file(config.urdf_path);
+  add_config_frames(model, config);
+  return model;
+}
+
+void add_config_frames(Model& model, const RobotConfig& config) {
+  for (const FootConfig& f : config.feet) {
+    if (!f.sole_from_offset || f.link.empty()) continue;
+    const Frame link = model.frames[static_cast<std::size_t>(model.frame_id(f.link))];
+    auto add = [&](const std::string& name, const SE3& X_LF) {
+      if (name == f.link || model.has_frame(name)) return;
+      Frame fr;
+      fr.name = name;
+      fr.body = link.body;
+      fr.X_BF = link.X_BF * X_LF;
+      fr.is_body = false;
+      model.frames.push_back(fr);
+    };
+    add(f.sole_frame, f.X_link_sole);
+    add(f.frame, f.X_link_foot);
+  }
 }
 
 }  // namespace poise::model

@@ -475,7 +475,8 @@ struct Simulator::Impl {
   struct Foot {
     int body = 0;
     Eigen::Isometry3d X_KF = Eigen::Isometry3d::Identity();
-    std::vector<Eigen::Vector3d> sole_corners_F;  // lowest points, for placement
+    std::vector<Eigen::Vector3d> sole_corners_F;  // sole rectangle (or shape box) corners
+    std::vector<ShapeSpec> shapes_F;  // the foot body's collision shapes, X_LS in F
   };
   std::vector<Foot> feet;
   std::vector<int> foot_of_body;  // body -> foot index or -1
@@ -617,6 +618,23 @@ Simulator::Impl::~Impl() {
 
 void Simulator::Impl::resolve_feet_and_imu() {
   foot_of_body.assign(tree.bodies.size(), -1);
+  // Frames fixed to a link at an offset (robot.yaml soles given as offset + rotation).
+  for (const AddedFrame& a : cfg.robot.added_frames) {
+    if (tree.find_frame(a.name))
+      throw std::runtime_error("robot.added_frames: '" + a.name + "' is already a URDF link");
+    const detail::FrameSpec* lf = tree.find_frame(a.link);
+    if (!lf)
+      throw std::runtime_error("robot.added_frames: '" + a.name + "': link '" + a.link +
+                               "' is not a link of the URDF");
+    if (!a.X_link_frame.matrix().allFinite())
+      throw std::runtime_error("robot.added_frames: the pose of '" + a.name + "' in '" + a.link +
+                               "' is not finite");
+    detail::FrameSpec added;
+    added.name = a.name;
+    added.body = lf->body;
+    added.X_LF = lf->X_LF * a.X_link_frame;
+    tree.frames.push_back(added);
+  }
   for (const FootConfig& f : cfg.robot.feet) {
     const detail::FrameSpec* fr = tree.find_frame(f.frame);
     if (!fr)
@@ -678,6 +696,15 @@ void Simulator::Impl::resolve_feet_and_imu() {
           feet[i].sole_corners_F.push_back(fr->X_LF.inverse() * (sh.X_LS * p_S));
         }
       }
+    }
+  }
+  // What collides: every collision shape of the foot body (the sole box substitute included),
+  // in F; the robot is placed by these, not by the configured sole plane (they can differ).
+  for (std::size_t i = 0; i < feet.size(); ++i) {
+    const detail::FrameSpec* fr = tree.find_frame(cfg.robot.feet[i].frame);
+    for (ShapeSpec sh : tree.bodies[static_cast<std::size_t>(fr->body)].shapes) {
+      sh.X_LS = fr->X_LF.inverse() * sh.X_LS;
+      feet[i].shapes_F.push_back(sh);
     }
   }
   const std::string imu = cfg.robot.imu_frame.empty() ? tree.bodies[0].name : cfg.robot.imu_frame;
@@ -909,8 +936,27 @@ double Simulator::Impl::lowest_foot_point(int foot, const Eigen::Vector3d& norma
   const Foot& f = feet[static_cast<std::size_t>(foot)];
   const Eigen::Isometry3d X_WF = frame_pose(f.body, f.X_KF);
   double lo = std::numeric_limits<double>::infinity();
-  for (const auto& c : f.sole_corners_F)
-    lo = std::min(lo, normal.dot(X_WF * c));
+  for (const ShapeSpec& sh : f.shapes_F) {
+    const Eigen::Isometry3d X_WS = X_WF * sh.X_LS;
+    const Eigen::Vector3d n_S = X_WS.linear().transpose() * normal;
+    const double c = normal.dot(X_WS.translation());
+    switch (sh.type) {
+      case ShapeSpec::Type::kBox:
+        lo = std::min(lo, c - n_S.cwiseAbs().dot(sh.size));
+        break;
+      case ShapeSpec::Type::kSphere:
+        lo = std::min(lo, c - sh.size.x());
+        break;
+      case ShapeSpec::Type::kCylinder: {  // size: (radius, length), axis z
+        const double az = std::min(1.0, std::abs(n_S.z()));
+        lo = std::min(lo, c - sh.size.x() * std::sqrt(std::max(0.0, 1.0 - az * az)) -
+                              0.5 * sh.size.y() * az);
+        break;
+      }
+    }
+  }
+  if (f.shapes_F.empty())  // (not reached: a foot without shapes gets the sole box)
+    for (const auto& p : f.sole_corners_F) lo = std::min(lo, normal.dot(X_WF * p));
   return lo;
 }
 

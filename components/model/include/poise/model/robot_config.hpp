@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <filesystem>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -23,11 +24,24 @@ struct SoleRectangle {
 };
 
 struct FootConfig {
-  std::string frame;       ///< foot (ankle) link; the sole rectangle is given in this frame
-  int frame_id = -1;       ///< Model::frame_id(frame)
-  std::string sole_frame;  ///< link on the sole plane below the ankle (fixed to the foot)
+  /// The foot frame F the whole stack uses (sole rectangle, F/T wrench, contact): the foot link
+  /// itself, or, when the sole is given as an offset and rotation whose F is not the link, a
+  /// frame the loader adds to the model ("<link>_poise_foot", see add_config_frames()).
+  std::string frame;
+  int frame_id = -1;       ///< Model::frame_id(frame) (in a model from load_robot_model())
+  std::string link;        ///< URDF link of the foot (robot.yaml feet.<side>.frame)
+  /// Frame on the sole plane (same axes as F, `sole.height` below F): a URDF link (robot.yaml
+  /// sole_frame: NAME), or "<link>_poise_sole" added by the loader (sole_frame: {offset, rpy}).
+  std::string sole_frame;
   int sole_frame_id = -1;
+  bool sole_from_offset = false;  ///< sole_frame given as {offset, rpy} in robot.yaml
+  SE3 X_link_sole;                ///< sole frame in `link` (both forms)
+  SE3 X_link_foot;                ///< F in `link` (identity when F is the link)
   SoleRectangle sole;
+  /// Lowest point of the foot's collision primitives (boxes, cylinders, spheres of the links
+  /// fixed to the foot body; meshes are not simulated) relative to the sole plane, along the
+  /// sole normal, in metres (negative: below the sole plane). NaN when the foot has none.
+  double collision_bottom = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct JointGains {
@@ -54,7 +68,18 @@ struct RobotConfig {
   /// origin, at the height that puts both soles on z = 0.
   Eigen::VectorXd q_nominal;
   std::vector<JointGains> gains;  ///< per model joint, model joint order (dim njoints)
+  /// The robot's forward direction in the base frame (unit, horizontal at the nominal posture):
+  /// robot.yaml forward_axis, default +x. Pushes "forward" and the verdict's trunk pitch use it.
+  Vector3 forward_axis = Vector3::UnitX();
+  /// Warnings found at load (e.g. a sole plane that is not the foot's collision bottom), one
+  /// line each; load_robot_config() also prints them once to stderr.
+  std::vector<std::string> warnings;
 };
+
+/// Adds the frames robot.yaml defines (sole and foot frames given as offset + rotation) to a
+/// model built from the configuration's URDF. load_robot_model() does it; call it on a model
+/// built otherwise. Idempotent.
+void add_config_frames(Model& model, const RobotConfig& config);
 
 /// Loads and validates a robot configuration: builds the URDF model and checks every frame and
 /// joint name, the sole geometry against the sole frames, the joint groups (each model joint in

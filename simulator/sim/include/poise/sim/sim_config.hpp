@@ -3,6 +3,7 @@
 // (scenario.hpp) or by code; validated once by the Simulator constructor.
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -26,10 +27,19 @@ struct FootConfig {
   SoleConfig sole;
 };
 
+/// A frame that is not a URDF link, fixed to one (robot.yaml soles given as offset + rotation:
+/// model::FootConfig::X_link_foot). Feet and the IMU may name it.
+struct AddedFrame {
+  std::string name;
+  std::string link;  ///< URDF link it is fixed to
+  Eigen::Isometry3d X_link_frame = Eigen::Isometry3d::Identity();
+};
+
 /// Robot side of the simulation.
 struct RobotConfig {
   std::string urdf_path;         ///< URDF file (absolute, or relative to the working dir)
   std::vector<FootConfig> feet;  ///< at least one
+  std::vector<AddedFrame> added_frames;  ///< frames beside the URDF links (usually none)
   std::string imu_frame;         ///< URDF link name of the IMU frame (default: root link)
   bool self_collision = false;
   /// Damping gain used in damping mode and by the watchdog [N m s/rad] (all joints).
