@@ -147,6 +147,14 @@ void load_robot(const Ctx& c, const YAML::Node& n, World& sc,
       ff.sole.y_max = f.sole.y_max;
       ff.sole.height = f.sole.height;
       r.feet.push_back(ff);
+      if (f.frame != f.link) {  // a foot frame robot.yaml adds (sole given as offset + rpy)
+        AddedFrame a;
+        a.name = f.frame;
+        a.link = f.link;
+        a.X_link_frame.linear() = f.X_link_foot.R;
+        a.X_link_frame.translation() = f.X_link_foot.p;
+        r.added_frames.push_back(a);
+      }
     }
     // nominal posture: joint entries of q_nominal (q = [p (3); quat (4); joints])
     const model::Model m = model::load_robot_model(rc);
