@@ -1,5 +1,5 @@
 // `poise envelope`: the balance envelope of a robot and controller, measured by running scenarios
-// (controller/envelope/README.md).
+// (deploy/envelope/README.md).
 //
 //   pushes      for each of N directions of the horizontal plane, in double and in single support:
 //               the force of a 0.1 s push is raised in steps until the first failure, the boundary
@@ -304,7 +304,7 @@ int envelope_main(int argc, char** argv) {
   CLI::App app{
       "Balance envelope: push forces survived in N directions (double and single support), the "
       "paper's Fig. 11 (longest push survived per force) and the highest platform frequency, by "
-      "running scenarios (controller/envelope/README.md)."};
+      "running scenarios (deploy/envelope/README.md)."};
   app.add_option("study", o.what, "all, pushes, fig11 or platforms")
       ->check(CLI::IsMember({"all", "pushes", "fig11", "platforms"}))
       ->capture_default_str();

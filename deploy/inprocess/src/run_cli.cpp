@@ -1,5 +1,5 @@
 // `poise run`: run a scenario. `--in-process` composes the libraries in this process (no DDS);
-// the DDS-distributed mode (the default) is poise::launch::run_distributed (components/launch).
+// the DDS-distributed mode (the default) is poise::launch::run_distributed (deploy/launch).
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
@@ -67,7 +67,7 @@ std::filesystem::path resolve_scenario(const std::string& arg) {
 }  // namespace
 
 int cli_main(int argc, char** argv) {
-  // Default mode: every component in its own process over DDS (components/launch).
+  // Default mode: every component in its own process over DDS (deploy/launch).
   const auto has = [&](std::string_view flag) {
     return std::any_of(argv + 1, argv + argc, [&](const char* a) { return flag == a; });
   };
