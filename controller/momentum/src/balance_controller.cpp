@@ -87,6 +87,12 @@ BalanceController::BalanceController(const model::Model& model, const model::Rob
     is_upper_[j] = 1.0;
   }
   q_nominal_ = robot_.q_nominal.tail(n);
+  for (int side = 0; side < kFeet; ++side) {
+    leg_joints_[side].clear();
+    const int body = model_.frames[robot_.feet[side].frame_id].body;
+    for (int v : model_.support[body])
+      if (v >= 6) leg_joints_[side].push_back(v - 6);
+  }
 
   // Desired CoM height above the soles in the nominal posture (Sec. 4.2 target when no CoM target).
   if (config_.com_height > 0.0) {
@@ -172,6 +178,8 @@ JointCommand BalanceController::make_command() const {
 void BalanceController::reset() noexcept {
   have_references_ = false;
   have_hold_ = {false, false};
+  placed_ = {false, false};
+  have_hold_seen_ = false;
   have_foot_velocity_ = false;
   have_previous_solution_ = false;
   reuse_count_ = 0;
@@ -255,9 +263,25 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
         support = false;
         break;
     }
+    // Sec. 4.2: a support foot rests when its measured CoP is inside the safe region. The CoP of
+    // a foot that carries no load means nothing (the simulator's truth puts it at the foot
+    // origin, the estimator at zero), so an unloaded foot does not rest: a planned support that
+    // is not (or no longer) loaded -- a foot tipped up by the other, a stepping foot just before
+    // it lands -- is held where it last rested instead of following its own velocity, which
+    // let it drift up without bound (a step in place: the landed foot rose 0.32 m).
+    const bool loaded = meas.in_contact || (config_.support_force_fraction > 0.0 &&
+                                            meas.normal_force >
+                                                config_.support_force_fraction * weight);
     const bool resting =
-        support && cop_in_safe_region(X_WF_[i], meas.cop_W, foot.sole,
-                                      robot_.safety_margin + config_.resting_extra_margin);
+        support && loaded &&
+        cop_in_safe_region(X_WF_[i], meas.cop_W, foot.sole,
+                           robot_.safety_margin + config_.resting_extra_margin);
+    // Touch-down of a planned support (a swing foot set down, a support flag that comes back):
+    // the leg's integrated references theta*, theta_dot* (34)-(35) ran ahead of the foot while
+    // it moved and would press it into the ground through the joint PD with a load the contact
+    // problem does not know of (a step in place: 90-170 N on the landed foot, planned 0, which
+    // tipped the stance foot). finish() restarts them from the measured joints.
+    touch_down_[i] = support && !diag_.support[i] && have_hold_seen_;
     diag_.support[i] = support;
     diag_.resting[i] = resting;
 
@@ -267,8 +291,12 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
     if (ref.has_target) {
       X_d = ref.X_WF_target;
       V_d = ref.V_WF_target;
-      X_WF_hold_[i] = X_WF_[i];
-    } else if (resting) {
+      X_WF_hold_[i] = ref.X_WF_target;  // where the foot stays when the target is dropped
+      placed_[i] = true;
+    } else if (resting || (support && !placed_[i])) {
+      // Resting, or a support that has never rested nor been placed (released in the air:
+      // no pose to hold yet, it moves with the body until it lands).
+      placed_[i] = placed_[i] || resting;
       // Resting on a (possibly moving) support: follow it (v_d = v, T_d = T).
       X_d = X_WF_[i];
       V_d = V_WF_[i];
@@ -292,6 +320,7 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
     pf.p_WF = X_WF_[i].p;
   }
   have_foot_velocity_ = true;
+  have_hold_seen_ = true;
 
   // ---- desired CoM (reference, or Sec. 4.2: above the mid-point of the supports) ---------------
   if (reference.has_com_target) {
@@ -478,6 +507,13 @@ void BalanceController::finish_with(const contact::ContactSolution& solution, Co
     q_ref_ = q_.tail(n);
     qd_ref_ = qd_joint_;
     have_references_ = true;
+  }
+  for (int i = 0; i < kFeet; ++i) {
+    if (!touch_down_[i]) continue;
+    for (int j : leg_joints_[i]) {
+      q_ref_[j] = q_[7 + j];
+      qd_ref_[j] = 0.0;  // the ground stops the foot: not the leg's velocity at the impact
+    }
   }
   for (int j = 0; j < n; ++j) {
     const double q = q_[7 + j];

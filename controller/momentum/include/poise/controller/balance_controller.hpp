@@ -19,6 +19,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <vector>
 
 #include "poise/contact/contact_problem.hpp"
 #include "poise/controller/acceleration_solver.hpp"
@@ -149,6 +150,10 @@ class BalanceController {
   Eigen::VectorXd q_ref_, qd_ref_;  // n: theta*, theta_dot*
   std::array<bool, 2> have_hold_{false, false};
   std::array<model::SE3, 2> X_WF_hold_;  // desired pose of each foot when not resting
+  std::array<bool, 2> placed_{false, false};  // the foot has rested or followed a target
+  std::array<bool, 2> touch_down_{false, false};  // became a support this tick
+  bool have_hold_seen_ = false;                   // a tick has been prepared (supports known)
+  std::array<std::vector<int>, 2> leg_joints_;    // joints between the base and each foot
   bool have_foot_velocity_ = false;
   std::array<model::Motion, 2> V_WF_previous_;  // foot velocity of the previous tick
   std::array<model::Motion, 2> A_WF_filtered_;  // low-pass filtered measured foot acceleration
