@@ -658,8 +658,24 @@ CaseResult run_case(const fs::path& poise, const fs::path& self, const fs::path&
 // ------------------------------------------------------------------------------------------------
 // `poise run` (latency cost, long run).
 
+/// How a latency run records: not at all, `poise run --record` (a subscribing recorder), or
+/// `poise record --passive` started before the run (no reader of the loop's topics).
+enum class RecordMode { none, subscribing, passive };
+const char* mode_name(RecordMode m) {
+  return m == RecordMode::none ? "no" : m == RecordMode::subscribing ? "dds" : "passive";
+}
+
+/// Extra settings of the latency runs (--loop-cpus): the loop's processes on these CPUs with
+/// SCHED_FIFO and locked memory, the recorder on the others.
+struct LoopSettings {
+  std::string loop_cpus;      ///< "" = the defaults of `poise run`
+  std::string recorder_cpus;  ///< taskset list for the recorder ("" = anywhere)
+  int domain = 0;
+};
+
 struct RunResult {
   bool recorded = false;
+  RecordMode mode = RecordMode::none;
   bool ok = false;
   std::string problem;
   int exit_code = -1;
@@ -676,9 +692,11 @@ struct RunResult {
 };
 
 RunResult run_stack(const fs::path& poise, const fs::path& dir, const std::string& tag,
-                    double duration, bool record) {
+                    double duration, RecordMode mode, const LoopSettings& loop = {}) {
   RunResult r;
+  const bool record = mode != RecordMode::none;
   r.recorded = record;
+  r.mode = mode;
   const fs::path json = dir / (tag + ".json");
   const fs::path logs = dir / (tag + ".logs");
   const fs::path mcap = dir / (tag + ".mcap");
@@ -687,9 +705,32 @@ RunResult run_stack(const fs::path& poise, const fs::path& dir, const std::strin
   std::vector<std::string> argv{
       poise.string(),           "run", "standing",    "--realtime", "--duration",
       std::to_string(duration), "-o",  json.string(), "--log-dir",  logs.string()};
-  if (record) {
+  if (loop.domain > 0) argv.insert(argv.end(), {"--domain", std::to_string(loop.domain)});
+  if (!loop.loop_cpus.empty())
+    argv.insert(argv.end(), {"--cpus", loop.loop_cpus, "--rt-priority", "80", "--lock-memory"});
+  if (mode == RecordMode::subscribing) {
     argv.push_back("--record");
     argv.push_back(mcap.string());
+  }
+  // The passive recorder captures before the run starts (it must see the writers' announcements).
+  std::unique_ptr<Child> passive;
+  if (mode == RecordMode::passive) {
+    std::vector<std::string> rec;
+    if (!loop.recorder_cpus.empty()) rec = {"/usr/bin/taskset", "-c", loop.recorder_cpus};
+    rec.insert(rec.end(), {poise.string(), "record", "--passive", "--domain",
+                           std::to_string(loop.domain), "-o", mcap.string(), "--progress", "0"});
+    passive = std::make_unique<Child>("rec_" + tag, rec, dir / "logs");
+    const auto w0 = Clock::now();
+    while (slurp(passive->stderr_path()).find("poise record: passive capture") == std::string::npos) {
+      if (!passive->running() || seconds_since(w0) > 20) {
+        r.problem = "the passive recorder did not start: " + slurp(passive->stderr_path());
+        return r;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    r.recorder.pid = passive->pid();
+  } else if (mode == RecordMode::subscribing && !loop.recorder_cpus.empty()) {
+    progress("  note: the subscribing recorder of `poise run --record` is not pinned");
   }
   const auto t0 = Clock::now();
   Child run("run_" + tag, argv, dir / "logs");
@@ -716,6 +757,11 @@ RunResult run_stack(const fs::path& poise, const fs::path& dir, const std::strin
   }
   r.wall_s = seconds_since(t0);
   r.exit_code = *run.poll();
+  if (passive) {
+    r.recorder.sample();
+    ::kill(passive->pid(), SIGINT);
+    if (!passive->wait(30)) passive->stop(3000);
+  }
   r.tree_cpu_s = cpu_seconds(run.usage());
   r.result = Json::parse(slurp(json), nullptr, false);
   if (r.result.is_discarded() || !r.result.is_object()) {
@@ -735,7 +781,8 @@ RunResult run_stack(const fs::path& poise, const fs::path& dir, const std::strin
   r.damping_ticks = r.result.value("damping_ticks", 0ULL);
   r.survived = r.result.value("survived", false);
   r.realtime_factor = r.result.value("realtime_factor", 0.0);
-  if (record) {
+  if (mode == RecordMode::passive) r.info = poise_info(poise, mcap, dir / "logs", tag);
+  if (mode == RecordMode::subscribing) {
     if (r.result.contains("pids") && r.result["pids"].contains("recorder") &&
         r.result["pids"]["recorder"].get<pid_t>() != r.recorder.pid)
       progress("  %s: note: sampled pid %d, result says recorder pid %d", tag.c_str(),
@@ -846,11 +893,11 @@ void print_run_table(const std::vector<RunResult>& runs) {
   for (const auto& r : runs) {
     ++i;
     if (!r.ok) {
-      std::printf("%-4d %-7s FAILED: %s\n", i, r.recorded ? "yes" : "no", r.problem.c_str());
+      std::printf("%-4d %-7s FAILED: %s\n", i, mode_name(r.mode), r.problem.c_str());
       continue;
     }
     std::printf("%-4d %-7s %8.0f %8.0f %8.0f %8.0f %8llu %8llu %6.3f %8.2f %8s %7s %9s\n", i,
-                r.recorded ? "yes" : "no", r.p50, r.p99, r.max, r.mean,
+                mode_name(r.mode), r.p50, r.p99, r.max, r.mean,
                 static_cast<unsigned long long>(r.deadline_misses),
                 static_cast<unsigned long long>(r.damping_ticks), r.realtime_factor, r.tree_cpu_s,
                 r.recorded ? std::to_string(r.recorder.percent()).substr(0, 5).c_str() : "-",
@@ -936,6 +983,7 @@ void usage() {
   std::printf(
       "usage: poise-bench-record [--seconds S] [--saturation-seconds S] [--dir DIR] "
       "[--skip-throughput] [--skip-latency] [--latency-duration S] [--latency-reps N] "
+      "[--latency-modes no,dds,passive] [--loop-cpus LIST --recorder-cpus LIST] "
       "[--long-minutes M] [--ramp R1,R2,..] [--disk-mb N] [--keep]\n"
       "\n"
       "Measures `poise record` in one run and prints the figures (progress on stderr):\n"
@@ -947,8 +995,13 @@ void usage() {
       "  saturation  the same flat out for --saturation-seconds (default 3), then paced at the\n"
       "              --ramp tick rates (default 2000,4000,6000,8000; empty: none) until the\n"
       "              first loss, per compression\n"
-      "  latency     `poise run standing --realtime --duration D` (default 10) without and with\n"
-      "              --record, alternated N times each (default 2)\n"
+      "  latency     `poise run standing --realtime --duration D` (default 10) without a\n"
+      "              recorder (no), with `--record` (dds: a subscribing recorder) and with\n"
+      "              `poise record --passive` started before it (passive: no reader of the loop's\n"
+      "              topics; needs root), alternated N times each (default 2); --latency-modes\n"
+      "              picks (default no,dds,passive as root, else no,dds); --loop-cpus LIST runs\n"
+      "              the loop there with SCHED_FIFO 80 and locked memory (`poise run --cpus`),\n"
+      "              --recorder-cpus LIST pins the passive recorder (taskset)\n"
       "  long        with --long-minutes M: one M-minute real-time run with --record\n"
       "Options:\n"
       "  --dir DIR        where files go (default: a fresh /tmp/poise-bench-record-<pid>)\n"
@@ -995,6 +1048,9 @@ int main(int argc, char** argv) {
 
   double seconds = 10, sat_seconds = 3, latency_duration = 10, long_minutes = 0;
   int latency_reps = 2;
+  std::vector<RecordMode> latency_modes{RecordMode::none, RecordMode::subscribing};
+  if (::geteuid() == 0) latency_modes.push_back(RecordMode::passive);
+  std::string loop_cpus, recorder_cpus;
   std::vector<double> ramp_rates{2000, 4000, 6000, 8000};
   std::size_t disk_mb = 256;
   bool skip_latency = false, skip_throughput = false, keep = false;
@@ -1023,6 +1079,27 @@ int main(int argc, char** argv) {
       skip_throughput = true;
     } else if (a == "--latency-duration") {
       latency_duration = std::atof(value().c_str());
+    } else if (a == "--latency-modes") {
+      latency_modes.clear();
+      std::stringstream list(value());
+      for (std::string m; std::getline(list, m, ',');) {
+        if (m == "no") latency_modes.push_back(RecordMode::none);
+        else if (m == "dds") latency_modes.push_back(RecordMode::subscribing);
+        else if (m == "passive") latency_modes.push_back(RecordMode::passive);
+        else {
+          std::fprintf(stderr, "poise-bench-record: --latency-modes: '%s' is not no, dds or passive\n",
+                       m.c_str());
+          return 2;
+        }
+      }
+      if (latency_modes.empty()) {
+        std::fprintf(stderr, "poise-bench-record: --latency-modes is empty\n");
+        return 2;
+      }
+    } else if (a == "--loop-cpus") {
+      loop_cpus = value();
+    } else if (a == "--recorder-cpus") {
+      recorder_cpus = value();
     } else if (a == "--latency-reps") {
       latency_reps = std::atoi(value().c_str());
     } else if (a == "--long-minutes") {
@@ -1149,45 +1226,57 @@ int main(int argc, char** argv) {
 
     if (!skip_latency) {
       std::vector<RunResult> runs;
-      for (int k = 0; k < 2 * latency_reps; ++k) {
-        const bool record = k % 2 == 1;
-        const std::string tag = "lat" + std::to_string(k + 1) + (record ? "_rec" : "_norec");
-        progress("latency run %d/%d (%s): poise run standing --realtime --duration %.0f ...", k + 1,
-                 2 * latency_reps, record ? "with --record" : "without", latency_duration);
-        runs.push_back(run_stack(poise, dir, tag, latency_duration, record));
+      LoopSettings loop;
+      loop.loop_cpus = loop_cpus;
+      loop.recorder_cpus = recorder_cpus;
+      loop.domain = poise::dds::claim_free_domain();
+      const int n_modes = static_cast<int>(latency_modes.size());
+      for (int k = 0; k < n_modes * latency_reps; ++k) {
+        const RecordMode mode = latency_modes[static_cast<std::size_t>(k % n_modes)];
+        const std::string tag = "lat" + std::to_string(k + 1) + "_" + mode_name(mode);
+        progress("latency run %d/%d (recorder: %s): poise run standing --realtime --duration %.0f%s%s ...",
+                 k + 1, n_modes * latency_reps, mode_name(mode), latency_duration,
+                 loop_cpus.empty() ? "" : " --cpus ", loop_cpus.c_str());
+        runs.push_back(run_stack(poise, dir, tag, latency_duration, mode, loop));
         if (!runs.back().ok) progress("  FAILED: %s", runs.back().problem.c_str());
         if (!keep) fs::remove(dir / (tag + ".mcap"));
       }
       std::printf(
-          "\nLATENCY COST: poise run standing --realtime --duration %.0f, alternated (tick "
-          "latency = sensors k published -> command k received)\n",
-          latency_duration);
+          "\nLATENCY COST: poise run standing --realtime --duration %.0f%s%s, alternated (tick "
+          "latency = sensors k published -> command k received); recorder: no = none, dds = "
+          "`poise run --record` (a subscribing recorder), passive = `poise record --passive`%s%s\n",
+          latency_duration, loop_cpus.empty() ? "" : " --cpus ", loop_cpus.c_str(),
+          recorder_cpus.empty() ? "" : " on CPUs ", recorder_cpus.c_str());
       print_run_table(runs);
-      std::vector<double> p50[2], p99[2], mx[2], cpu[2];
-      std::uint64_t misses[2] = {0, 0}, damping[2] = {0, 0};
+      auto rt = [](double a, double b) { return b > 0 ? a / b : 0.0; };
+      struct Agg {
+        std::vector<double> p50, p99, mx, cpu;
+        std::uint64_t misses = 0, damping = 0;
+      };
+      std::map<RecordMode, Agg> agg;
       for (const auto& r : runs) {
         if (!r.ok) continue;
-        const int m = r.recorded ? 1 : 0;
-        p50[m].push_back(r.p50);
-        p99[m].push_back(r.p99);
-        mx[m].push_back(r.max);
-        cpu[m].push_back(r.tree_cpu_s);
-        misses[m] += r.deadline_misses;
-        damping[m] += r.damping_ticks;
+        Agg& a = agg[r.mode];
+        a.p50.push_back(r.p50);
+        a.p99.push_back(r.p99);
+        a.mx.push_back(r.max);
+        a.cpu.push_back(r.tree_cpu_s);
+        a.misses += r.deadline_misses;
+        a.damping += r.damping_ticks;
       }
-      auto rt = [](double a, double b) { return b > 0 ? a / b : 0.0; };
-      std::printf(
-          "median over runs  without: p50 %.0f p99 %.0f max %.0f us, CPU %.2f s | with: p50 %.0f "
-          "p99 %.0f max %.0f us, CPU %.2f s\n",
-          median(p50[0]), median(p99[0]), median(mx[0]), median(cpu[0]), median(p50[1]),
-          median(p99[1]), median(mx[1]), median(cpu[1]));
-      std::printf(
-          "ratio with/without: p50 %.2f, p99 %.2f, max %.2f, CPU of the run %.2f; deadline "
-          "misses %llu vs %llu, damping ticks %llu vs %llu (sums)\n",
-          rt(median(p50[1]), median(p50[0])), rt(median(p99[1]), median(p99[0])),
-          rt(median(mx[1]), median(mx[0])), rt(median(cpu[1]), median(cpu[0])),
-          static_cast<unsigned long long>(misses[1]), static_cast<unsigned long long>(misses[0]),
-          static_cast<unsigned long long>(damping[1]), static_cast<unsigned long long>(damping[0]));
+      const Agg base = agg.count(RecordMode::none) ? agg[RecordMode::none] : Agg{};
+      for (const auto& [mode, a] : agg) {
+        std::printf("median over runs, recorder %-7s: p50 %.0f p99 %.0f max %.0f us, CPU %.2f s; "
+                    "deadline misses %llu, damping ticks %llu (sums)",
+                    mode_name(mode), median(a.p50), median(a.p99), median(a.mx), median(a.cpu),
+                    static_cast<unsigned long long>(a.misses),
+                    static_cast<unsigned long long>(a.damping));
+        if (mode != RecordMode::none && !base.p50.empty())
+          std::printf(" | ratio to none: p50 %.2f, p99 %.2f, max %.2f, CPU of the run %.2f",
+                      rt(median(a.p50), median(base.p50)), rt(median(a.p99), median(base.p99)),
+                      rt(median(a.mx), median(base.mx)), rt(median(a.cpu), median(base.cpu)));
+        std::printf("\n");
+      }
       for (const auto& r : runs)
         if (r.ok && r.recorded) {
           std::printf(
@@ -1205,7 +1294,7 @@ int main(int argc, char** argv) {
       ::getloadavg(l0, 3);
       progress("long run: poise run standing --realtime --duration %.0f --record ... (load %.2f)",
                long_minutes * 60, l0[0]);
-      RunResult r = run_stack(poise, dir, "long", long_minutes * 60, true);
+      RunResult r = run_stack(poise, dir, "long", long_minutes * 60, RecordMode::subscribing);
       double l1[3] = {};
       ::getloadavg(l1, 3);
       std::printf(

@@ -91,7 +91,7 @@ class RtpsDecoder {
 struct CaptureOptions {
   std::string interface = "lo";
   int domain = 0;
-  int receive_buffer_bytes = 64 << 20;
+  int receive_buffer_bytes = 64 << 20;  ///< the capture ring (blocks of 1 MiB)
 };
 
 /// A packet socket on one interface and a thread that feeds an RtpsDecoder.
@@ -114,7 +114,12 @@ class RtpsCapture {
   void loop();
   CaptureOptions options_;
   RtpsDecoder decoder_;
+  static constexpr unsigned kBlockBytes = 1u << 20;
   int fd_ = -1;
+  bool loopback_ = false;
+  std::uint8_t* ring_ = nullptr;
+  std::size_t ring_bytes_ = 0;
+  std::size_t blocks_ = 0;
   std::atomic<bool> stop_{false};
   mutable std::atomic<std::uint64_t> kernel_drops_{0};
   std::thread thread_;
