@@ -83,7 +83,7 @@ TEST(SoleFrames, OffsetBelowTheAnkleNeedsNoSoleLinkAndIsTheShippedRobot) {
   for (const FootConfig& f : cfg.feet) {
     EXPECT_TRUE(f.sole_from_offset);
     EXPECT_EQ(f.frame, f.link) << "F is the foot link itself when the offset is (0, 0, -height)";
-    EXPECT_EQ(f.sole_frame, f.link + "_poise_sole");
+    EXPECT_EQ(f.sole_frame, f.link + "_sole_poise");
   }
   ASSERT_EQ(cfg.q_nominal.size(), shipped.q_nominal.size());
   EXPECT_LT((cfg.q_nominal - shipped.q_nominal).cwiseAbs().maxCoeff(), 1e-12);
@@ -112,8 +112,8 @@ TEST(SoleFrames, ShiftedAndRotatedSoleFrameGivesTheSameSoleInTheWorld) {
   const std::string frame = "{offset: [0.03, 0, -0.08], rpy: [0, 0, 3.141592653589793]}";
   const RobotConfig cfg =
       parse_robot_config(yaml_with_feet(frame, sole, frame, sole), urdf_without_sole_links(), "(test)");
-  EXPECT_EQ(cfg.feet[kRight].frame, "r_foot_poise_foot");
-  EXPECT_EQ(cfg.feet[kLeft].frame, "l_foot_poise_foot");
+  EXPECT_EQ(cfg.feet[kRight].frame, "r_foot_foot_poise");
+  EXPECT_EQ(cfg.feet[kLeft].frame, "l_foot_foot_poise");
   EXPECT_LT((cfg.q_nominal - shipped.q_nominal).cwiseAbs().maxCoeff(), 1e-12);
   const auto a = sorted(sole_corners(cfg)), b = sorted(sole_corners(shipped));
   ASSERT_EQ(a.size(), b.size());

@@ -288,13 +288,13 @@ void read_config_body(const YAML::Node& root, const Reader& r, Model& model,
           r.fail(sk + ".rpy", "bad rotation: an angle beyond 2 pi (radians, not degrees)");
       foot.sole_from_offset = true;
       foot.X_link_sole = SE3(rpy_to_matrix(rpy), offset);
-      foot.sole_frame = foot.link + "_poise_sole";
+      foot.sole_frame = foot.link + "_sole_poise";
       foot.X_link_foot = foot.X_link_sole * SE3(Matrix3::Identity(), Vector3(0.0, 0.0, s.height));
       if (foot.X_link_foot.is_approx(SE3::Identity(), 1e-12)) {
         foot.frame = foot.link;  // F is the link itself
         foot.X_link_foot = SE3::Identity();
       } else {
-        foot.frame = foot.link + "_poise_foot";
+        foot.frame = foot.link + "_foot_poise";
       }
       for (const std::string& n : {foot.sole_frame, foot.frame})
         if (n != foot.link && model.has_frame(n))

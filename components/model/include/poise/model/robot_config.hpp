@@ -26,12 +26,12 @@ struct SoleRectangle {
 struct FootConfig {
   /// The foot frame F the whole stack uses (sole rectangle, F/T wrench, contact): the foot link
   /// itself, or, when the sole is given as an offset and rotation whose F is not the link, a
-  /// frame the loader adds to the model ("<link>_poise_foot", see add_config_frames()).
+  /// frame the loader adds to the model ("<link>_foot_poise", see add_config_frames()).
   std::string frame;
   int frame_id = -1;       ///< Model::frame_id(frame) (in a model from load_robot_model())
   std::string link;        ///< URDF link of the foot (robot.yaml feet.<side>.frame)
   /// Frame on the sole plane (same axes as F, `sole.height` below F): a URDF link (robot.yaml
-  /// sole_frame: NAME), or "<link>_poise_sole" added by the loader (sole_frame: {offset, rpy}).
+  /// sole_frame: NAME), or "<link>_sole_poise" added by the loader (sole_frame: {offset, rpy}).
   std::string sole_frame;
   int sole_frame_id = -1;
   bool sole_from_offset = false;  ///< sole_frame given as {offset, rpy} in robot.yaml
