@@ -63,7 +63,10 @@ const std::vector<Robot>& robots() {
        // oscillates up to 148 rad/s: the robot is thrown (CoM error 0.26 m, foot slip 0.58 m).
        // The same robot.yaml survives in process; distributed it survives with sensor seed 2,
        // with `--wn 50` or `--wn 150`, with `--knee 0.7`, or with that ankle's kd at 1.0; with
-       // the true state (--ground-truth-state) the foot slips 25 mm. Cause not found yet.
+       // the true state (--ground-truth-state) the foot slips 25 mm. Recorded: the lateral
+       // rocking after the 6 s push does not die out; from 7.5 s both CoPs sit on the feet's
+       // outer edges (one foot down to 28 N), the base yaws, at 9 s a foot leaves the ground.
+       // Cause not found yet (not the soles: the same with the URDF's own sole links).
        "l_leg_akx at 148 rad/s from 8 s (see the comment above)"},
       // Base facing world -x: the robot's own left leg is at world y < 0.
       {"kestrel", 65.0, "LeftFootLink", "RightFootLink", {},
@@ -213,6 +216,39 @@ INSTANTIATE_TEST_SUITE_P(Robots, TestRobotDistributed, ::testing::ValuesIn(robot
                            return std::string(i.param.waits_for || i.param.distributed_fails
                                                   ? "DISABLED_" : "") + i.param.name;
                          });
+
+// badger as its makers describe it: the sole plane at the URDF's l_sole / r_sole links, 10 mm
+// above the bottom of the foot boxes (a hand edit of init's robot.yaml, the only one here).
+// The loader warns with both heights, the simulator places the robot by the collision boxes
+// (not 10 mm into the ground), and it stands and survives the pushes in process.
+TEST(TestRobotTraits, FootBoxOffTheSolePlaneIsAWarningWithBothHeightsAndStands) {
+  const Robot& r = robots()[3];
+  ASSERT_STREQ(r.name, "badger");
+  const fs::path dir = work_dir("badger_own_soles");
+  const fs::path scenario = init_and_write_scenario(r, dir);
+  ASSERT_FALSE(scenario.empty());
+  std::string yaml = read(dir / "robot" / "robot.yaml");
+  // (sole_frame as init wrote it: a link name, or {offset, rpy} in the foot link)
+  yaml = std::regex_replace(yaml, std::regex(R"((frame: ([lr])_foot\n\s*sole_frame: )[^\n]*)"), "$1$2_sole");
+  yaml = std::regex_replace(yaml, std::regex("height: 0.08\\}"), "height: 0.07}");
+  yaml = std::regex_replace(yaml, std::regex("urdf: .*"), "urdf: " + urdf_of(r).string());
+  ASSERT_NE(yaml.find("sole_frame: l_sole"), std::string::npos) << yaml;
+  ASSERT_EQ(yaml.find("height: 0.08"), std::string::npos) << yaml;
+  std::ofstream(dir / "robot" / "robot.yaml") << yaml;
+  auto [info_code, info] = run_cmd({bin("poise"), "model", "info", (dir / "robot" / "robot.yaml").string()}, 30s);
+  EXPECT_EQ(info_code, 0) << info;
+  for (const char* side : {"left", "right"}) {
+    const std::regex warn(std::string("warning: feet\\.") + side +
+                          ": the sole plane is at z = -0\\.0700 m [^\\n]* collision geometry bottom "
+                          "is at z = -0\\.0800 m");
+    EXPECT_TRUE(std::regex_search(info, warn)) << info;
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  auto [code, out] = run_cmd({bin("poise"), "run", scenario.string(), "--in-process", "-q", "-o",
+                              (dir / "result.json").string()}, 120s);
+  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  check_result(r, "in process, its own sole links", code, out, dir / "result.json", s);
+}
 
 // The traits the README lists are in the committed files.
 TEST(TestRobotFiles, CarryTheirTraits) {
