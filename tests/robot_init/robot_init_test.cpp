@@ -46,7 +46,7 @@ std::string read(const fs::path& p) {
 }
 
 // init -> model info -> 10 s standing in process, the scenario pointing at the new robot.yaml.
-std::string init_and_stand(const fs::path& urdf, const fs::path& dir, bool expect_copy) {
+std::string init_and_stand(const fs::path& urdf, const fs::path& dir, bool expect_added) {
   const std::string before = read(urdf);
   const fs::path out = dir / "robot";
   auto [code, text] = run_cmd({bin("poise"), "robot", "init", urdf.string(), "-o", out.string()}, 60s);
@@ -57,8 +57,11 @@ std::string init_and_stand(const fs::path& urdf, const fs::path& dir, bool expec
   EXPECT_EQ(read(urdf), before) << "the user's URDF was modified";
   EXPECT_NE(text.find("left leg:"), std::string::npos) << text;
   EXPECT_NE(text.find("right leg:"), std::string::npos) << text;
-  EXPECT_EQ(text.find("(added)") != std::string::npos, expect_copy) << text;
-  EXPECT_EQ(text.find("wrote a copy") != std::string::npos, expect_copy) << text;
+  EXPECT_EQ(text.find("(added)") != std::string::npos, expect_added) << text;
+  // Soles without a URDF link are given in robot.yaml (frame + offset): the URDF is not copied.
+  EXPECT_EQ(text.find("wrote a copy"), std::string::npos) << text;
+  for (const auto& e : fs::directory_iterator(out))
+    EXPECT_NE(e.path().extension(), ".urdf") << "a URDF was written: " << e.path();
 
   // What the loader sees: the feet and legs found, soles 0.22 x 0.11 m 0.08 m below the ankle.
   const poise::model::RobotConfig cfg = poise::model::load_robot_config(out / "robot.yaml");
@@ -122,8 +125,9 @@ TEST(RobotInit, TheShippedUrdfGetsARobotYamlThatStands) {
                  work_dir("shipped"), false);
 }
 
-// The light-wrist test robot with its sole links removed: the sole links are added to a copy.
-TEST(RobotInit, AUrdfWithoutSoleLinksGetsACopyWithThemAndStands) {
+// The light-wrist test robot with its sole links removed: robot.yaml gives the soles as the foot
+// link + offset, the URDF is used as it is.
+TEST(RobotInit, AUrdfWithoutSoleLinksGetsSoleOffsetsAndStands) {
   const fs::path dir = work_dir("no_soles");
   std::string xml = read(fs::path(POISE_SOURCE_DIR) / "tests/data/robots/light_wrist/light_wrist.urdf");
   xml = std::regex_replace(xml, std::regex(R"(<joint name="[lr]_sole_joint"[\s\S]*?</joint>)"), "");
@@ -133,8 +137,9 @@ TEST(RobotInit, AUrdfWithoutSoleLinksGetsACopyWithThemAndStands) {
   std::ofstream(urdf) << xml;
   init_and_stand(urdf, dir, true);
   const std::string yaml = read(dir / "robot" / "robot.yaml");
-  EXPECT_NE(yaml.find("urdf: no_soles_poise.urdf"), std::string::npos) << yaml;
-  EXPECT_NE(yaml.find("sole_frame: l_foot_sole_poise"), std::string::npos) << yaml;
+  EXPECT_NE(yaml.find("urdf: " + urdf.string()), std::string::npos) << yaml;
+  EXPECT_NE(yaml.find("sole_frame: {offset: [0, 0, -0.08], rpy: [0, 0, 0]}"), std::string::npos)
+      << yaml;
   // Distributed too (simulator, estimator, contact optimiser, controller over DDS, lockstep).
   auto [d_code, d_out] =
       run_cmd({bin("poise"), "run", (dir / "standing.yaml").string(), "-q", "--domain",

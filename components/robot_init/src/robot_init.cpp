@@ -190,7 +190,9 @@ struct Leg {
   std::string sole_frame;
   bool sole_added = false;
   SE3 X_BA;                       ///< foot frame in the foot body (an added upright frame or I)
-  bool frame_added = false;       ///< the foot frame is an upright frame added to the URDF copy
+  bool frame_added = false;       ///< the foot frame is an upright frame robot.yaml adds
+  Vector3 sole_offset = Vector3::Zero();  ///< sole_added: sole frame origin in the foot link
+  Vector3 sole_rpy = Vector3::Zero();     ///< sole_added: its rotation (URDF rpy)
   int hip = -1, knee = -1, ankle = -1;  ///< pitch joints (model indices), -1 when not found
   double s_hip = 1, s_knee = 1, s_ankle = 1;  ///< sign of each pitch axis along world +y
 };
@@ -323,8 +325,6 @@ int run_init(const Options& opt) {
   }
 
   // ---- feet and soles ---------------------------------------------------------------------------
-  std::string urdf_out = xml;
-  bool urdf_modified = false;
   for (Leg& leg : legs) {
     const int fb = leg.foot_body;
     leg.foot_frame = m.body_name[fb];
@@ -333,9 +333,10 @@ int run_init(const Options& opt) {
                        std::to_string(m.subtree_end[fb] - fb) + " movable joint(s) below it (" +
                        m.joint_names[fb] + ", ...): toes, or a foot whose collision geometry "
                        "could not be read?");
-    // A foot link whose z axis is not up at the zero configuration (z down, tilted): the foot
-    // frame becomes an upright frame added to the URDF copy at the link's origin (z up, x along
-    // the link's heading), and the sole is found in it.
+    // A foot link whose z axis is not up at the zero configuration (z down, tilted): the sole
+    // is found in an upright frame A at the link's origin (z up, x along the link's heading);
+    // robot.yaml gives the sole frame with that rotation (sole_frame: {offset, rpy}), and the
+    // loader adds the foot frame '<link>_foot_poise' (no URDF edit).
     leg.X_BA = SE3(Matrix3::Identity(), Vector3::Zero());
     const SE3& X_WB = data.oMi[fb];
     if (X_WB.R.col(2).z() < std::cos(1e-3)) {
@@ -343,25 +344,10 @@ int run_init(const Options& opt) {
       const double yaw = std::hypot(xw.x(), xw.y()) > 1e-6 ? std::atan2(xw.y(), xw.x()) : 0.0;
       const Matrix3 R_WA = Eigen::AngleAxisd(yaw, Vector3::UnitZ()).toRotationMatrix();
       leg.X_BA = SE3(X_WB.R.transpose() * R_WA, Vector3::Zero());
-      std::string name = leg.foot_frame + "_upright_poise";
-      while (m.has_frame(name) || u->joints_.count(name + "_joint")) name += "_";
-      const Vector3 ypr = leg.X_BA.R.eulerAngles(2, 1, 0);  // R = Rz(yaw) Ry(pitch) Rx(roll)
-      std::ostringstream add;
-      add << std::setprecision(17)
-          << "  <!-- added by poise robot init: the foot frame, z up at the zero configuration -->\n"
-          << "  <joint name=\"" << name << "_joint\" type=\"fixed\">\n"
-          << "    <parent link=\"" << leg.foot_frame << "\"/>\n    <child link=\"" << name
-          << "\"/>\n    <origin xyz=\"0 0 0\" rpy=\"" << ypr[2] << " " << ypr[1] << " " << ypr[0]
-          << "\"/>\n  </joint>\n  <link name=\"" << name << "\"/>\n";
-      const auto pos = urdf_out.rfind("</robot>");
-      if (pos == std::string::npos) throw InitError("no </robot> in the URDF");
-      urdf_out.insert(pos, add.str());
-      urdf_modified = true;
       checks.push_back("the " + leg.side + " foot link '" + leg.foot_frame + "' has its z axis " +
                        (X_WB.R.col(2).z() < -std::cos(1e-3) ? "down" : "tilted") +
-                       " at the zero configuration: the foot frame is '" + name +
-                       "', added to the URDF copy at its origin with z up");
-      leg.foot_frame = name;
+                       " at the zero configuration: the foot frame is '" + leg.foot_frame +
+                       "_foot_poise', added by robot.yaml (sole_frame rpy) at its origin with z up");
       leg.frame_added = true;
     }
     const SE3 A_inv = leg.X_BA.inverse();
@@ -412,21 +398,12 @@ int run_init(const Options& opt) {
         break;
       }
     }
-    if (leg.sole_frame.empty()) {
-      std::string name = leg.foot_frame + "_sole_poise";
-      while (m.has_frame(name) || u->joints_.count(name + "_joint")) name += "_";
-      leg.sole_frame = name;
+    if (leg.sole_frame.empty()) {  // robot.yaml gives it: sole_frame: {offset, rpy}
+      leg.sole_frame = leg.foot_frame + "_sole_poise";
       leg.sole_added = true;
-      std::ostringstream add;
-      add << std::setprecision(17) << "  <!-- added by poise robot init: the sole plane -->\n"
-          << "  <joint name=\"" << name << "_joint\" type=\"fixed\">\n"
-          << "    <parent link=\"" << leg.foot_frame << "\"/>\n    <child link=\"" << name
-          << "\"/>\n    <origin xyz=\"0 0 " << zmin << "\" rpy=\"0 0 0\"/>\n  </joint>\n"
-          << "  <link name=\"" << name << "\"/>\n";
-      const auto pos = urdf_out.rfind("</robot>");
-      if (pos == std::string::npos) throw InitError("no </robot> in the URDF");
-      urdf_out.insert(pos, add.str());
-      urdf_modified = true;
+      leg.sole_offset = leg.X_BA.act(Vector3(0, 0, zmin));
+      const Vector3 ypr = leg.X_BA.R.eulerAngles(2, 1, 0);  // R = Rz(yaw) Ry(pitch) Rx(roll)
+      leg.sole_rpy = leg.frame_added ? Vector3(ypr[2], ypr[1], ypr[0]) : Vector3::Zero();
     }
   }
 
@@ -575,14 +552,7 @@ int run_init(const Options& opt) {
 
   // ---- write ------------------------------------------------------------------------------------
   fs::create_directories(out_dir);
-  fs::path urdf_ref = urdf_path;
-  if (urdf_modified) {
-    urdf_ref = out_dir / (urdf_path.stem().string() + "_poise.urdf");
-    std::ofstream(urdf_ref) << urdf_out;
-    if (urdf_path.parent_path() != out_dir)
-      checks.push_back("the URDF was copied into " + out_dir.string() +
-                       ": relative mesh file names in it now resolve from there");
-  }
+  const fs::path urdf_ref = urdf_path;  // the user's own URDF: never copied or edited
   // Relative when the URDF is in the output folder, else absolute.
   std::string urdf_entry = urdf_ref.parent_path() == out_dir ? urdf_ref.filename().string()
                                                               : urdf_ref.string();
@@ -609,8 +579,19 @@ int run_init(const Options& opt) {
     << "feet:\n";
   for (int s : {0, 1}) {
     const Leg& L = legs[s];
-    y << "  " << L.side << ":\n    frame: " << L.foot_frame << "\n    sole_frame: " << L.sole_frame
-      << (L.sole_added ? "   # added to the URDF copy" : "") << "\n    sole: {x_min: "
+    y << "  " << L.side << ":\n    frame: " << L.foot_frame << "\n    sole_frame: ";
+    if (L.sole_added) {
+      // the offset's z is minus the height exactly, so that the foot frame is the link itself
+      const std::string h = fmt(L.sole.height);
+      const std::string z = L.frame_added ? fmt(L.sole_offset.z(), 6) : (h == "0" ? h : "-" + h);
+      y << "{offset: [" << fmt(L.sole_offset.x(), 6) << ", " << fmt(L.sole_offset.y(), 6) << ", "
+        << z << "], rpy: [" << fmt(L.sole_rpy.x(), 9) << ", " << fmt(L.sole_rpy.y(), 9) << ", "
+        << fmt(L.sole_rpy.z(), 9) << "]}   # the sole plane in " << L.foot_frame
+        << " (no URDF link)";
+    } else {
+      y << L.sole_frame;
+    }
+    y << "\n    sole: {x_min: "
       << fmt(L.sole.x_min) << ", x_max: " << fmt(L.sole.x_max) << ", y_min: " << fmt(L.sole.y_min)
       << ", y_max: " << fmt(L.sole.y_max) << ", height: " << fmt(L.sole.height) << "}\n";
   }
@@ -656,7 +637,7 @@ int run_init(const Options& opt) {
               << ", sole x [" << fmt(L.sole.x_min) << ", " << fmt(L.sole.x_max) << "] y ["
               << fmt(L.sole.y_min) << ", " << fmt(L.sole.y_max) << "], " << fmt(L.sole.height)
               << " m below the foot frame, sole frame " << L.sole_frame
-              << (L.sole_added ? " (added)" : " (in the URDF)") << "\n";
+              << (L.sole_added ? " (added) by robot.yaml, no URDF edit" : " (in the URDF)") << "\n";
     if (L.knee >= 0)
       std::cout << "    pitch joints: hip " << m.joint_names[L.hip] << ", knee "
                 << m.joint_names[L.knee] << ", ankle " << m.joint_names[L.ankle] << "\n";
@@ -671,9 +652,6 @@ int run_init(const Options& opt) {
     std::cout << (j % 4 == 0 ? "\n    " : "  ") << m.joint_names[j] << " " << sig(gains[j].kp, 4)
               << "/" << sig(gains[j].kd, 3);
   std::cout << "\n";
-  if (urdf_modified)
-    std::cout << "  URDF: no link on the sole plane; wrote a copy with the sole links added: "
-              << urdf_ref.string() << " (your file is unchanged)\n";
   std::cout << "wrote " << yaml_path.string() << " (checked by the loader: "
             << cfg.leg_joints.size() << " leg joints, " << cfg.upper_body_joints.size()
             << " upper-body joints)\n";
