@@ -206,7 +206,8 @@ std::pair<int, std::string> run_cmd(std::vector<std::string> argv, std::chrono::
 // A bad deployment file gets every problem at once, each with its place in the file.
 TEST(Launch, ABadDeploymentFileIsRefusedWithEveryProblemNamed) {
   const fs::path dir = work_dir("bad_deployment");
-  std::ofstream(dir / "bad.yaml") << "domain: 300\n"
+  std::ofstream(dir / "bad.yaml") << "name: a..b\n"
+                                     "domain: 300\n"
                                      "mode: fast\n"
                                      "scenario: no_such_scenario\n"
                                      "hosts:\n"
@@ -220,7 +221,8 @@ TEST(Launch, ABadDeploymentFileIsRefusedWithEveryProblemNamed) {
   auto [code, out] = run_cmd({bin("poise"), "launch", (dir / "bad.yaml").string(), "--check"}, 30s);
   EXPECT_EQ(code, 2) << out;
   for (const char* expected :
-       {"domain: 300 is outside 0..232", "mode: 'fast' is not lockstep or realtime",
+       {"name: 'a..b' is not a plain file name", "domain: 300 is outside 0..232",
+        "mode: 'fast' is not lockstep or realtime",
         "scenario: no such file or scenario name: no_such_scenario",
         "hosts.b.address: '10.0.0.300' is not an IPv4 address",
         "components.sim.restart: the simulator is the run",

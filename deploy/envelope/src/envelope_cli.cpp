@@ -13,7 +13,6 @@
 // process (default) or distributed in lockstep (`poise run` children). Output in DIR: runs.csv
 // (every run), envelope.csv (the boundaries), envelope.md (summary next to the paper's values),
 // push_envelope.png/.svg (polar) and fig11.png/.svg (gnuplot).
-#include <sys/wait.h>
 #include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
@@ -30,10 +29,12 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "poise/contact/contact_optimizer.hpp"
 #include "poise/inprocess/in_process_loop.hpp"
+#include "poise/launch/child.hpp"
 #include "poise/plot/balance_plot.hpp"
 #include "poise/scenario/scenario.hpp"
 
@@ -169,28 +170,15 @@ class Runner {
                                   "--log-dir", (work_ / (name + ".logs")).string(), "--timeout",
                                   timeout};
     if (o_.ground_truth_state) args.push_back("--ground-truth-state");
-    const pid_t pid = ::fork();
-    if (pid < 0) throw std::runtime_error("fork failed");
-    if (pid == 0) {
-      const std::string log = (work_ / (name + ".out")).string();
-      std::FILE* f = std::freopen(log.c_str(), "w", stdout);
-      (void)f;
-      ::dup2(STDOUT_FILENO, STDERR_FILENO);
-      std::vector<char*> argv;
-      for (auto& a : args) argv.push_back(a.data());
-      argv.push_back(nullptr);
-      ::execv(argv[0], argv.data());
-      ::_exit(127);
-    }
-    int status = 0;
-    while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-    }
+    // The launcher's child process: logs in NAME.out / NAME.err, its own process group, ended
+    // with this process (PR_SET_PDEATHSIG). `poise run --timeout` bounds it.
+    launch::Child run(name, args, work_);
+    while (!run.poll()) std::this_thread::sleep_for(std::chrono::milliseconds(20));
     Outcome out;
     std::ifstream in(json);
     if (!in) {
-      out.failed = "error: poise run wrote no result (exit " +
-                   std::to_string(WIFEXITED(status) ? WEXITSTATUS(status) : -1) + ", see " +
-                   (work_ / (name + ".out")).string() + ")";
+      out.failed = "error: poise run wrote no result (it " + run.exit_description() + ", see " +
+                   run.stdout_path().string() + " and " + run.stderr_path().string() + ")";
       return out;
     }
     const Json r = Json::parse(in, nullptr, false);

@@ -248,7 +248,7 @@ RunResult InProcessLoop::result() const {
   r.recovery_time_s = m.last_recovery_time_s;
   r.trunk_pitch_max_deg = m.trunk_pitch_max_deg;
   r.trunk_roll_max_deg = m.trunk_roll_max_deg;
-  r.failed = m.failed;
+  r.failed = monitor_.failed_criteria();
   std::vector<double> lat = latency_us_;
   if (!lat.empty()) {
     std::sort(lat.begin(), lat.end());

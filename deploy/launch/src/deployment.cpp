@@ -169,16 +169,9 @@ Deployment load_deployment(const fs::path& file, const std::string& host) {
                p);
   d.name = file.stem().string();
   if (root["name"]) scalar(root["name"], "name", d.name, p);
-  {
-    // It names files under results/ (result, logs, recording): a plain file name only.
-    bool plain = !d.name.empty() && d.name.size() <= 100 && d.name.find("..") == std::string::npos;
-    for (const char ch : d.name)
-      plain = plain && (std::isalnum(static_cast<unsigned char>(ch)) || ch == '.' || ch == '_' ||
-                        ch == '-');
-    if (!plain)
-      p.add("name", "'" + d.name + "' must be 1-100 characters of A-Z a-z 0-9 . _ - without '..' "
-                    "(it names files under results/)");
-  }
+  // It names files under results/ (result, logs, recording): the scenario format's rule.
+  if (const std::string problem = scenario::plain_name_problem(d.name); !problem.empty())
+    p.add("name", problem);
   if (!root["domain"]) {
     p.add("domain", "missing (the DDS domain id of the deployment, 0..232)");
   } else if (scalar(root["domain"], "domain", d.domain, p) && (d.domain < 0 || d.domain > 232)) {

@@ -14,6 +14,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <set>
 #include <thread>
@@ -21,9 +22,10 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
-#include "child.hpp"
+#include "poise/launch/child.hpp"
 #include "poise/launch/deployment.hpp"
 #include "poise/launch/launch.hpp"
+#include "poise/launch/supervisor.hpp"
 
 namespace poise::launch {
 namespace {
@@ -79,16 +81,6 @@ bool is_node(const Component& c) {
   return c.kind == "sim" || c.kind == "estimator" || c.kind == "controller" ||
          c.kind == "contact";
 }
-
-struct Running {
-  const Component* component;
-  std::vector<std::string> argv;
-  std::unique_ptr<Child> child;
-  int restarts = 0;
-  std::vector<std::string> exits;  ///< how each instance ended
-  bool done = false;               ///< ended and not to be restarted
-  std::chrono::steady_clock::time_point restart_at{};
-};
 
 }  // namespace
 
@@ -217,46 +209,62 @@ int launch_main(int argc, char** argv) {
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
 
-  std::vector<Running> running;
-  for (const Component* c : d.components_on(host->name)) {
-    Running r;
-    r.component = c;
-    r.argv = command_line(d, *c, bin_dir(), fs::absolute(logs / "dds" / (c->dds + ".xml")));
+  Supervisor supervisor("poise launch", logs);
+  supervisor.on_start = [&](const Supervisor::Entry& e) {
+    if (const std::string why = fifo_refusal(e.spec.scheduling.priority); !why.empty())
+      std::fprintf(stderr, "poise launch: %s: %s\n", e.spec.name.c_str(), why.c_str());
+    if (!quiet)
+      std::printf("  %-11s pid %d%s%s%s\n", e.spec.name.c_str(), static_cast<int>(e.child->pid()),
+                  e.spec.scheduling.cpus.empty()
+                      ? ""
+                      : (", CPUs " + cpus_text(e.spec.scheduling.cpus)).c_str(),
+                  e.spec.scheduling.priority > 0
+                      ? (", SCHED_FIFO " + std::to_string(e.spec.scheduling.priority)).c_str()
+                      : "",
+                  e.restarts > 0 ? (", restart " + std::to_string(e.restarts)).c_str() : "");
+    std::fflush(stdout);
+  };
+  supervisor.on_finish = [&](const Supervisor::Entry& e) {
+    if (!quiet) std::printf("  %s finished (%s)\n", e.spec.name.c_str(), e.exits.back().c_str());
+  };
+  const auto components = d.components_on(host->name);
+  std::map<std::string, const Component*> component_of;
+  std::vector<ComponentSpec> specs;
+  const Component* sim = nullptr;
+  for (const Component* c : components) {
+    ComponentSpec spec;
+    spec.name = c->name;
+    spec.argv = command_line(d, *c, bin_dir(), fs::absolute(logs / "dds" / (c->dds + ".xml")));
     if (is_node(*c))
-      r.argv.insert(r.argv.end(),
-                    {"--summary", (logs / (c->name + ".summary.json")).string()});
-    running.push_back(std::move(r));
+      spec.argv.insert(spec.argv.end(),
+                       {"--summary", (logs / (c->name + ".summary.json")).string()});
+    spec.scheduling = Scheduling{c->cpus, c->priority};
+    spec.restart = c->restart;
+    spec.max_restarts = c->max_restarts;
+    spec.ends_run = c->kind == "sim";
+    spec.stop_grace_ms = c->kind == "recorder" ? 30000 : 3000;
+    if (c->kind == "sim") sim = c;
+    component_of[c->name] = c;
+    specs.push_back(std::move(spec));
   }
   if (!quiet)
     std::printf("poise launch %s: host %s (%s), domain %d, %zu components, logs in %s\n",
                 d.name.c_str(), host->name.c_str(), host->address.c_str(), d.domain,
-                running.size(), logs.c_str());
-  auto start = [&](Running& r) {
-    const Component& c = *r.component;
-    if (const std::string why = fifo_refusal(c.priority); !why.empty())
-      std::fprintf(stderr, "poise launch: %s: %s\n", c.name.c_str(), why.c_str());
-    r.child = std::make_unique<Child>(c.name, r.argv, logs, Scheduling{c.cpus, c.priority});
-    if (!quiet)
-      std::printf("  %-11s pid %d%s%s%s\n", c.name.c_str(), static_cast<int>(r.child->pid()),
-                  c.cpus.empty() ? "" : (", CPUs " + cpus_text(c.cpus)).c_str(),
-                  c.priority > 0 ? (", SCHED_FIFO " + std::to_string(c.priority)).c_str() : "",
-                  r.restarts > 0 ? (", restart " + std::to_string(r.restarts)).c_str() : "");
-    std::fflush(stdout);
-  };
+                specs.size(), logs.c_str());
   std::string failure;
   try {
-    for (auto& r : running)
-      start(r);
+    for (auto& spec : specs)
+      supervisor.start(std::move(spec));
   } catch (const std::exception& e) {
     failure = std::string("cannot start a component: ") + e.what();
   }
 
   const auto t0 = std::chrono::steady_clock::now();
-  Running* sim = nullptr;
-  for (auto& r : running)
-    if (r.component->kind == "sim") sim = &r;
   std::unique_ptr<LineFollower> progress;
-  if (sim && sim->child) progress = std::make_unique<LineFollower>(sim->child->stdout_path());
+  if (sim) {
+    const Supervisor::Entry* e = supervisor.find(sim->name);
+    if (e && e->child) progress = std::make_unique<LineFollower>(e->child->stdout_path());
+  }
   std::string stopped_by;
   while (failure.empty()) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
@@ -265,49 +273,12 @@ int launch_main(int argc, char** argv) {
         if (line.rfind("progress ", 0) == 0) std::printf("  %s\n", line.c_str() + 9);
       std::fflush(stdout);
     }
-    const auto now = std::chrono::steady_clock::now();
-    bool any_left = false;
-    for (auto& r : running) {
-      if (r.done) continue;
-      if (!r.child) {  // waiting to restart
-        any_left = true;
-        if (now >= r.restart_at) start(r);
-        continue;
-      }
-      const auto code = r.child->poll();
-      if (!code) {
-        any_left = true;
-        continue;
-      }
-      const Component& c = *r.component;
-      const std::string how = r.child->exit_description();
-      r.exits.push_back(how);
-      if (&r == sim) {
-        r.done = true;
-        continue;
-      }
-      const bool again = c.restart == Restart::always ||
-                         (c.restart == Restart::on_failure && *code != 0);
-      if (again && r.restarts < c.max_restarts) {
-        ++r.restarts;
-        std::fprintf(stderr, "poise launch: %s %s; restarting it (%d of %d)\n", c.name.c_str(),
-                     how.c_str(), r.restarts, c.max_restarts);
-        r.child.reset();
-        r.restart_at = now + std::chrono::milliseconds(500);
-        any_left = true;
-        continue;
-      }
-      r.done = true;
-      if (*code != 0) {
-        failure = c.name + " " + how +
-                  (again ? " (restarted " + std::to_string(r.restarts) + " times already)" : "");
-        break;
-      }
-      if (!quiet) std::printf("  %s finished (%s)\n", c.name.c_str(), how.c_str());
+    const Supervisor::Status st = supervisor.poll();
+    if (!st.failure.empty()) {
+      failure = st.failure;
+      break;
     }
-    if (!failure.empty()) break;
-    if (sim && sim->done) break;
-    if (!any_left) break;
+    if (st.run_ended || st.all_ended) break;
     if (g_signal.load() != 0) {
       // The normal end of a host without the simulator; an interruption of one with it.
       stopped_by = g_signal.load() == SIGINT ? "SIGINT" : "SIGTERM";
@@ -315,17 +286,16 @@ int launch_main(int argc, char** argv) {
       break;
     }
     if (duration > 0 &&
-        std::chrono::duration<double>(now - t0).count() >= duration)
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() >= duration)
       break;
   }
 
   // Stop: the simulator first (it writes its result), the nodes, the recorder last.
+  std::vector<std::string> order;
   for (const char* kind : {"sim", "estimator", "controller", "contact", "command", "recorder"})
-    for (auto& r : running)
-      if (r.component->kind == kind && r.child && !r.child->poll()) {
-        r.child->stop(r.component->kind == "recorder" ? 30000 : 3000);
-        r.exits.push_back(r.child->exit_description() + " (stopped by the launcher)");
-      }
+    for (const Component* c : components)
+      if (c->kind == kind) order.push_back(c->name);
+  supervisor.stop(order);
 
   Json j;
   j["deployment"] = d.name;
@@ -337,26 +307,29 @@ int launch_main(int argc, char** argv) {
   j["logs"] = logs.string();
   if (!stopped_by.empty()) j["stopped_by"] = stopped_by;
   j["components"] = Json::object();
-  for (auto& r : running) {
+  for (const auto& e : supervisor.entries()) {
+    const Component& comp = *component_of.at(e->spec.name);
     Json c;
-    c["kind"] = r.component->kind;
-    c["dds"] = r.component->dds;
-    c["command"] = r.argv;
-    c["pid"] = r.child ? r.child->pid() : -1;
-    c["restarts"] = r.restarts;
-    c["exits"] = r.exits;
-    j["components"][r.component->name] = c;
+    c["kind"] = comp.kind;
+    c["dds"] = comp.dds;
+    c["command"] = e->spec.argv;
+    c["pid"] = e->child ? e->child->pid() : -1;
+    c["restarts"] = e->restarts;
+    c["exits"] = e->exits;
+    j["components"][comp.name] = c;
   }
   int code = 0;
   if (sim && failure.empty()) {
-    std::ifstream in(logs / (sim->component->name + ".summary.json"));
+    std::ifstream in(logs / (sim->name + ".summary.json"));
     Json summary;
     try {
       summary = Json::parse(in);
     } catch (...) {
     }
     if (!summary.is_object()) {
-      failure = "the simulator wrote no result (" + sim->exits.back() + ")";
+      const Supervisor::Entry* e = supervisor.find(sim->name);
+      failure = "the simulator wrote no result (" +
+                (e && !e->exits.empty() ? e->exits.back() : std::string("it did not start")) + ")";
     } else {
       j["sim"] = summary;
       j["survived"] = summary.value("survived", false);

@@ -15,12 +15,13 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "child.hpp"
+#include "poise/launch/child.hpp"
 #include "poise/node/realtime.hpp"
 #include "poise/dds/domain_claim.hpp"
 #include "poise/dds/vendor.hpp"
 #include "poise/launch/deployment.hpp"
 #include "poise/launch/launch.hpp"
+#include "poise/launch/supervisor.hpp"
 #include "poise/contact/contact_optimizer.hpp"
 #include "poise/controller/controller_config.hpp"
 #include "poise/scenario/scenario.hpp"
@@ -398,8 +399,11 @@ int run_distributed(int argc, char** argv) {
     sigaction(SIGTERM, &sa, nullptr);
 
     // The recorder joins first, so that it holds the run from its first sample.
-    std::unique_ptr<Child> recorder;
-    std::vector<std::unique_ptr<Child>> children;
+    // One supervisor with `poise launch`: every process of the run is its Child (own process
+    // group, ended with the launcher), each end is said in words, and the stop is ordered.
+    Supervisor supervisor("poise run", logs);
+    Child* recorder = nullptr;
+    std::vector<Child*> children;
     fs::path recording;
     // A run that fails still writes its result file: failed, with the reason and how each
     // process ended.
@@ -435,17 +439,19 @@ int run_distributed(int argc, char** argv) {
       recording =
           s.record.empty() ? fs::path("results") / (scenario.name + ".mcap") : fs::path(s.record);
       if (recording.has_parent_path()) fs::create_directories(recording.parent_path());
-      recorder = std::make_unique<Child>(
-          "recorder",
-          [&] {
+      ComponentSpec rec;
+      rec.name = "recorder";
+      rec.argv = [&] {
             std::vector<std::string> a{(bin / "poise").string(), "record", "--dds", "cyclone",
                                        "--domain", std::to_string(domain), "-o",
                                        recording.string(), "--progress", "0"};
             if (!s.security.empty())
               a.insert(a.end(), {"--security", s.security, "--identity", "recorder"});
             return a;
-          }(),
-          logs);
+          }();
+      rec.runs_until_stopped = true;
+      rec.stop_grace_ms = 30000;  // SIGTERM makes it write what it holds
+      recorder = &supervisor.start(std::move(rec));
       if (const std::string why = wait_for_recorder(*recorder, 10.0); !why.empty()) {
         std::fprintf(stderr, "poise run %s: FAILED: cannot record to %s: %s\n",
                      scenario.name.c_str(), recording.c_str(), why.c_str());
@@ -456,13 +462,37 @@ int run_distributed(int argc, char** argv) {
       if (!s.quiet) std::printf("  recording every topic to %s\n", recording.c_str());
     }
 
-    children.push_back(std::make_unique<Child>("sim", sim_args, logs));
-    children.push_back(std::make_unique<Child>("contact", contact_args, logs));
-    children.push_back(std::make_unique<Child>("estimator", est_args, logs));
-    children.push_back(std::make_unique<Child>("controller", ctrl_args, logs));
-    Child& sim = *children[0];
-
     std::string failure;
+    try {
+      // The scenario's balance-reference trajectory: played by poise-reference in step with the
+      // state (it waits for the robot description and the first state), kept running (--hold)
+      // so that it ends with the run like the nodes.
+      if (!scenario.reference.empty()) {
+        ComponentSpec c;
+        c.name = "reference";
+        vendor["reference"] = vendor["controller"];
+        c.argv = common("reference");
+        c.argv.insert(c.argv.end(), {scenario.reference.string(), "--hold"});
+        c.runs_until_stopped = true;
+        children.push_back(&supervisor.start(std::move(c)));
+      }
+      for (auto* spec : {&sim_args, &contact_args, &est_args, &ctrl_args}) {
+        ComponentSpec c;
+        c.name = spec == &sim_args       ? "sim"
+                 : spec == &contact_args ? "contact"
+                 : spec == &est_args     ? "estimator"
+                                         : "controller";
+        c.argv = *spec;
+        c.ends_run = spec == &sim_args;   // the simulator's end is the run's end
+        c.runs_until_stopped = !c.ends_run;  // a node that ends before it is a failure
+        children.push_back(&supervisor.start(std::move(c)));
+      }
+    } catch (const std::exception& e) {
+      write_failure(std::string("cannot start a component: ") + e.what());
+      return 2;
+    }
+    Child& sim = *children[scenario.reference.empty() ? 0 : 1];
+
     if (recorder) {
       const auto t0 = std::chrono::steady_clock::now();
       std::string missing;
@@ -476,7 +506,7 @@ int run_distributed(int argc, char** argv) {
         }
         // And the writer side: each node has matched the readers of its outputs.
         for (auto& c : children) {
-          if (c.get() == &sim) continue;
+          if (c == &sim || c->name() == "reference") continue;  // no outputs of the loop
           std::ifstream err(c->stderr_path());
           const std::string text((std::istreambuf_iterator<char>(err)),
                                  std::istreambuf_iterator<char>());
@@ -496,11 +526,9 @@ int run_distributed(int argc, char** argv) {
                        scenario.name.c_str(), missing.c_str());
           break;
         }
-        for (auto& c : children)
-          if (auto code = c->poll(); code && failure.empty())
-            failure = c->name() + " " + c->exit_description() + " during start-up";
-        if (auto code = recorder->poll(); code && failure.empty())
-          failure = "recorder " + recorder->exit_description() + " during start-up";
+        const Supervisor::Status st = supervisor.poll("during start-up");
+        if (st.run_ended) failure = "sim " + sim.exit_description() + " during start-up";
+        if (failure.empty()) failure = st.failure;
         if (!failure.empty() || g_interrupted.load()) break;
         std::this_thread::sleep_for(std::chrono::milliseconds(10));
       }
@@ -515,23 +543,14 @@ int run_distributed(int argc, char** argv) {
       for (const auto& line : progress.poll())  // relay the simulator's progress lines
         if (!s.quiet && line.rfind("progress ", 0) == 0) std::printf("  %s\n", line.c_str() + 9);
       std::fflush(stdout);
-      if (auto code = sim.poll()) {
-        sim_code = *code;
+      const Supervisor::Status st = supervisor.poll("before the end of the run");
+      if (st.run_ended) {
+        sim_code = sim.poll().value_or(-1);
         break;
       }
-      for (auto& c : children) {
-        if (c.get() == &sim) continue;
-        if (auto code = c->poll()) {
-          failure = c->name() + " " + c->exit_description() + " before the end of the run";
-          break;
-        }
-      }
-      if (!failure.empty()) break;
-      if (recorder) {
-        if (auto code = recorder->poll()) {
-          failure = "recorder " + recorder->exit_description() + " before the end of the run";
-          break;
-        }
+      if (!st.failure.empty()) {
+        failure = st.failure;
+        break;
       }
       if (g_interrupted.load()) {
         failure = "interrupted";
@@ -542,14 +561,13 @@ int run_distributed(int argc, char** argv) {
         break;
       }
     }
-    // Stop the simulator first (it writes its result), then the others (they write summaries).
-    if (!failure.empty()) sim_code = sim.stop(3000);
-    for (auto& c : children)
-      c->stop(3000);
-    // Last the recorder: SIGTERM makes it write what it holds, the loss counters and the summary.
+    // Stop the simulator first (it writes its result), then the others (they write summaries),
+    // last the recorder: SIGTERM makes it write what it holds, the loss counters and the summary.
+    supervisor.stop({"sim", "contact", "estimator", "controller", "reference", "recorder"});
+    if (!failure.empty()) sim_code = sim.poll().value_or(-1);
     std::string record_problem;
     if (recorder) {
-      const int code = recorder->stop(30000);
+      const int code = recorder->poll().value_or(-1);
       const std::string summary = recorder->stderr_tail(1);
       if (code != 0) {
         record_problem = "the recorder " + recorder->exit_description();

@@ -204,7 +204,7 @@ class SimNode {
                                : nlohmann::json(nullptr);
     j["trunk_pitch_max_deg"] = r.trunk_pitch_max_deg;
     j["trunk_roll_max_deg"] = r.trunk_roll_max_deg;
-    j["failed_criteria"] = r.failed;
+    j["failed_criteria"] = monitor_.failed_criteria();
     if (figures_.aborted) j["failed_criteria"].push_back("run aborted before its end");
     j["tick_latency_us"] = hist(figures_.latency);
     j["loop_wait_us"] = hist(figures_.loop_wait);

@@ -645,14 +645,21 @@ ScenarioMonitor::Result ScenarioMonitor::result() const {
                (k.allow_non_foot_contacts || r.non_foot_contacts == 0) &&
                r.min_base_height_m >= k.min_base_height_m &&
                (std::isinf(k.recovery_time_s) || r.last_recovery_time_s <= k.recovery_time_s);
+  return r;
+}
+
+std::vector<std::string> ScenarioMonitor::failed_criteria() const {
+  const Result r = result();
+  const SuccessCriteria& k = scenario_.success;
+  std::vector<std::string> failed;
   auto over = [&](const char* name, double value, double limit, const char* unit, bool bad) {
     if (!bad) return;
     char line[160];
     std::snprintf(line, sizeof(line), "%s %.4g %s %s %.4g %s", name, value, unit,
                   std::string(name) == "min_base_height" ? "<" : ">", limit, unit);
-    r.failed.emplace_back(line);
+    failed.emplace_back(line);
   };
-  if (!initialised_) r.failed.emplace_back("no ground truth seen");
+  if (!initialised_) failed.emplace_back("no ground truth seen");
   over("com_error_max", r.com_error_max_m, k.com_error_max_m, "m",
        !(r.com_error_max_m <= k.com_error_max_m));
   over("com_error_final", r.com_error_final_m, k.com_error_final_m, "m",
@@ -660,12 +667,12 @@ ScenarioMonitor::Result ScenarioMonitor::result() const {
   over("foot_slip_max", r.foot_slip_max_m, k.foot_slip_max_m, "m",
        !(r.foot_slip_max_m <= k.foot_slip_max_m));
   if (!k.allow_non_foot_contacts && r.non_foot_contacts > 0)
-    r.failed.push_back("non_foot_contacts on " + std::to_string(r.non_foot_contacts) + " ticks");
+    failed.push_back("non_foot_contacts on " + std::to_string(r.non_foot_contacts) + " ticks");
   over("min_base_height", r.min_base_height_m, k.min_base_height_m, "m",
        !(r.min_base_height_m >= k.min_base_height_m));
   if (!std::isinf(k.recovery_time_s) && !(r.last_recovery_time_s <= k.recovery_time_s))
     over("recovery_time", r.last_recovery_time_s, k.recovery_time_s, "s", true);
-  return r;
+  return failed;
 }
 
 }  // namespace poise::sim

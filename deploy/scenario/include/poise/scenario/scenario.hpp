@@ -53,8 +53,9 @@ struct Scenario : sim::World {
   std::string controller_yaml;
 };
 
-/// The rule for a scenario's (and a deployment's) name: it names files under results/, so it
-/// must be a plain file name: 1 to 100 of A-Z a-z 0-9 . _ -, not ".", no "..".
+/// The rule for a scenario's name, and a deployment's (poise::launch::load_deployment): it names
+/// files under results/, so it must be a plain file name: 1 to 100 of A-Z a-z 0-9 . _ -, not ".",
+/// no "..".
 bool is_plain_name(const std::string& name);
 /// Why `name` breaks that rule, in words ("" when it does not).
 std::string plain_name_problem(const std::string& name);
