@@ -120,6 +120,14 @@ InProcessLoop::InProcessLoop(const scenario::Scenario& scenario, const LoopOptio
     reference_.feet[side].mode =
         support ? controller::FootMode::kSupport : controller::FootMode::kSwing;
   }
+  if (!scenario_.reference.empty()) {
+    try {
+      reference_player_ = std::make_unique<reference::Sampler>(
+          reference::load_trajectory(scenario_.reference.string()), model_, robot_);
+    } catch (const std::exception& e) {
+      throw std::runtime_error("scenario '" + scenario_.name + "', reference: " + e.what());
+    }
+  }
   sim_->read(sensors_, truth_);
   latency_us_.reserve(static_cast<std::size_t>(std::ceil(duration_ / sim_->dt())) + 16);
 }
@@ -182,9 +190,16 @@ void InProcessLoop::read_state() {
   }
 }
 
+void InProcessLoop::play_reference() {
+  if (!reference_player_) return;
+  const std::array<model::SE3, 2> X_WF{state_.feet[0].X_WF, state_.feet[1].X_WF};
+  reference_player_->sample(state_.time, state_.com_W, X_WF, reference_);
+}
+
 void InProcessLoop::step() {
   const auto t0 = std::chrono::steady_clock::now();
   read_state();
+  play_reference();
   controller_->tick(
       state_, reference_,
       [this](const contact::ContactProblem& p, contact::ContactSolution& s) {

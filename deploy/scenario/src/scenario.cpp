@@ -146,6 +146,22 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
     sc.controller_yaml = out.c_str();
   }
 
+  // balance-reference trajectory played during the run (loaded and checked when a run starts)
+  if (const YAML::Node r = root["reference"]) {
+    if (!r.IsScalar()) c.fail("reference", "must be a file name (a balance-reference trajectory)");
+    const fs::path p = c.str(r, "reference");
+    fs::path found;
+    if (p.is_absolute()) {
+      found = p;
+    } else if (fs::exists(base_dir / p)) {
+      found = fs::weakly_canonical(base_dir / p);
+    }
+    if (found.empty() || !fs::is_regular_file(found))
+      c.fail("reference", "file '" + p.string() + "' not found (relative to the scenario's "
+                              "folder " + base_dir.string() + ")");
+    sc.reference = found;
+  }
+
   return sc;
 }
 

@@ -276,8 +276,9 @@ World parse_world(const std::string& yaml_text, const fs::path& base_dir,
   if (!root.IsMap()) throw std::runtime_error(what + ": the top level must be a mapping");
   c.allow(root, "",
           {"name", "description", "robot", "world", "initial", "disturbances", "duration",
-           "success", "sensors", "solver", "dds", "estimator", "contact", "controller"});
-  // dds, estimator, contact, controller configure the other components: the scenario format
+           "success", "sensors", "solver", "dds", "estimator", "contact", "controller",
+           "reference"});
+  // dds, estimator, contact, controller, reference configure the other components: the scenario format
   // (deploy/scenario, poise::scenario::parse_scenario) reads and checks them; the world skips them.
   World sc;
   if (!root["name"]) c.fail("name", "is required");

@@ -22,6 +22,7 @@
 
 #include "poise/contact/contact_optimizer.hpp"
 #include "poise/controller/balance_controller.hpp"
+#include "poise/reference/sampler.hpp"
 #include "poise/scenario/scenario.hpp"
 #include "poise/sim/simulator.hpp"
 
@@ -101,6 +102,7 @@ class InProcessLoop {
   double time() const;
   double duration() const { return duration_; }
   /// The balance reference used every tick (tests change it: CoM shift, upper-body motion).
+  /// With a scenario `reference:` file, step() writes the trajectory's part of it first.
   controller::BalanceReference& reference() { return reference_; }
   const controller::BalanceController& controller() const { return *controller_; }
   sim::Simulator& simulator() { return *sim_; }
@@ -111,6 +113,7 @@ class InProcessLoop {
  private:
   struct EstimatorParts;
   void read_state();
+  void play_reference();
 
   scenario::Scenario scenario_;
   LoopOptions options_;
@@ -120,6 +123,8 @@ class InProcessLoop {
   std::unique_ptr<sim::Simulator> sim_;
   std::unique_ptr<controller::BalanceController> controller_;
   std::unique_ptr<EstimatorParts> estimator_;
+  /// The scenario's `reference:` trajectory, sampled into reference_ every tick (null: none).
+  std::unique_ptr<reference::Sampler> reference_player_;
   contact::ContactOptimizer optimizer_;
   sim::ScenarioMonitor monitor_;
 

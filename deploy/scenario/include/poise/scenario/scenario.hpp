@@ -51,6 +51,10 @@ struct Scenario : sim::World {
   /// controller/momentum/config/balance_controller.yaml), kept as YAML text and validated by the
   /// controller's parser (poise::controller::parse_controller_config) when a run starts; "" = none.
   std::string controller_yaml;
+  /// `reference: FILE`: a balance-reference trajectory (deploy/scenarios/references/README.md)
+  /// played during the run: by the in-process loop, and by a poise-reference process that
+  /// `poise run` starts. Resolved like every path of the file (absolute); empty: none.
+  std::filesystem::path reference;
 };
 
 /// The rule for a scenario's name, and a deployment's (poise::launch::load_deployment): it names
