@@ -184,6 +184,7 @@ struct RtpsDecoder::Impl {
   mutable std::mutex mutex;
   std::unordered_map<Guid, std::unique_ptr<Writer>, GuidHash> writers;
   std::size_t pending_bytes = 0;
+  std::size_t fragment_bytes = 0;  // samples being reassembled, all writers
   CaptureCounters c;
 
   Writer& writer(const Guid& g) {
@@ -396,7 +397,16 @@ struct RtpsDecoder::Impl {
       return;
     }
     const std::size_t total = (sample_size + frag_size - 1) / frag_size;
-    Fragments& f = w.fragments[sn];
+    auto found = w.fragments.find(sn);
+    if (found == w.fragments.end()) {
+      if (fragment_bytes + sample_size > kMaxPendingBytes) {
+        ++c.malformed;  // more half-assembled samples than any sane stream has
+        return;
+      }
+      fragment_bytes += sample_size;
+      found = w.fragments.emplace(sn, Fragments{}).first;
+    }
+    Fragments& f = found->second;
     if (f.have.empty()) {
       f.bytes.assign(sample_size, 0);
       f.have.assign(total, false);
@@ -417,14 +427,16 @@ struct RtpsDecoder::Impl {
     if (f.missing == 0) {
       Fragments whole = std::move(f);
       w.fragments.erase(sn);
+      fragment_bytes -= whole.bytes.size();
       if (sedp)
         announce(whole.bytes.data(), whole.bytes.size(), key_hash, disposed);
       else
         sample(w, sn, whole.bytes.data(), whole.bytes.size(), whole.source_ns, receive_ns);
     }
-    // Forget samples that can no longer be completed.
+    // Forget samples that can no longer be completed (their sequence numbers have left the
+    // window unseen: counted as lost there).
     while (!w.fragments.empty() && w.any && w.fragments.begin()->first + kWindow < w.max_sn) {
-      ++w.lost;
+      fragment_bytes -= w.fragments.begin()->second.bytes.size();
       w.fragments.erase(w.fragments.begin());
     }
   }
