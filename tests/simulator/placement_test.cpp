@@ -149,5 +149,68 @@ TEST(Placement, SoleFramesGivenAsOffsetsAreFramesOfTheSimulator) {
   EXPECT_LT(h.foot_slip, 0.005);
 }
 
+// The robot's own forward (#18 item 3).
+TEST(Facing, TrunkPitchIsPositiveLeaningForwardAboutTheRobotsOwnForward) {
+  // A base turned to face world -x (its forward is -x in its frame, turned by pi), leaning
+  // 0.1 rad toward world +x, its forward: pitch +0.1 rad. About the base's own x it would be -0.1.
+  const Eigen::Matrix3d R = (Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitY()) *
+                             Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()))
+                                .toRotationMatrix();
+  const Eigen::Vector2d pr = trunk_pitch_roll(R, -Eigen::Vector3d::UnitX());
+  EXPECT_NEAR(pr.x(), 0.1, 1e-12);
+  EXPECT_NEAR(pr.y(), 0.0, 1e-12);
+  EXPECT_NEAR(trunk_pitch_roll(R, Eigen::Vector3d::UnitX()).x(), -0.1, 1e-12);
+  // Turned by -0.05 rad about world x: its left (world +y, it faces +x) goes down: roll -0.05.
+  const Eigen::Matrix3d Rr = (Eigen::AngleAxisd(-0.05, Eigen::Vector3d::UnitX()) *
+                              Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()))
+                                 .toRotationMatrix();
+  EXPECT_NEAR(trunk_pitch_roll(Rr, -Eigen::Vector3d::UnitX()).y(), -0.05, 1e-12);
+}
+
+// The humanoid with a new root link whose x points backward (the pelvis fixed to it turned by
+// pi): its base faces -x, robot.yaml says forward_axis: [-1, 0, 0].
+std::string base_facing_back(std::string u) {
+  const std::string first_joint = "<joint ";
+  const auto pos = u.find(first_joint);
+  EXPECT_NE(pos, std::string::npos);
+  u.insert(pos,
+           "<link name=\"base_back\"/>\n  <joint name=\"base_back_to_pelvis\" type=\"fixed\">\n"
+           "    <parent link=\"base_back\"/>\n    <child link=\"pelvis\"/>\n"
+           "    <origin xyz=\"0 0 0\" rpy=\"0 0 3.141592653589793\"/>\n  </joint>\n  ");
+  return u;
+}
+std::string forward_minus_x(std::string y) { return y + "\nforward_axis: [-1, 0, 0]\n"; }
+
+TEST(Facing, ABaseFacingMinusXFacesTheScenarioWayAndAForwardPushMovesItForward) {
+  const fs::path cfg = robot_variant("base_facing_back", base_facing_back, forward_minus_x);
+  const std::string scenario =
+      "name: facing\nrobot: {config: " + cfg.string() +
+      "}\nduration: 2.0\ninitial: {posture: nominal, support: double}\nsensors: {seed: 1}\n"
+      "disturbances:\n  pushes:\n    - {link: pelvis, force: [60, 0, 0], frame: heading, start: 0.2, "
+      "duration: 0.2}\n";
+  const World w = parse_world(scenario, cfg.parent_path(), "facing test");
+  EXPECT_TRUE(w.sim.robot.forward_axis.isApprox(-Eigen::Vector3d::UnitX()));
+  Simulator sim(w.sim);
+  // Facing 0: the robot's forward (the pelvis' x) along world +x; its base link's x along -x.
+  EXPECT_GT(sim.frame_pose("pelvis").linear()(0, 0), 0.999);
+  EXPECT_LT(sim.frame_pose("base_back").linear()(0, 0), -0.999);
+  GroundTruth g = sim.make_ground_truth();
+  SensorFrame s = sim.make_sensor_frame();
+  sim.read(s, g);
+  const double com_x0 = g.com_W.x();
+  hold(sim, 0.6);
+  sim.read(s, g);
+  EXPECT_GT(g.com_W.x() - com_x0, 0.002) << "a forward push moves the robot forward (+x)";
+  EXPECT_GT(trunk_pitch_roll(g.X_WB.rotation(), w.sim.robot.forward_axis).x(), 0.0)
+      << "it leans forward: positive pitch";
+  // facing_deg: 90 turns it to world +y, and a heading push along its forward pushes +y.
+  const World w90 = parse_world(
+      std::regex_replace(scenario, std::regex("support: double\\}"), "support: double, facing_deg: 90}"),
+      cfg.parent_path(), "facing test");
+  EXPECT_LT((w90.sim.pushes.at(0).force_W - Eigen::Vector3d(0, 60, 0)).norm(), 1e-9);
+  Simulator sim90(w90.sim);
+  EXPECT_GT(sim90.frame_pose("pelvis").linear()(1, 0), 0.999);
+}
+
 }  // namespace
 }  // namespace poise::sim

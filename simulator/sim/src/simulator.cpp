@@ -1411,4 +1411,10 @@ void remap_joint_vector(const std::vector<int>& map, const Eigen::VectorXd& in,
   }
 }
 
+Eigen::Vector2d trunk_pitch_roll(const Eigen::Matrix3d& R_WB, const Eigen::Vector3d& forward_B) {
+  const Eigen::Vector3d f = R_WB * forward_B;
+  const Eigen::Vector3d l = R_WB * Eigen::Vector3d::UnitZ().cross(forward_B);
+  return {std::asin(std::clamp(-f.z(), -1.0, 1.0)), std::atan2(l.z(), R_WB(2, 2))};
+}
+
 }  // namespace poise::sim

@@ -133,6 +133,7 @@ void load_robot(const Ctx& c, const YAML::Node& n, World& sc,
     }
     r.urdf_path = rc.urdf_path.string();
     r.imu_frame = rc.imu_frame;
+    r.forward_axis = rc.forward_axis;
     r.feet.clear();
     const char* side_name[2] = {"right", "left"};
     for (int s = 0; s < 2; ++s) {
@@ -296,10 +297,12 @@ World parse_world(const std::string& yaml_text, const fs::path& base_dir,
 
   // initial state
   InitialState& ini = sc.sim.initial;
+  double facing = 0.0;  // initial.facing_deg [rad]
   if (const YAML::Node n = root["initial"]) {
     c.allow(
         n, "initial",
-        {"posture", "joints", "base_xy", "base_height", "base_rpy_deg", "clearance", "support"});
+        {"posture", "joints", "base_xy", "base_height", "base_rpy_deg", "facing_deg", "clearance",
+         "support"});
     std::string posture = n["posture"] ? c.str(n["posture"], "initial.posture") : "nominal";
     if (posture != "nominal" && posture != "zero")
       c.fail("initial.posture", "must be 'nominal' or 'zero'");
@@ -350,6 +353,9 @@ World parse_world(const std::string& yaml_text, const fs::path& base_dir,
                                  Eigen::AngleAxisd(rpy.x(), Eigen::Vector3d::UnitX()));
       ini.base_orientation_wxyz << q.w(), q.x(), q.y(), q.z();
     }
+    // The way the robot faces: its forward (robot.yaml forward_axis) turned to this world yaw.
+    facing = c.num(n, "facing_deg", "initial", 0.0) * kDeg;
+    if (std::abs(facing) > 2.0 * M_PI + 1e-9) c.fail("initial.facing_deg", "must be in [-360, 360]");
     ini.clearance = c.num(n, "clearance", "initial", 0.0);
     if (n["support"]) sc.support = c.str(n["support"], "initial.support");
   } else {
@@ -357,6 +363,14 @@ World parse_world(const std::string& yaml_text, const fs::path& base_dir,
       ini.joint_names.push_back(name);
       ini.joint_positions.push_back(v);
     }
+  }
+  {  // base yaw: the robot's forward (in its base frame) points along the facing direction
+    const Eigen::Vector3d& fwd = sc.sim.robot.forward_axis;
+    const double turn = facing - std::atan2(fwd.y(), fwd.x());
+    Eigen::Quaterniond q(ini.base_orientation_wxyz[0], ini.base_orientation_wxyz[1],
+                         ini.base_orientation_wxyz[2], ini.base_orientation_wxyz[3]);
+    q = Eigen::AngleAxisd(turn, Eigen::Vector3d::UnitZ()) * q;
+    ini.base_orientation_wxyz << q.w(), q.x(), q.y(), q.z();
   }
   bool support_ok = sc.support == "double";
   for (const auto& f : sc.sim.robot.feet)
@@ -372,13 +386,20 @@ World parse_world(const std::string& yaml_text, const fs::path& base_dir,
       for (std::size_t i = 0; i < ps.size(); ++i) {
         const std::string pk = "disturbances.pushes[" + std::to_string(i) + "]";
         const YAML::Node p = ps[i];
-        c.allow(p, pk, {"link", "point", "force", "start", "duration"});
+        c.allow(p, pk, {"link", "point", "force", "frame", "start", "duration"});
         for (const char* k : {"link", "force", "start", "duration"})
           if (!p[k]) c.fail(pk + "." + k, "is required");
         Push push;
         push.link = c.str(p["link"], pk + ".link");
         if (p["point"]) push.point_L = c.vec3(p["point"], pk + ".point");
         push.force_W = c.vec3(p["force"], pk + ".force");
+        // force in `world` (default, the meaning of existing files) or `heading`: x the robot's
+        // forward at the start (initial.facing_deg), y its left, z up
+        const std::string frame = p["frame"] ? c.str(p["frame"], pk + ".frame") : "world";
+        if (frame == "heading")
+          push.force_W = Eigen::AngleAxisd(facing, Eigen::Vector3d::UnitZ()) * push.force_W;
+        else if (frame != "world")
+          c.fail(pk + ".frame", "must be 'world' or 'heading', got '" + frame + "'");
         push.start = c.num(p["start"], pk + ".start");
         push.duration = c.num(p["duration"], pk + ".duration");
         if (push.start < 0.0) c.fail(pk + ".start", "must be >= 0");
@@ -625,9 +646,10 @@ void ScenarioMonitor::update(const GroundTruth& g) {
   }
   if (g.num_non_foot_contacts > 0) ++r_.non_foot_contacts;
   {
-    const Eigen::Matrix3d R = g.X_WB.rotation();
-    const double pitch = std::asin(std::clamp(-R(2, 0), -1.0, 1.0)) * 180.0 / M_PI;
-    const double roll = std::atan2(R(2, 1), R(2, 2)) * 180.0 / M_PI;
+    // about the robot's own forward (robot.yaml forward_axis), not the base's x axis
+    const Eigen::Vector2d pr =
+        trunk_pitch_roll(g.X_WB.rotation(), scenario_.sim.robot.forward_axis) * (180.0 / M_PI);
+    const double pitch = pr.x(), roll = pr.y();
     r_.trunk_pitch_max_deg = std::max(r_.trunk_pitch_max_deg, std::abs(pitch));
     r_.trunk_roll_max_deg = std::max(r_.trunk_roll_max_deg, std::abs(roll));
   }

@@ -44,6 +44,9 @@ struct RobotConfig {
   bool self_collision = false;
   /// Damping gain used in damping mode and by the watchdog [N m s/rad] (all joints).
   double damping_mode_kd = 5.0;
+  /// The robot's forward direction in its base frame (robot.yaml forward_axis): the verdict's
+  /// trunk pitch and roll are taken about the axes it defines (trunk_pitch_roll()).
+  Eigen::Vector3d forward_axis = Eigen::Vector3d::UnitX();
 };
 
 /// Sinusoid s(t) = amplitude * sin(2 pi frequency t + phase).

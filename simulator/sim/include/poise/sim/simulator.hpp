@@ -24,6 +24,12 @@
 
 namespace poise::sim {
 
+/// Trunk pitch and roll [rad] of a base with orientation R_WB whose forward direction in its
+/// own frame is forward_B (unit, horizontal): pitch = asin(-f.z) with f = R_WB forward_B, positive
+/// when the robot leans forward; roll = atan2(l.z, z_B.z) with l = R_WB (e_z x forward_B) its left,
+/// positive when its left side rises. For forward_B = +x these are the ZYX pitch and roll.
+Eigen::Vector2d trunk_pitch_roll(const Eigen::Matrix3d& R_WB, const Eigen::Vector3d& forward_B);
+
 class Simulator {
  public:
   /// Builds the world. Throws std::runtime_error naming the problem (file, link, joint, key).
