@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <tuple>
 #include <regex>
 #include <sstream>
 #include <string>
@@ -193,6 +194,31 @@ TEST(RobotInit, MeshOnlyFeetGetTheirSoleFromTheMesh) {
   const std::string text = init_and_stand(urdf, dir, true);
   EXPECT_NE(text.find("left sole comes from the mesh " + (dir / "meshes" / "foot.stl").string()),
             std::string::npos) << text;
+}
+
+// The robot's forward from its toes: +x for the shipped robot; a base facing -x (the pelvis under
+// a new root link turned by pi) gets forward_axis [-1, 0, 0], which the loader reads.
+TEST(RobotInit, ForwardAxisIsTheToesDirection) {
+  const fs::path dir = work_dir("forward");
+  const fs::path shipped = fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/poise_humanoid.urdf";
+  std::string xml = read(shipped);
+  const auto pos = xml.find("<joint ");
+  ASSERT_NE(pos, std::string::npos);
+  xml.insert(pos, "<link name=\"base_back\"/>\n  <joint name=\"base_back_to_pelvis\" type=\"fixed\">"
+                  "<parent link=\"base_back\"/><child link=\"pelvis\"/>"
+                  "<origin xyz=\"0 0 0\" rpy=\"0 0 3.141592653589793\"/></joint>\n  ");
+  const fs::path urdf = dir / "base_back.urdf";
+  std::ofstream(urdf) << xml;
+  for (const auto& [in, out, expected] :
+       {std::tuple<fs::path, fs::path, std::string>{shipped, dir / "shipped", "forward_axis: [1, 0, 0]"},
+        {urdf, dir / "back", "forward_axis: [-1, 0, 0]"}}) {
+    auto [code, text] = run_cmd({bin("poise"), "robot", "init", in.string(), "-o", out.string()}, 60s);
+    ASSERT_EQ(code, 0) << text;
+    const std::string yaml = read(out / "robot.yaml");
+    EXPECT_NE(yaml.find(expected), std::string::npos) << yaml;
+    const auto cfg = poise::model::load_robot_config(out / "robot.yaml");
+    EXPECT_NEAR(cfg.forward_axis.x(), expected == "forward_axis: [1, 0, 0]" ? 1.0 : -1.0, 1e-12);
+  }
 }
 
 // What it cannot use is refused with an error naming the problem, and nothing is overwritten.

@@ -6,6 +6,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -550,6 +551,36 @@ int run_init(const Options& opt) {
     gains[j] = {kp, kd};
   }
 
+  // ---- forward axis: the toes' direction ---------------------------------------------------------
+  // Each sole rectangle's long axis, pointing to the end farther from the ankle (the foot frame
+  // origin): the toes. Both feet's directions at the zero configuration (base frame = world
+  // there), averaged and made horizontal.
+  Vector3 forward = Vector3::Zero();
+  std::array<Vector3, 2> toe_dirs;
+  for (std::size_t s = 0; s < legs.size(); ++s) {
+    const Leg& L = legs[s];
+    const auto& r = L.sole;
+    Vector3 toe_A;
+    if (r.x_max - r.x_min >= r.y_max - r.y_min)
+      toe_A = Vector3(r.x_max >= -r.x_min ? 1.0 : -1.0, 0, 0);
+    else
+      toe_A = Vector3(0, r.y_max >= -r.y_min ? 1.0 : -1.0, 0);
+    toe_dirs[s] = (data.oMi[L.foot_body] * L.X_BA).R * toe_A;
+    forward += toe_dirs[s];
+  }
+  forward.z() = 0.0;
+  if (forward.norm() < 1e-6 || toe_dirs[0].dot(toe_dirs[1]) < 0.5) {
+    checks.push_back("the toes of the two feet do not point the same way: forward_axis left at +x");
+    forward = Vector3::UnitX();
+  }
+  forward.normalize();
+  for (int k = 0; k < 3; ++k)
+    if (std::abs(forward[k]) < 1e-9) forward[k] = 0.0;
+  if (!forward.isApprox(Vector3::UnitX(), 1e-9))
+    checks.push_back("the toes point along (" + fmt(forward.x(), 4) + ", " + fmt(forward.y(), 4) +
+                     ") of the floating base, not its +x: forward_axis says so (pushes 'forward' and "
+                     "the trunk pitch use it; scenarios' initial.facing_deg turns it in the world)");
+
   // ---- write ------------------------------------------------------------------------------------
   fs::create_directories(out_dir);
   const fs::path urdf_ref = urdf_path;  // the user's own URDF: never copied or edited
@@ -595,6 +626,9 @@ int run_init(const Options& opt) {
       << fmt(L.sole.x_min) << ", x_max: " << fmt(L.sole.x_max) << ", y_min: " << fmt(L.sole.y_min)
       << ", y_max: " << fmt(L.sole.y_max) << ", height: " << fmt(L.sole.height) << "}\n";
   }
+  y << "\n# The robot's forward in the floating base's frame: the toes' direction (each sole's long\n"
+       "# axis, toward the end farther from the ankle), both feet averaged.\n"
+    << "forward_axis: [" << fmt(forward.x(), 6) << ", " << fmt(forward.y(), 6) << ", 0]\n";
   y << "\ncontact:\n  safety_margin: 0.01\n  friction_mu: 0.8\n  torsional_mu: 0.02\n\n"
     << "joint_groups:\n  legs: " << names(leg_joints) << "\n  upper_body: " << names(upper)
     << "\n\n# Knees bent, hip + knee + ankle pitch = 0 (soles flat), legs leaned so the CoM is over "
@@ -642,6 +676,8 @@ int run_init(const Options& opt) {
       std::cout << "    pitch joints: hip " << m.joint_names[L.hip] << ", knee "
                 << m.joint_names[L.knee] << ", ankle " << m.joint_names[L.ankle] << "\n";
   }
+  std::cout << "  forward axis (base frame, from the toes): [" << fmt(forward.x(), 4) << ", "
+            << fmt(forward.y(), 4) << ", 0]\n";
   std::cout << "  upper body: " << names(upper) << "\n  nominal posture: knees "
             << fmt(knee, 3) << " rad, lean " << fmt(d, 4) << " rad; CoM "
             << fmt(st.com_error.x() * 1000, 2) << ", " << fmt(st.com_error.y() * 1000, 2)
