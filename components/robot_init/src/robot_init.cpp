@@ -408,10 +408,50 @@ int run_init(const Options& opt) {
     }
   }
 
+  // ---- forward axis: the toes' direction ---------------------------------------------------------
+  // Each sole rectangle's long axis, pointing to the end farther from the ankle (the foot frame
+  // origin): the toes. Both feet's directions at the zero configuration (base frame = world
+  // there), averaged and made horizontal.
+  Vector3 forward = Vector3::Zero();
+  std::array<Vector3, 2> toe_dirs;
+  for (std::size_t s = 0; s < legs.size(); ++s) {
+    const Leg& L = legs[s];
+    const auto& r = L.sole;
+    Vector3 toe_A;
+    if (r.x_max - r.x_min >= r.y_max - r.y_min)
+      toe_A = Vector3(r.x_max >= -r.x_min ? 1.0 : -1.0, 0, 0);
+    else
+      toe_A = Vector3(0, r.y_max >= -r.y_min ? 1.0 : -1.0, 0);
+    toe_dirs[s] = (data.oMi[L.foot_body] * L.X_BA).R * toe_A;
+    forward += toe_dirs[s];
+  }
+  forward.z() = 0.0;
+  if (forward.norm() < 1e-6 || toe_dirs[0].dot(toe_dirs[1]) < 0.5) {
+    checks.push_back("the toes of the two feet do not point the same way: forward_axis left at +x");
+    forward = Vector3::UnitX();
+  }
+  forward.normalize();
+  for (int k = 0; k < 3; ++k)
+    if (std::abs(forward[k]) < 1e-9) forward[k] = 0.0;
+  if (!forward.isApprox(Vector3::UnitX(), 1e-9))
+    checks.push_back("the toes point along (" + fmt(forward.x(), 4) + ", " + fmt(forward.y(), 4) +
+                     ") of the floating base, not its +x: forward_axis says so (pushes 'forward' and "
+                     "the trunk pitch use it; scenarios' initial.facing_deg turns it in the world)");
+
   // ---- nominal posture: bent knees, soles flat, CoM over the sole centres -----------------------
-  const Vector3 ey(0, 1, 0);
+  // Pitch axis: the robot's left (world +y for a robot whose toes point along +x), so that the
+  // knees bend toward its own forward.
+  const Vector3 ey = Vector3::UnitZ().cross(forward).normalized();
+  // The robot's own left leg is the one on its left (ey), whatever the world y says.
+  if ((data.oMi[legs[1].foot_body].p - data.oMi[legs[0].foot_body].p).dot(ey) < 0.0) {
+    std::swap(legs[0], legs[1]);
+    legs[0].side = "right";
+    legs[1].side = "left";
+    checks.push_back("the robot's own left foot is '" + legs[1].foot_frame +
+                     "' (on its left, seen along its forward axis)");
+  }
   for (Leg& leg : legs) {
-    std::vector<std::pair<int, double>> pitch;  // joint, sign of its world axis along +y
+    std::vector<std::pair<int, double>> pitch;  // joint, sign of its world axis along ey
     for (int j : leg.joints) {
       if (m.joint_type[j + 1] != model::JointType::kRevolute &&
           m.joint_type[j + 1] != model::JointType::kContinuous)
@@ -432,7 +472,7 @@ int run_init(const Options& opt) {
     }
   }
   const bool can_bend = legs[0].knee >= 0 && legs[1].knee >= 0;
-  // Rotations about +y (world): knee +k (the knee forward), hip -k/2 + d, ankle -k/2 - d: the sum is
+  // Rotations about ey (the robot's left): knee +k (the knee forward), hip -k/2 + d, ankle -k/2 - d: the sum is
   // 0, so the sole stays parallel to the pelvis; d leans the legs to put the CoM over the feet.
   double knee = 0.0;
   if (can_bend) {
@@ -550,36 +590,6 @@ int run_init(const Options& opt) {
     const double kd = std::min(2.0 * zeta * std::sqrt(kp * I), 0.4 * I / opt.dt);
     gains[j] = {kp, kd};
   }
-
-  // ---- forward axis: the toes' direction ---------------------------------------------------------
-  // Each sole rectangle's long axis, pointing to the end farther from the ankle (the foot frame
-  // origin): the toes. Both feet's directions at the zero configuration (base frame = world
-  // there), averaged and made horizontal.
-  Vector3 forward = Vector3::Zero();
-  std::array<Vector3, 2> toe_dirs;
-  for (std::size_t s = 0; s < legs.size(); ++s) {
-    const Leg& L = legs[s];
-    const auto& r = L.sole;
-    Vector3 toe_A;
-    if (r.x_max - r.x_min >= r.y_max - r.y_min)
-      toe_A = Vector3(r.x_max >= -r.x_min ? 1.0 : -1.0, 0, 0);
-    else
-      toe_A = Vector3(0, r.y_max >= -r.y_min ? 1.0 : -1.0, 0);
-    toe_dirs[s] = (data.oMi[L.foot_body] * L.X_BA).R * toe_A;
-    forward += toe_dirs[s];
-  }
-  forward.z() = 0.0;
-  if (forward.norm() < 1e-6 || toe_dirs[0].dot(toe_dirs[1]) < 0.5) {
-    checks.push_back("the toes of the two feet do not point the same way: forward_axis left at +x");
-    forward = Vector3::UnitX();
-  }
-  forward.normalize();
-  for (int k = 0; k < 3; ++k)
-    if (std::abs(forward[k]) < 1e-9) forward[k] = 0.0;
-  if (!forward.isApprox(Vector3::UnitX(), 1e-9))
-    checks.push_back("the toes point along (" + fmt(forward.x(), 4) + ", " + fmt(forward.y(), 4) +
-                     ") of the floating base, not its +x: forward_axis says so (pushes 'forward' and "
-                     "the trunk pitch use it; scenarios' initial.facing_deg turns it in the world)");
 
   // ---- write ------------------------------------------------------------------------------------
   fs::create_directories(out_dir);
