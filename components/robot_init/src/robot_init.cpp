@@ -686,8 +686,8 @@ int run_init(const Options& opt) {
       std::cout << "    pitch joints: hip " << m.joint_names[L.hip] << ", knee "
                 << m.joint_names[L.knee] << ", ankle " << m.joint_names[L.ankle] << "\n";
   }
-  std::cout << "  forward axis (base frame, from the toes): [" << fmt(forward.x(), 4) << ", "
-            << fmt(forward.y(), 4) << ", 0]\n";
+  std::cout << "  forward_axis [" << fmt(forward.x(), 4) << ", " << fmt(forward.y(), 4)
+            << ", 0] (base frame, from the toes)\n";
   std::cout << "  upper body: " << names(upper) << "\n  nominal posture: knees "
             << fmt(knee, 3) << " rad, lean " << fmt(d, 4) << " rad; CoM "
             << fmt(st.com_error.x() * 1000, 2) << ", " << fmt(st.com_error.y() * 1000, 2)
