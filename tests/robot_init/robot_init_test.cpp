@@ -221,6 +221,42 @@ TEST(RobotInit, ForwardAxisIsTheToesDirection) {
   }
 }
 
+// Soles given in robot.yaml as an offset AND a rotation (no URDF sole link; the foot frame is a
+// frame the loader adds, x toward the heel, 5 cm above the sole): the model, simulator, estimator
+// and controller all use it; the robot stands and survives a forward and a lateral push given in
+// its heading frame, in process.
+TEST(RobotInit, RotatedSoleFramesFromRobotYamlStandInProcess) {
+  const fs::path dir = work_dir("rotated_soles");
+  const fs::path robots = fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid";
+  std::string xml = read(robots / "poise_humanoid.urdf");
+  xml = std::regex_replace(xml, std::regex(R"(<joint name="[lr]_sole_joint"[\s\S]*?</joint>)"), "");
+  xml = std::regex_replace(xml, std::regex(R"(<link name="[lr]_sole">\s*</link>)"), "");
+  ASSERT_EQ(xml.find("_sole\""), std::string::npos);
+  std::ofstream(dir / "robot.urdf") << xml;
+  std::string yaml = read(robots / "robot.yaml");
+  yaml = std::regex_replace(yaml, std::regex("urdf: [^\\n]*"), "urdf: robot.urdf");
+  yaml = std::regex_replace(yaml, std::regex("sole_frame: [lr]_sole[^\\n]*"),
+                            "sole_frame: {offset: [0.03, 0, -0.08], rpy: [0, 0, 3.141592653589793]}");
+  yaml = std::regex_replace(yaml, std::regex("sole: \\{[^}]*\\}"),
+                            "sole: {x_min: -0.11, x_max: 0.11, y_min: -0.055, y_max: 0.055, height: 0.05}");
+  std::ofstream(dir / "robot.yaml") << yaml;
+  const auto cfg = poise::model::load_robot_config(dir / "robot.yaml");
+  EXPECT_EQ(cfg.feet[poise::model::kLeft].frame, "l_foot_foot_poise");
+  const fs::path scenario = dir / "push.yaml";
+  std::ofstream(scenario)
+      << "name: rotated_soles_push\nrobot: {config: " << (dir / "robot.yaml").string()
+      << "}\nduration: 5.0\ninitial: {posture: nominal, support: double}\n"
+         "world:\n  ground: {friction: 0.8}\nsensors: {seed: 1}\ndisturbances:\n  pushes:\n"
+         "    - {link: pelvis, force: [50, 0, 0], frame: heading, start: 1.0, duration: 0.2}\n"
+         "    - {link: pelvis, force: [0, 50, 0], frame: heading, start: 3.0, duration: 0.2}\n"
+         "success:\n  com_error_max_m: 0.15\n  com_error_final_m: 0.01\n  foot_slip_max_m: 0.01\n"
+         "  allow_non_foot_contacts: false\n  min_base_height_m: 0.5\n";
+  auto [code, out] = run_cmd({bin("poise"), "run", scenario.string(), "--in-process", "-q", "-o",
+                              (dir / "push.json").string()}, 120s);
+  EXPECT_EQ(code, 0) << out;
+  EXPECT_NE(out.find("SURVIVED"), std::string::npos) << out;
+}
+
 // What it cannot use is refused with an error naming the problem, and nothing is overwritten.
 TEST(RobotInit, BadInputsAreRefusedWithAClearError) {
   const fs::path dir = work_dir("bad");
