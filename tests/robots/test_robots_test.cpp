@@ -81,8 +81,9 @@ const std::vector<Robot>& robots() {
       // Base facing -x: the robot's own left leg is at y < 0 in its base frame; init must find
       // forward_axis [-1, 0, 0]. The scenario faces it to world -x (facing_deg 180: base not
       // turned), its pushes in its heading.
-      {"kestrel", 65.0, "LeftFootLink", "RightFootLink", {"forward axis (base frame, from the toes): [-1, 0, 0]"}, nullptr,
-       nullptr, nullptr, -1.0, 180.0},
+      {"kestrel", 65.0, "LeftFootLink", "RightFootLink",
+       {"forward_axis [-1, 0, 0] (base frame, from the toes)"}, nullptr, nullptr, nullptr, -1.0,
+       180.0},
   };
   return r;
 }
