@@ -531,3 +531,31 @@ TEST(Launch, SecuredStackKeepsOutsidersAndEnforcesWhoWritesWhat) {
   std::printf("secured lockstep stack: tick latency p50 %.0f us, p99 %.0f us\n",
               r["tick_latency_us"]["p50"].get<double>(), r["tick_latency_us"]["p99"].get<double>());
 }
+
+// The shipped scenarios in which contacts change (#20 item 3), distributed in lockstep as
+// `poise run NAME` runs them: the estimator's contact flags drive the controller node, and the
+// step in place is played by a poise-reference process that `poise run` starts from the
+// scenario's `reference:` key. The in-process twins are tests/estimator/contact_events_test.cpp
+// and tests/controller/step_in_place_test.cpp.
+TEST(Launch, ScenariosInWhichContactsChangeSurviveDistributed) {
+  const fs::path dir = work_dir("contact_changes");
+  for (const std::string name : {"drop_onto_feet", "lateral_push_unloads_foot", "step_in_place"}) {
+    const fs::path json = dir / (name + ".json");
+    auto [code, out] =
+        run_cmd({bin("poise"), "run", name, "-q", "--domain",
+                 std::to_string(poise::testing::unique_domain_id()), "-o", json.string(),
+                 "--log-dir", (dir / (name + ".logs")).string()},
+                240s);
+    EXPECT_EQ(code, 0) << name << ":\n" << out;
+    if (!fs::exists(json)) {
+      ADD_FAILURE() << name << ": no result file";
+      continue;
+    }
+    const Json r = Json::parse(std::ifstream(json));
+    EXPECT_TRUE(r["survived"].get<bool>()) << name << ": " << r.dump(2);
+    std::printf("%-26s distributed lockstep: survived %d, CoM error max %.1f mm, foot slip max "
+                "%.1f mm\n",
+                name.c_str(), r["survived"].get<bool>() ? 1 : 0,
+                r.value("com_error_max_m", -1.0) * 1e3, r.value("foot_slip_max_m", -1.0) * 1e3);
+  }
+}
