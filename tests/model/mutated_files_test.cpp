@@ -719,9 +719,11 @@ TEST(MutatedScenario, TopLevelFields) {
                "scenario /dev/zero");
   fs::remove_all(dir);
   // shipped scenarios all still load
-  for (const auto& e : fs::directory_iterator(std::string(POISE_SOURCE_DIR) + "/deploy/scenarios"))
-    if (e.path().extension() == ".yaml")
+  for (const auto& e : fs::directory_iterator(std::string(POISE_SOURCE_DIR) + "/deploy/scenarios")) {
+    if (e.path().extension() == ".yaml") {
       EXPECT_EQ(error_of([&] { scenario::load_scenario(e.path()); }), "(no error)") << e.path();
+    }
+  }
 }
 #endif
 

@@ -1,6 +1,6 @@
 #pragma once
 // Configuration of a simulated robot and its world. Plain structs filled by the scenario loader
-// (scenario.hpp) or by code; validated once by the Simulator constructor.
+// (the world of a scenario file: world.hpp, deploy/scenario) or by code; validated once by the Simulator constructor.
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -117,7 +117,7 @@ enum class ImuOrientationOutput : std::uint8_t {
 /// the IMU frame I, b = bias (turn-on value, then a random walk), n white noise, sat clamping to
 /// +-range. Samples are taken every 1/rate_hz (held between samples) and come out delay_ticks
 /// simulator ticks late. The defaults here are the ideal IMU (tests that build a configuration
-/// in code); scenario files start from industrial_mems_imu() instead (scenario.cpp).
+/// in code); scenario files start from industrial_mems_imu() instead (world.cpp).
 struct ImuNoiseConfig {
   double gyro_noise_std = 0.0;      ///< white noise per sample [rad/s] (added to the density's)
   double gyro_noise_density = 0.0;  ///< white noise density [rad/s/sqrt(Hz)]: per-sample std is
