@@ -195,10 +195,12 @@ TEST(RtpsDecoder, SamplesBeforeTheAnnouncementAreKeptUntilIt) {
   data(d, kWriter, 8, sample_payload(8, 12));
   h.feed(d);
   EXPECT_TRUE(h.got.empty());
+  EXPECT_EQ(h.decoder.counters().unknown_writer, 2u) << "held samples are counted, not silent";
   Bytes a = p.header();
   announce(a, p, kWriter, "poise/state", "poise::msg::State", 3);
   h.feed(a);
   ASSERT_EQ(h.got.size(), 2u);
+  EXPECT_EQ(h.decoder.counters().unknown_writer, 0u);
   EXPECT_EQ(h.got[0].bytes, sample_payload(7, 12));
   EXPECT_EQ(h.got[1].bytes, sample_payload(8, 12));
   // Another participant's writer with the same entity id is another writer.

@@ -455,7 +455,11 @@ void RtpsDecoder::datagram(const std::uint8_t* data, std::size_t size, std::int6
 
 CaptureCounters RtpsDecoder::counters() const {
   std::lock_guard lock(impl_->mutex);
-  return impl_->c;
+  CaptureCounters c = impl_->c;
+  // Samples still held for a writer never announced: at the end of a recording they are lost.
+  for (const auto& [g, w] : impl_->writers)
+    c.unknown_writer += w->pending.size();
+  return c;
 }
 
 std::map<std::string, std::uint64_t> RtpsDecoder::lost_per_topic() const {

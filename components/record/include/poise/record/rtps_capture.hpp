@@ -61,7 +61,7 @@ struct CaptureCounters {
   std::uint64_t rtps_messages = 0;    ///< of which RTPS messages
   std::uint64_t samples = 0;          ///< samples delivered (after de-duplication)
   std::uint64_t duplicates = 0;       ///< copies of a sample already delivered (other readers, repairs)
-  std::uint64_t unknown_writer = 0;   ///< samples of a writer never announced (dropped past the buffer)
+  std::uint64_t unknown_writer = 0;   ///< samples of writers not announced (yet): held, or dropped past the buffer
   std::uint64_t malformed = 0;        ///< submessages that could not be parsed
   std::uint64_t kernel_drops = 0;     ///< datagrams the kernel dropped (capture buffer full)
   std::uint64_t writers = 0;          ///< writers announced in the domain
