@@ -8,48 +8,15 @@
 #include <stdexcept>
 
 #include "poise/sim/simulator.hpp"
+#include "poise/sim/yaml_checks.hpp"
 
 namespace poise::scenario {
 namespace {
 
 namespace fs = std::filesystem;
 
-// The checks of the sections read here (the world's parser, poise::sim::parse_world, has its own
-// for its sections; both name the source and the key the same way).
-struct Ctx {
-  std::string what;
-  [[noreturn]] void fail(const std::string& key, const std::string& msg) const {
-    throw std::runtime_error(what + ": " + key + ": " + msg);
-  }
-  void allow(const YAML::Node& n, const std::string& key,
-             std::initializer_list<const char*> keys) const {
-    if (!n) return;
-    if (!n.IsMap()) fail(key, "must be a mapping");
-    for (const auto& kv : n) {
-      const std::string k = kv.first.as<std::string>();
-      if (std::none_of(keys.begin(), keys.end(), [&](const char* a) { return k == a; })) {
-        std::string list;
-        for (const char* a : keys)
-          list += std::string(list.empty() ? "" : ", ") + a;
-        fail(key.empty() ? k : key + "." + k, "unknown key (allowed: " + list + ")");
-      }
-    }
-  }
-  double num(const YAML::Node& n, const std::string& key) const {
-    try {
-      if (!n.IsScalar()) fail(key, "must be a number");
-      const double v = n.as<double>();
-      if (!std::isfinite(v)) fail(key, "must be a finite number");
-      return v;
-    } catch (const YAML::Exception&) {
-      fail(key, "must be a number, got '" + n.Scalar().substr(0, 40) + "'");
-    }
-  }
-  std::string str(const YAML::Node& n, const std::string& key) const {
-    if (!n.IsScalar()) fail(key, "must be a string");
-    return n.as<std::string>();
-  }
-};
+// The sections read here are checked as the world's are (poise::sim::parse_world): same messages.
+using Ctx = sim::YamlChecks;
 
 }  // namespace
 

@@ -1,5 +1,6 @@
 #include "poise/sim/world.hpp"
 #include "poise/sim/simulator.hpp"
+#include "poise/sim/yaml_checks.hpp"
 
 #include <yaml-cpp/yaml.h>
 
@@ -23,58 +24,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct Ctx {
-  std::string what;
+// The checks shared with the scenario format (yaml_checks.hpp), and files relative to the world's
+// own file.
+struct Ctx : YamlChecks {
   fs::path base_dir;
-  [[noreturn]] void fail(const std::string& key, const std::string& msg) const {
-    throw std::runtime_error(what + ": " + key + ": " + msg);
-  }
-  void allow(const YAML::Node& n, const std::string& key,
-             std::initializer_list<const char*> keys) const {
-    if (!n) return;
-    if (!n.IsMap()) fail(key, "must be a mapping");
-    for (const auto& kv : n) {
-      const std::string k = kv.first.as<std::string>();
-      if (std::none_of(keys.begin(), keys.end(), [&](const char* a) { return k == a; })) {
-        std::string list;
-        for (const char* a : keys)
-          list += std::string(list.empty() ? "" : ", ") + a;
-        fail(key.empty() ? k : key + "." + k, "unknown key (allowed: " + list + ")");
-      }
-    }
-  }
-  double num(const YAML::Node& n, const std::string& key) const {
-    try {
-      if (!n.IsScalar()) fail(key, "must be a number");
-      const double v = n.as<double>();
-      if (!std::isfinite(v)) fail(key, "must be a finite number");
-      return v;
-    } catch (const YAML::Exception&) {
-      fail(key, "must be a number, got '" + n.Scalar().substr(0, 40) + "'");
-    }
-  }
-  double num(const YAML::Node& parent, const char* k, const std::string& key, double dflt) const {
-    return parent[k] ? num(parent[k], key + "." + k) : dflt;
-  }
-  bool boolean(const YAML::Node& parent, const char* k, const std::string& key, bool dflt) const {
-    if (!parent[k]) return dflt;
-    try {
-      return parent[k].as<bool>();
-    } catch (const YAML::Exception&) {
-      fail(key + "." + k, "must be true or false");
-    }
-  }
-  std::string str(const YAML::Node& n, const std::string& key) const {
-    if (!n.IsScalar()) fail(key, "must be a string");
-    return n.as<std::string>();
-  }
-  Eigen::Vector3d vec3(const YAML::Node& n, const std::string& key) const {
-    if (!n.IsSequence() || n.size() != 3) fail(key, "must be a list of 3 numbers");
-    Eigen::Vector3d v;
-    for (int i = 0; i < 3; ++i)
-      v[i] = num(n[i], key + "[" + std::to_string(i) + "]");
-    return v;
-  }
   fs::path path(const YAML::Node& n, const std::string& key) const {
     const fs::path p = str(n, key);
     if (p.is_absolute()) return p;
@@ -267,7 +220,7 @@ void load_world(const Ctx& c, const YAML::Node& n, World& sc) {
 
 World parse_world(const std::string& yaml_text, const fs::path& base_dir,
                   const std::string& what) {
-  Ctx c{what, base_dir};
+  Ctx c{{what}, base_dir};
   YAML::Node root;
   try {
     root = YAML::Load(yaml_text);
