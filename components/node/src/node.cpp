@@ -143,6 +143,7 @@ void Node::error(const char* format, ...) noexcept {
   va_start(args, format);
   std::vsnprintf(last_error_, sizeof(last_error_), format, args);
   va_end(args);
+  error_since_diag_ = true;
   const std::int64_t now = now_ns();
   if (now - last_log_ns_ < 1'000'000'000) {
     ++suppressed_logs_;
@@ -212,6 +213,11 @@ void Node::set_condition(msg::NodeHealth health, const char* text) noexcept {
 void Node::publish_diagnostics() noexcept {
   const std::int64_t now = now_ns();
   bool any_stale = false;
+  // An error since the last sample (e.g. every sample of an input rejected) is the likely cause
+  // of a stale input: keep it in the stale message, or the reason would never reach the wire.
+  char newest_error[sizeof(last_error_)] = {};
+  if (error_since_diag_) std::snprintf(newest_error, sizeof(newest_error), "%s", last_error_);
+  error_since_diag_ = false;
   for (int i = 0; i < num_inputs_; ++i) {
     Input& in = inputs_[static_cast<std::size_t>(i)];
     const std::int64_t last = in.last_ns.load(std::memory_order_relaxed);
@@ -220,8 +226,9 @@ void Node::publish_diagnostics() noexcept {
     if (stale) {
       any_stale = true;
       std::snprintf(last_error_, sizeof(last_error_),
-                    "no %s for %.0f ms (last tick %llu): input stale", in.topic.c_str(),
-                    static_cast<double>(now - last) * 1e-6, tick);
+                    "no %s for %.0f ms (last tick %llu): input stale%s%s", in.topic.c_str(),
+                    static_cast<double>(now - last) * 1e-6, tick,
+                    newest_error[0] ? "; newest error: " : "", newest_error);
       if (!in.stale) {  // a state, not an error: counted as stale_events, health FAULT
         ++stale_events_;
         dds::log(dds::LogLevel::error, "%s: FAULT", last_error_);

@@ -288,6 +288,7 @@ class Node {
   std::int64_t period_ns_ = 100'000'000;
   std::int64_t next_diag_ns_ = 0;
   char last_error_[256] = {};
+  bool error_since_diag_ = false;  ///< error() called since the last diagnostics sample
 };
 
 }  // namespace poise::node
