@@ -3,6 +3,8 @@
 // URDFs it cannot read as a humanoid get an error naming the problem, never a crash.
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
@@ -89,6 +91,32 @@ std::string init_and_stand(const fs::path& urdf, const fs::path& dir, bool expec
     EXPECT_GT(g.kd, 0.0) << m.joint_names[j];
     EXPECT_LE(g.kp * 1e-6 / I, 0.04 * 1.001) << m.joint_names[j];
     EXPECT_LE(g.kd * 1e-3 / I, 0.4 * 1.001) << m.joint_names[j];
+  }
+  // The ankles carry the robot in stance: their damping is at that bound (damping critically
+  // the swing inertia alone, the rule before, gave them half of it: kd dt / I = 0.2).
+  for (const std::string ankle :
+       {"l_ankle_roll", "r_ankle_roll", "l_ankle_pitch", "r_ankle_pitch"}) {
+    const int j = m.joint_index(ankle);
+    const double I = 1.0 / Minv(m.idx_v(j), m.idx_v(j));
+    EXPECT_GT(cfg.gains[static_cast<std::size_t>(j)].kd * 1e-3 / I, 0.39) << ankle;
+  }
+  // The whole robot's explicit PD loop (free floating, every joint's gains, semi-implicit Euler
+  // at 1 kHz as the simulator applies them) is stable with the gains as written and doubled.
+  for (double f : {1.0, 2.0}) {
+    const int N = m.nv;
+    const double dt = 0.001;
+    Eigen::VectorXd kp = Eigen::VectorXd::Zero(N), kd = Eigen::VectorXd::Zero(N);
+    for (int j = 0; j < m.njoints; ++j) {
+      kp[m.idx_v(j)] = f * cfg.gains[static_cast<std::size_t>(j)].kp;
+      kd[m.idx_v(j)] = f * cfg.gains[static_cast<std::size_t>(j)].kd;
+    }
+    const Eigen::MatrixXd Id = Eigen::MatrixXd::Identity(N, N);
+    const Eigen::MatrixXd Aq = -dt * Minv * kp.asDiagonal(), Av = Id - dt * Minv * kd.asDiagonal();
+    Eigen::MatrixXd A(2 * N, 2 * N);
+    A << Id + dt * Aq, dt * Av, Aq, Av;  // [q; v] -> [q + dt v+; v+]
+    const double rho =
+        Eigen::EigenSolver<Eigen::MatrixXd>(A, false).eigenvalues().cwiseAbs().maxCoeff();
+    EXPECT_LE(rho, 1.0 + 1e-6) << "gains x " << f;
   }
   // Bent knees.
   const auto knee = [&](const std::string& name) {

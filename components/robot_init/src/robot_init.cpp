@@ -571,24 +571,111 @@ int run_init(const Options& opt) {
     checks.push_back("the CoM is " + fmt(st.com_error.y() * 1000, 1) +
                      " mm sideways from the mid-point of the soles: is the robot symmetric?");
 
-  // ---- PD gains from the effective inertia at the nominal posture -------------------------------
+  // ---- PD gains from the joint inertias at the nominal posture ----------------------------------
+  // A joint's PD loop acts on the inertia the joint meets, 1 / (M^-1)_jj with the other joints
+  // torque-free, and that depends on what holds the robot:
+  //  - swing, nothing held (the floating base free): the smallest, I_swing. A leg joint meets it
+  //    whenever its foot is off the ground (lift-off, a foot rolling on an edge): the ankle then
+  //    moves the foot alone (badger of tests/robots: 0.0026 kg m^2 for an ankle roll).
+  //  - stance (leg joints): the leg's own foot held by the ground (6D: a flat sole), M^-1 becomes
+  //    M^-1 - M^-1 J^T (J M^-1 J^T)^-1 J M^-1 (J: the foot body's Jacobian). Holding a body only
+  //    takes freedom away, so I_stance >= I_swing: the ankle now moves the robot above it (badger:
+  //    5.4 kg m^2, 2100 x), a knee or a hip yaw 5-7 x, a hip roll or pitch 2.2-3.3 x.
+  // The explicit PD at the control period dt must be stable on the SMALLER inertia, the one it
+  // sees in swing (in stance the same gains only gain margin): kp dt^2 / I_swing <= 0.04,
+  // kd dt / I_swing <= 0.4. (A one-joint semi-implicit Euler loop is stable for
+  // kp dt^2/I + 2 kd dt/I < 4 and kd dt/I < 2; at 0.04/0.4 it also stays stable with position
+  // and velocity measured two ticks late, at 0.04/0.8 it does not.)
+  // Stiffness from the swing inertia: kp = I_swing wn^2 (kp dt^2 / I_swing = 0.01), ceiling
+  // kp_max. Stiffer legs were measured worse: kp = I_stance wn^2 up to the cap above (4 x on
+  // every leg joint below the ceiling) made badger and kestrel slip 30-37 mm after the pushes
+  // (the double-support chain is closed through the ground: joint stiffness the plan does not
+  // know about pushes the feet against each other).
+  // Damping: kd = 2 zeta sqrt(kp I_swing) damps the swing loop critically, but leaves the stance
+  // loop the damping ratio sqrt(I_swing / I_stance): 0.02 for an ankle roll, whose foot then
+  // rocks on its edges after a push (badger fell). Where that ratio is below 1 / sqrt(3) (stance
+  // inertia more than 3 x the swing one: ankles, knees, hip yaws), kd = 2 zeta sqrt(kp I_stance)
+  // damps the stance loop critically instead, within the cap above. Hip roll and pitch (2.2-3.3 x)
+  // keep the swing kd: damping them for stance too made badger slip 17-19 mm (seeds 1 and 5).
+  // Joints outside the legs carry no foot: I_stance = I_swing.
+  // The caps bound each joint alone, not the coupled loop. So the whole robot's explicit loop
+  // (free floating, every joint's PD, as the simulator applies it) is checked to stay stable
+  // with every gain doubled; where it does not, the leg gains are scaled down together until it
+  // does.
   model::crba(m, data, q);
   const Eigen::MatrixXd Minv = data.M.inverse();
+  model::compute_joint_jacobians(m, data, q);
+  auto foot_held = [&](int foot_body) {
+    model::Matrix6X J(6, m.nv);
+    model::frame_jacobian(m, data, m.frame_id(m.body_name[foot_body]), J);
+    const Eigen::MatrixXd MJt = Minv * J.transpose();
+    return Eigen::MatrixXd(Minv - MJt * (J * MJt).ldlt().solve(MJt.transpose()));
+  };
+  const std::array<Eigen::MatrixXd, 2> Minv_stance = {foot_held(legs[0].foot_body),
+                                                      foot_held(legs[1].foot_body)};
   const double zeta = 1.0;
-  // Ceiling and floor (N m/rad): kp = I wn^2 with the floor applied only where it keeps the
-  // explicit PD loop well inside its stability bound (kp dt^2 / I <= 0.04, kd dt / I <= 0.4).
+  // Ceiling and floor (N m/rad); the floor only where it stays within the bounds above.
   const double kp_max = 2000.0, kp_min = 1.0;
+  const double stance_ratio = 3.0;  // I_stance / I_swing above which kd damps the stance loop
+  std::vector<int> leg_of(m.njoints, -1);
+  for (int s = 0; s < 2; ++s)
+    for (int j : legs[s].joints) leg_of[j] = s;
   std::vector<model::JointGains> gains(m.njoints);
-  std::vector<double> inertia(m.njoints);
+  std::vector<double> inertia(m.njoints), inertia_stance(m.njoints);
   for (int j = 0; j < m.njoints; ++j) {
     const int i = m.idx_v(j);
-    const double I = 1.0 / Minv(i, i);  // effective inertia, the rest of the robot free
+    const double I = 1.0 / Minv(i, i);  // swing
+    const double Is = leg_of[j] >= 0 ? 1.0 / Minv_stance[leg_of[j]](i, i) : I;
     inertia[j] = I;
-    double kp = I * opt.wn * opt.wn;
-    kp = std::min(kp, kp_max);
+    inertia_stance[j] = Is;
+    double kp = std::min(I * opt.wn * opt.wn, kp_max);
     kp = std::max(kp, std::min(kp_min, 0.04 * I / (opt.dt * opt.dt)));
-    const double kd = std::min(2.0 * zeta * std::sqrt(kp * I), 0.4 * I / opt.dt);
+    const double I_damped = Is > stance_ratio * I ? Is : I;
+    const double kd = std::min(2.0 * zeta * std::sqrt(kp * I_damped), 0.4 * I / opt.dt);
     gains[j] = {kp, kd};
+  }
+  // Spectral radius of the whole robot's explicit PD loop (semi-implicit Euler, [q; v] ->
+  // [q + dt v+; v+], v+ = v - dt M^-1 (Kp q + Kd v)) with the gains times f, the legs' also
+  // times `leg`. The free floating base has eigenvalues 1 (no gain on it).
+  auto spectral_radius = [&](double f, double leg) {
+    const int N = m.nv;
+    Eigen::VectorXd kp = Eigen::VectorXd::Zero(N), kd = Eigen::VectorXd::Zero(N);
+    for (int j = 0; j < m.njoints; ++j) {
+      const double g = f * (leg_of[j] >= 0 ? leg : 1.0);
+      kp[m.idx_v(j)] = g * gains[j].kp;
+      kd[m.idx_v(j)] = g * gains[j].kd;
+    }
+    const Eigen::MatrixXd Id = Eigen::MatrixXd::Identity(N, N);
+    const Eigen::MatrixXd Aq = -opt.dt * Minv * kp.asDiagonal();
+    const Eigen::MatrixXd Av = Id - opt.dt * Minv * kd.asDiagonal();
+    Eigen::MatrixXd A(2 * N, 2 * N);
+    A << Id + opt.dt * Aq, opt.dt * Av, Aq, Av;
+    return Eigen::EigenSolver<Eigen::MatrixXd>(A, false).eigenvalues().cwiseAbs().maxCoeff();
+  };
+  const double rho_tol = 1e-6;
+  double leg_scale = 1.0;
+  if (spectral_radius(2.0, 1.0) > 1.0 + rho_tol) {
+    double lo = 0.0, hi = 1.0;  // stable at lo (legs without gains: the upper body's own rule)
+    for (int it = 0; it < 30; ++it) {
+      const double mid = 0.5 * (lo + hi);
+      (spectral_radius(2.0, mid) > 1.0 + rho_tol ? hi : lo) = mid;
+    }
+    leg_scale = lo;
+    for (int j = 0; j < m.njoints; ++j)
+      if (leg_of[j] >= 0) gains[j] = {leg_scale * gains[j].kp, leg_scale * gains[j].kd};
+    checks.push_back("the leg gains were scaled by " + fmt(leg_scale, 3) +
+                     " so that the whole robot's explicit PD loop stays stable with every gain "
+                     "doubled (the joints' own bounds did not ensure it)");
+  }
+  // How far the gains are from instability: the factor on every gain at which it begins (to 1 %).
+  double margin = 2.0, margin_hi = 4.0;
+  while (margin_hi < 1000.0 && spectral_radius(margin_hi, 1.0) <= 1.0 + rho_tol) {
+    margin = margin_hi;
+    margin_hi *= 2.0;
+  }
+  while (margin_hi - margin > 0.01 * margin) {
+    const double mid = 0.5 * (margin + margin_hi);
+    (spectral_radius(mid, 1.0) > 1.0 + rho_tol ? margin_hi : margin) = mid;
   }
 
   // ---- write ------------------------------------------------------------------------------------
@@ -650,13 +737,20 @@ int run_init(const Options& opt) {
       any = true;
     }
   if (!any) y << "  {}\n";
-  y << "\n# kp = I wn^2, kd = 2 I wn (wn = " << fmt(opt.wn, 1)
-    << " rad/s), I = 1 / (M^-1)_jj the joint's effective inertia at the\n# nominal posture "
-       "(kp <= "
-    << fmt(kp_max, 0) << ").\npd_gains:\n";
-  for (int j = 0; j < m.njoints; ++j)
+  y << "\n# I = 1 / (M^-1)_jj at the nominal posture: swing (the robot free) and, for leg joints, "
+       "stance (the\n# leg's own foot held). kp = min(I_swing wn^2, "
+    << fmt(kp_max, 0) << "), kd = min(2 sqrt(kp I), 0.4 I_swing / dt) with I = I_stance\n# where "
+       "I_stance > " << fmt(stance_ratio, 1) << " I_swing, else I_swing; wn = "
+    << fmt(opt.wn, 1) << " rad/s, dt = " << fmt(opt.dt, 4)
+    << " s (components/robot_init/README.md).";
+  if (leg_scale < 1.0) y << " Leg gains then scaled by " << fmt(leg_scale, 3) << ".";
+  y << "\npd_gains:\n";
+  for (int j = 0; j < m.njoints; ++j) {
     y << "  " << m.joint_names[j] << ": {kp: " << sig(gains[j].kp) << ", kd: " << sig(gains[j].kd)
-      << "}   # I = " << sig(inertia[j], 3) << "\n";
+      << "}   # I swing " << sig(inertia[j], 3);
+    if (leg_of[j] >= 0) y << ", stance " << sig(inertia_stance[j], 3);
+    y << "\n";
+  }
   {
     std::ofstream f(yaml_path);
     f << y.str();
@@ -693,7 +787,10 @@ int run_init(const Options& opt) {
             << fmt(st.com_error.x() * 1000, 2) << ", " << fmt(st.com_error.y() * 1000, 2)
             << " mm from the sole centres' mid-point; CoM height "
             << fmt(data.com.z(), 3) << " m\n  gains (wn " << fmt(opt.wn, 1)
-            << " rad/s from the effective inertia; joint kp/kd):";
+            << " rad/s on the swing inertia, kd damping the stance inertia where it is more than "
+            << fmt(stance_ratio, 0) << " x; the whole robot's explicit PD loop becomes unstable at "
+            << (margin_hi >= 1000.0 ? "more than 1000" : fmt(margin, 2))
+            << " x these gains; joint kp/kd):";
   for (int j = 0; j < m.njoints; ++j)
     std::cout << (j % 4 == 0 ? "\n    " : "  ") << m.joint_names[j] << " " << sig(gains[j].kp, 4)
               << "/" << sig(gains[j].kd, 3);
@@ -705,8 +802,10 @@ int run_init(const Options& opt) {
             << "  - the feet, soles and leg joints above; the sole rectangle is the bottom face of "
                "the foot collision shapes\n"
             << "  - the IMU frame: the floating base is assumed to carry it\n"
-            << "  - the gains: they make each joint a " << fmt(opt.wn, 0)
-            << " rad/s critically damped loop on its own inertia; tune for your actuators\n";
+            << "  - the gains: each joint a " << fmt(opt.wn, 0)
+            << " rad/s loop on the inertia it meets in swing, critically damped on the inertia it "
+               "carries in stance where that is larger, within the 1 kHz explicit-PD bound; tune "
+               "for your actuators\n";
   for (const std::string& c : checks) std::cout << "  - " << c << "\n";
   std::cout << "next: poise model info " << yaml_path.string() << "\n";
   return 0;
