@@ -115,7 +115,7 @@ TEST(ClosedLoop, StandsTenSeconds) {
   double err_first = 0.0;
   const Watch w = run_and_watch(loop, t_settle, {true, true}, [&](InProcessLoop& l) {
     const double t = l.time();
-    if (t < 1e-4) return;  // no target before the first tick
+    if (l.controller().diagnostics().ticks == 0) return;  // no target before the first tick
     const Eigen::Vector3d c = l.truth().com_W;
     const Eigen::Vector3d e = c - l.controller().diagnostics().com_target_W;
     if (t <= t_settle) err_first = std::max(err_first, e.norm());
@@ -393,8 +393,11 @@ TEST(ClosedLoop, RidesSmallOutOfPhasePlatformsOnlyWithSupportAccelerationFeedFor
   EXPECT_LT(with.slip, 0.005);
   EXPECT_EQ(with.lost, 0);
   EXPECT_EQ(with.non_foot, 0);
-  EXPECT_TRUE(!without.survived || without.slip > 0.02)
-      << "without the feed-forward the feet slip or the robot falls (measured: it falls)";
+  // Measured: without the start-up hold it falls; with it (10 ticks, poise-sim's and now the
+  // in-process loop's default) it stays up, a foot slipping 13.7 mm with 39 foot-contact losses
+  // (0 mm and 0 with the feed-forward).
+  EXPECT_TRUE(!without.survived || without.slip > 0.01 || without.lost > 10)
+      << "without the feed-forward the feet slip or the robot falls";
 }
 
 class ClosedLoopPush : public ::testing::TestWithParam<StateSource> {};

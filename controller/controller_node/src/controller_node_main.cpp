@@ -109,9 +109,11 @@ int run(int argc, char** argv) {
   const node::RobotFromDescription resolved = node::resolve_robot(node, description, options.robot);
   const model::RobotConfig& robot = resolved.config;
   const model::Model& model = resolved.model;
-  const controller::ControllerConfig config = config_path.empty()
-                                                  ? controller::ControllerConfig{}
-                                                  : controller::load_controller_config(config_path);
+  controller::ControllerConfig config = config_path.empty()
+                                            ? controller::ControllerConfig{}
+                                            : controller::load_controller_config(config_path);
+  // The control period is the robot's (as the in-process loop sets it from the simulator).
+  if (description.control_period_s() > 0.0) config.dt = description.control_period_s();
   controller::BalanceController ctrl(model, robot, config);
   const std::vector<int> model_to_wire =
       node::model_to_wire_map(description.joint_names(), model.joint_names);

@@ -4,10 +4,18 @@
 #include <cmath>
 #include <stdexcept>
 
+#include <poise/msg/ground_truth.h>
+
+#include "poise/contact_node/contact_messages.hpp"
+#include "poise/controller_node/controller_messages.hpp"
 #include "poise/model/kinematics.hpp"
+#include "poise/node/convert.hpp"
+#include "poise/reflect/validate.hpp"
+#include "poise/safety/safety_layer.hpp"
+#include "poise/sim_node/sim_messages.hpp"
 #if POISE_INPROCESS_HAVE_ESTIMATOR
 #include "poise/estimator/estimator.hpp"
-#include "poise/inprocess/estimator_frame.hpp"
+#include "poise/estimator_node/estimator_messages.hpp"
 #endif
 
 namespace poise::inprocess {
@@ -83,10 +91,13 @@ InProcessLoop::InProcessLoop(const scenario::Scenario& scenario, const LoopOptio
                                "' of the robot config is not a simulated foot");
   }
 
-  if (options_.state_source == StateSource::kEstimator) {
+  // The ground-truth state is poise-estimator --ground-truth-state's: the estimator runs and its
+  // state is partly overwritten (read_state). Without the estimator library: the truth alone.
+  if (options_.state_source == StateSource::kEstimator || estimator_available()) {
 #if POISE_INPROCESS_HAVE_ESTIMATOR
     estimator::EstimatorConfig ecfg;
     ecfg.dt = sim_->dt();
+    ecfg.frozen_imu_ticks = kNodeFrozenImuTicks;  // as poise run starts poise-estimator
     ecfg.init_base_x = scenario_.sim.initial.base_position.x();
     ecfg.init_base_y = scenario_.sim.initial.base_position.y();
     ecfg.supports = estimator::parse_support_model(scenario_.estimator.supports);
@@ -103,6 +114,23 @@ InProcessLoop::InProcessLoop(const scenario::Scenario& scenario, const LoopOptio
     throw std::runtime_error(
         "the estimator library is not part of this build: use the ground-truth state (debug)");
 #endif
+  }
+
+  wire_feet_ = sim_node::foot_order(*sim_);
+  sensors_msg_ = std::make_unique<msg::Sensors>();
+  state_msg_ = std::make_unique<msg::State>();
+  truth_msg_ = std::make_unique<msg::GroundTruth>();
+  problem_msg_ = std::make_unique<msg::ContactProblem>();
+  solution_msg_ = std::make_unique<msg::ContactSolution>();
+  command_msg_ = std::make_unique<msg::JointCommand>();
+  priority_ = controller_->config().contact.priority;
+  {
+    // The robot side of poise-sim: its safety layer, configured as poise-sim configures it.
+    safety::Config sc = safety::make_config(model_, &robot_, sim_->joint_names(), sim_->dt(),
+                                            sim_->damping_kd());
+    sc.watchdog_s = 5e-3;  // poise-sim --watchdog-ms default
+    sc.hold_s = 5.0;       // poise-sim --hold-s default
+    safety_ = std::make_unique<safety::SafetyLayer>(std::move(sc));
   }
 
   sensors_ = sim_->make_sensor_frame();
@@ -128,8 +156,36 @@ InProcessLoop::InProcessLoop(const scenario::Scenario& scenario, const LoopOptio
       throw std::runtime_error("scenario '" + scenario_.name + "', reference: " + e.what());
     }
   }
+  sim_command_.mode = sim::CommandMode::kPd;  // the safety layer's command is a PD law
+  // Start-up as poise-sim: the safety layer holds the initial posture for settle_ticks steps so
+  // that the first frame measures the feet loaded; it then holds where it settled until the
+  // first command. The scenario monitor sees the settled state first.
+  const int settle = options_.settle_ticks < 0 ? kDefaultSettleTicks : options_.settle_ticks;
   sim_->read(sensors_, truth_);
-  latency_us_.reserve(static_cast<std::size_t>(std::ceil(duration_ / sim_->dt())) + 16);
+  safety_->start(sensors_.q, clock_ns());
+  for (int i = 0; i < settle; ++i) {
+    apply_safety_command(clock_ns());
+    sim_->step(sim_command_, sensors_, truth_);
+  }
+  safety_->start(sensors_.q, clock_ns());
+  monitor_.update(truth_);
+  first_tick_ = sim_->tick();
+  steps_ = static_cast<std::int64_t>(std::llround(duration_ / sim_->dt()));
+  latency_us_.reserve(static_cast<std::size_t>(steps_) + 16);
+}
+
+std::int64_t InProcessLoop::clock_ns() const {
+  return std::llround(sim_->time() * 1e9);
+}
+
+void InProcessLoop::apply_safety_command(std::int64_t now_ns) {
+  const safety::Command& c = safety_->update(now_ns, sensors_.q);
+  sim_command_.tick = c.tick;
+  sim_command_.tau_ff = c.tau_ff;
+  sim_command_.q_ref = c.q_ref;
+  sim_command_.qd_ref = c.qd_ref;
+  sim_command_.kp = c.kp;
+  sim_command_.kd = c.kd;
 }
 
 InProcessLoop::~InProcessLoop() = default;
@@ -140,34 +196,42 @@ double InProcessLoop::time() const {
 
 void InProcessLoop::read_state() {
   const int n = model_.njoints;
-  state_.tick = sensors_.tick;
-  state_.time = sensors_.time;
 #if POISE_INPROCESS_HAVE_ESTIMATOR
   if (estimator_) {
-    to_estimator_frame(sensors_, sim_to_model_, sim_foot_of_side_, estimator_->frame);
-    auto& e = estimator_->out;
-    estimator_->est.update(estimator_->frame, e);
-    state_.X_WB = e.X_WB;
-    state_.v_WB = e.v_WB;
-    state_.omega_WB = e.omega_WB;
-    state_.q = e.q;
-    state_.qd = e.qd;
-    state_.com_W = e.com_W;
-    state_.com_velocity_W = e.com_velocity_W;
-    state_.k_W = e.k_W;
-    state_.l_W = e.l_W;
-    for (int side = 0; side < 2; ++side) {
-      auto& f = state_.feet[side];
-      f.in_contact = e.feet[side].in_contact;
-      f.X_WF = e.feet[side].X_WF;
-      f.V_WF = e.feet[side].V_WF;
-      f.cop_W = e.feet[side].cop_W;
-      f.normal_force = e.feet[side].normal_force;
+    // poise-sim publishes the sensors, poise-estimator decodes them, estimates and publishes the
+    // state, poise-controller decodes it.
+    sim_node::to_msg(sensors_, wire_feet_, *sensors_msg_);
+    estimator_node::from_msg(*sensors_msg_, model_to_sim_, estimator_->frame);
+    // The contact detector's prior, as poise-estimator takes it from poise/balance_reference:
+    // the planned foot modes (here those of the previous tick's reference).
+    for (int side = 0; side < 2; ++side)
+      estimator_->frame.foot_plan[static_cast<std::size_t>(side)] = estimator::foot_plan_of_mode(
+          static_cast<int>(reference_.feet[static_cast<std::size_t>(side)].mode));
+    estimator_->est.update(estimator_->frame, estimator_->out);
+    estimator_node::to_msg(estimator_->out, model_to_sim_, *state_msg_);
+    if (options_.state_source == StateSource::kGroundTruth) {
+      // poise-estimator --ground-truth-state: the truth of the same tick over the estimate.
+      msg::GroundTruth& g = *truth_msg_;
+      node::put_pose(truth_.X_WB.linear(), truth_.X_WB.translation(), g.base_W());
+      node::put3(truth_.v_WB, g.base_velocity_W().linear());
+      node::put3(truth_.omega_WB, g.base_velocity_W().angular());
+      node::put3(truth_.com_W, g.com_W());
+      node::put3(truth_.com_vel_W, g.com_velocity_W());
+      for (int f = 0; f < 2; ++f) {  // as sim_node::to_msg(GroundTruth)
+        const sim::FootContactTruth& t = truth_.feet[static_cast<std::size_t>(wire_feet_[f])];
+        g.feet()[f].in_contact(t.in_contact);
+        node::put3(t.in_contact ? t.cop_W : Eigen::Vector3d::Zero(), g.feet()[f].cop_W());
+      }
+      estimator_node::overwrite_with_ground_truth(g, model_.total_mass, *state_msg_);
     }
+    controller_node::from_msg(*state_msg_, model_to_sim_, state_);
     return;
   }
 #endif
-  // DEBUG state source: the simulator's ground truth (joints from the encoders).
+  // Ground truth in a build without the estimator library: the simulator's truth (joints from the
+  // encoders), not what poise-estimator --ground-truth-state sends.
+  state_.tick = sensors_.tick;
+  state_.time = sensors_.time;
   state_.X_WB = model::SE3(truth_.X_WB.linear(), truth_.X_WB.translation());
   state_.v_WB = truth_.v_WB;
   state_.omega_WB = truth_.omega_WB;
@@ -188,6 +252,8 @@ void InProcessLoop::read_state() {
     f.cop_W = t.cop_W;
     f.normal_force = t.in_contact ? (t.X_WF.linear().transpose() * t.force_W).z() : 0.0;
   }
+  state_msg_->header().tick(static_cast<std::uint64_t>(sensors_.tick));
+  state_msg_->header().stamp_ns(clock_ns());
 }
 
 void InProcessLoop::play_reference() {
@@ -196,41 +262,51 @@ void InProcessLoop::play_reference() {
   reference_player_->sample(state_.time, state_.com_W, X_WF, reference_);
 }
 
+void InProcessLoop::control() {
+  // poise-controller, phase A: the contact problem of this tick, sent.
+  controller_->prepare(state_, reference_, problem_);
+  contact_node::to_msg(problem_, *problem_msg_);
+  problem_msg_->header(state_msg_->header());
+  // poise-contact: decode, check, solve, answer (never a non-finite answer).
+  const char* bad = reflect::validate(*problem_msg_)
+                        ? contact_node::from_msg(*problem_msg_, solver_problem_)
+                        : "invalid contact problem";
+  if (bad) {
+    contact::set_safe_solution(contact::ContactStatus::kInvalidInput, solution_);
+  } else {
+    solver_problem_.weights.priority = priority_;
+    optimizer_.solve(solver_problem_, solution_);
+  }
+  contact_node::to_msg(solution_, problem_msg_->header(), 0.0, optimizer_.method(),
+                       *solution_msg_);
+  if (!reflect::validate(*solution_msg_)) {
+    contact::set_safe_solution(contact::ContactStatus::kSolverFailure, solution_);
+    contact_node::to_msg(solution_, problem_msg_->header(), 0.0, optimizer_.method(),
+                         *solution_msg_);
+  }
+  // poise-controller, phase B: the solution decoded, the joint command of this tick sent.
+  contact_node::from_msg(*solution_msg_, answer_);
+  controller_->finish(answer_, command_);
+  controller_node::to_msg(command_, state_msg_->header(), model_to_sim_, *command_msg_);
+}
+
 void InProcessLoop::step() {
   const auto t0 = std::chrono::steady_clock::now();
   read_state();
   play_reference();
-  controller_->tick(
-      state_, reference_,
-      [this](const contact::ContactProblem& p, contact::ContactSolution& s) {
-        optimizer_.solve(p, s);
-        return true;
-      },
-      command_);
-  const int n = model_.njoints;
-  sim_command_.tick = command_.tick;
-  switch (command_.mode) {
-    case controller::CommandMode::kTorque:
-      sim_command_.mode = sim::CommandMode::kPd;
-      break;
-    case controller::CommandMode::kDamping:
-    case controller::CommandMode::kZero:
-      sim_command_.mode = sim::CommandMode::kDamping;
-      break;
-  }
-  for (int j = 0; j < n; ++j) {
-    const int i = model_to_sim_[j];
-    sim_command_.tau_ff[i] = command_.tau_ff[j];
-    sim_command_.q_ref[i] = command_.q_ref[j];
-    sim_command_.qd_ref[i] = command_.qd_ref[j];
-    sim_command_.kp[i] = command_.kp[j];
-    sim_command_.kd[i] = command_.kd[j];
-  }
+  control();
   const auto t1 = std::chrono::steady_clock::now();
   const double us = std::chrono::duration<double, std::micro>(t1 - t0).count();
   if (latency_us_.size() < latency_us_.capacity()) latency_us_.push_back(us);
   if (us > 1e6 * sim_->dt()) ++deadline_misses_;
 
+  // poise-sim: the command through the robot's safety layer (a rejected one is counted and the
+  // layer keeps applying what it applied), then the step.
+  const std::int64_t now = clock_ns();
+  if (!safety_->on_command(*command_msg_, sensors_.tick, now) &&
+      safety_->mode() != safety::Mode::kEStop)
+    ++rejected_commands_;
+  apply_safety_command(now);
   if (sim_->step(sim_command_, sensors_, truth_) != sim::StepStatus::kOk) ++rejected_commands_;
   monitor_.update(truth_);
   wall_ += std::chrono::steady_clock::now() - t0;
@@ -238,8 +314,8 @@ void InProcessLoop::step() {
 
 RunResult InProcessLoop::run(const std::function<void(double)>& progress) {
   const double dt = sim_->dt();
-  const auto steps = static_cast<std::int64_t>(std::llround(duration_ / dt));
   double next_report = 1.0;
+  const std::int64_t steps = first_tick_ + steps_;
   while (sim_->tick() < steps) {
     step();
     if (progress && time() >= next_report - 0.5 * dt) {
@@ -275,9 +351,9 @@ RunResult InProcessLoop::result() const {
   }
   r.deadline_misses = deadline_misses_;
   const double wall = std::chrono::duration<double>(wall_).count();
-  r.sim_time_s = time();
+  r.sim_time_s = static_cast<double>(sim_->tick() - first_tick_) * sim_->dt();
   r.realtime_factor = wall > 0.0 ? r.sim_time_s / wall : 0.0;
-  r.state_source = estimator_ ? StateSource::kEstimator : StateSource::kGroundTruth;
+  r.state_source = options_.state_source;
   r.ticks = controller_->diagnostics().ticks;
   r.contact_fallbacks = controller_->diagnostics().late_solutions;
   r.qp_failures = controller_->diagnostics().qp_failures;

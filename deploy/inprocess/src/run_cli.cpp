@@ -105,6 +105,11 @@ int cli_main(int argc, char** argv) {
                  "Estimator that makes the state: invariant-ekf or leg-odometry (default: the "
                  "scenario's estimator.type, else invariant-ekf)")
       ->check(CLI::IsMember({"invariant-ekf", "leg-odometry"}));
+  int settle_ticks = -1;
+  app.add_option("--settle-ticks", settle_ticks,
+                 "start-up: simulator steps with the joints held by the safety layer before the "
+                 "first control tick (default: poise-sim's, 10, as `poise run` distributed)")
+      ->check(CLI::Range(0, 10000));
   app.add_flag("--quiet,-q", quiet, "No progress lines");
   try {
     app.parse(argc, argv);
@@ -125,6 +130,7 @@ int cli_main(int argc, char** argv) {
     opt.contact_method = *contact::parse_method(method);
     opt.controller_config_file = controller_config;
     opt.duration = duration;
+    opt.settle_ticks = settle_ticks;
     opt.estimator = estimator_kind.empty() ? scenario.estimator.type : estimator_kind;
     InProcessLoop loop(scenario, opt);
     if (!quiet)

@@ -24,6 +24,7 @@
 #include "poise/launch/supervisor.hpp"
 #include "poise/contact/contact_optimizer.hpp"
 #include "poise/controller/controller_config.hpp"
+#include "poise/model/robot_config.hpp"
 #include "poise/scenario/scenario.hpp"
 
 namespace poise::launch {
@@ -319,24 +320,24 @@ int run_distributed(int argc, char** argv) {
     est_args.insert(est_args.end(), {"--estimator", s.estimator});
     // Where the soles start (scenario estimator section, or derived from the platforms' placement).
     const scenario::EstimatorStart start = scenario::estimator_start(scenario);
-    est_args.insert(est_args.end(), {"--ground-height", std::to_string(start.ground_height)});
+    // Every number to the last bit (%.17g): a start height rounded to 1e-6 m was a difference
+    // from the in-process run (issue #17 item 4).
+    const auto exact = [](double v) {
+      char b[40];
+      std::snprintf(b, sizeof b, "%.17g", v);
+      return std::string(b);
+    };
+    est_args.insert(est_args.end(), {"--ground-height", exact(start.ground_height)});
     if (start.per_foot) {
       // Feet without a given height stand on the ground.
       const auto h = [&](std::size_t f) {
         return std::isfinite(start.support_height[f]) ? start.support_height[f]
                                                       : start.ground_height;
       };
-      char r[32], l[32];
-      std::snprintf(r, sizeof r, "%.6f", h(0));
-      std::snprintf(l, sizeof l, "%.6f", h(1));
-      est_args.insert(est_args.end(), {"--support-heights", r, l});
+      est_args.insert(est_args.end(), {"--support-heights", exact(h(0)), exact(h(1))});
     }
-    {
-      char x[32], y[32];
-      std::snprintf(x, sizeof x, "%.6f", scenario.sim.initial.base_position.x());
-      std::snprintf(y, sizeof y, "%.6f", scenario.sim.initial.base_position.y());
-      est_args.insert(est_args.end(), {"--initial-xy", x, y});
-    }
+    est_args.insert(est_args.end(), {"--initial-xy", exact(scenario.sim.initial.base_position.x()),
+                                      exact(scenario.sim.initial.base_position.y())});
     // Each node's outputs: their consumer and the recorder, matched before its first input.
     if (recording_run) est_args.insert(est_args.end(), {"--output-readers", "2"});
     std::vector<std::string> contact_args = common("contact");
@@ -362,11 +363,18 @@ int run_distributed(int argc, char** argv) {
     std::vector<std::string> ctrl_args = common("controller");
     // The planned supports of the scenario from the first tick, as the in-process loop plans them
     // (the first supports were a difference between the two modes: issue #17 item 4).
-    ctrl_args.insert(ctrl_args.end(),
-                     {"--planned-support", scenario.support == "double" || scenario.support == "left" ||
-                                                   scenario.support == "right"
-                                               ? scenario.support
-                                               : "auto"});
+    // A foot name is the side whose robot-configuration frame is that simulated foot's frame
+    // (the in-process loop's rule), not only a foot named "left" or "right".
+    std::string planned_support = scenario.support == "double" ? "double" : "auto";
+    if (planned_support == "auto" && !scenario.robot_config.empty()) {
+      const model::RobotConfig rc = model::load_robot_config(scenario.robot_config);
+      for (const auto& foot : scenario.sim.robot.feet)
+        if (foot.name == scenario.support)
+          for (int side = 0; side < 2; ++side)
+            if (foot.frame == rc.feet[side].frame)
+              planned_support = side == model::kLeft ? "left" : "right";
+    }
+    ctrl_args.insert(ctrl_args.end(), {"--planned-support", planned_support});
     if (!ctrl_config_file.empty())
       ctrl_args.insert(ctrl_args.end(), {"--config", ctrl_config_file.string()});
     ctrl_args.insert(ctrl_args.end(), {"--contact-deadline-us", std::to_string(deadline_us)});

@@ -77,8 +77,13 @@ void overwrite_with_ground_truth(const msg::GroundTruth& truth, double mass,
   state.com_velocity_W(truth.com_velocity_W());
   for (int i = 0; i < 3; ++i)
     state.linear_momentum_W()[i] = mass * truth.com_velocity_W()[i];
-  for (int f = 0; f < 2; ++f)
+  // The contacts and their centres of pressure too: the estimate's CoP lies in the estimate's
+  // world, which is not the truth's when the base estimate is off (moving supports); with the
+  // true base pose the controller needs the true CoP (its resting rule compares the two).
+  for (int f = 0; f < 2; ++f) {
     state.feet()[f].in_contact(truth.feet()[f].in_contact());
+    state.feet()[f].cop_W(truth.feet()[f].cop_W());
+  }
   state.status_flags((state.status_flags() & ~msg::STATE_INITIALIZING) | msg::STATE_GROUND_TRUTH);
 }
 

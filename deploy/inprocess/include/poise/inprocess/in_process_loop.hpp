@@ -4,12 +4,33 @@
 // lockstep at the simulator's period. Used by `poise run --in-process SCENARIO`, by the closed-loop
 // tests, and as the baseline the DDS-distributed run is compared against.
 //
+// One answer wherever the components run (issue #17 item 4): the loop does what `poise run`
+// (distributed, lockstep) does, tick for tick, without the DDS transport:
+//   start-up     the simulator steps `settle_ticks` times (poise-sim --settle-ticks, default 10)
+//                with the joints held by the robot's safety layer (start-up hold), then the
+//                scenario monitor sees the settled state; the first control tick is tick
+//                settle_ticks, and the run is `duration` of control ticks after it (as poise-sim).
+//   messages     every hand-over goes through the topic's message type with the nodes' own
+//                conversions (sim_node, estimator_node, contact_node, controller_node): sensors,
+//                state, contact problem, contact solution, joint command. DDS serialisation of
+//                these types is lossless (doubles), so the numbers are the ones the nodes see.
+//   estimator    configured as poise run configures poise-estimator (frozen_imu_ticks 100).
+//   ground truth (debug state) as poise-estimator --ground-truth-state: the estimator's state with
+//                the base pose and twist, the CoM, its velocity, the linear momentum and the
+//                contact flags replaced by the simulator's truth (estimator_node::
+//                overwrite_with_ground_truth); the simulator's truth alone only in a build without
+//                the estimator library.
+//   robot side   each joint command goes through the robot's safety layer (poise::safety, as in
+//                poise-sim): validated, applied as the PD law, held when rejected.
+// What is not the same is listed in README.md ("One answer: in process and distributed").
+//
 // Per tick k:
 //   state k      = estimator.update(sensors k)            (or ground truth k: debug option)
 //   command k    = controller.tick(state k, reference, contact optimiser)
-//   sensors k+1  = simulator.step(command k)
-// The measured tick latency is the compute time of state + controller + optimiser (not the
-// simulator step); a tick whose latency exceeds the control period counts as a deadline miss.
+//   sensors k+1  = simulator.step(safety layer(command k))
+// The measured tick latency is the compute time of state + controller + optimiser, message
+// conversions included (not the simulator step); a tick whose latency exceeds the control period
+// counts as a deadline miss.
 
 #include <array>
 #include <chrono>
@@ -20,13 +41,29 @@
 #include <string>
 #include <vector>
 
+#include <poise/msg/contact_problem.h>
+#include <poise/msg/contact_solution.h>
+#include <poise/msg/ground_truth.h>
+#include <poise/msg/joint_command.h>
+#include <poise/msg/sensors.h>
+#include <poise/msg/state.h>
+
 #include "poise/contact/contact_optimizer.hpp"
 #include "poise/controller/balance_controller.hpp"
 #include "poise/reference/sampler.hpp"
 #include "poise/scenario/scenario.hpp"
 #include "poise/sim/simulator.hpp"
 
+namespace poise::safety {
+class SafetyLayer;
+}
+
 namespace poise::inprocess {
+
+/// poise-sim's default start-up hold (--settle-ticks): simulator steps before the first frame.
+inline constexpr int kDefaultSettleTicks = 10;
+/// poise-estimator's default --frozen-imu-ticks (the library's default is 20).
+inline constexpr int kNodeFrozenImuTicks = 100;
 
 /// Where the controller's state comes from.
 enum class StateSource : std::uint8_t {
@@ -49,6 +86,9 @@ struct LoopOptions {
   /// Estimator that makes the state: "invariant-ekf" or "leg-odometry"; "": the scenario's
   /// estimator.type.
   std::string estimator;
+  /// Start-up hold: simulator steps with the joints held by the safety layer before the first
+  /// control tick (poise-sim --settle-ticks); < 0: poise-sim's default (kDefaultSettleTicks).
+  int settle_ticks = -1;
 };
 
 struct LatencyStats {
@@ -101,6 +141,8 @@ class InProcessLoop {
 
   double time() const;
   double duration() const { return duration_; }
+  /// Tick of the first control tick (after the start-up hold).
+  std::int64_t first_tick() const { return first_tick_; }
   /// The balance reference used every tick (tests change it: CoM shift, upper-body motion).
   /// With a scenario `reference:` file, step() writes the trajectory's part of it first.
   controller::BalanceReference& reference() { return reference_; }
@@ -114,6 +156,11 @@ class InProcessLoop {
   struct EstimatorParts;
   void read_state();
   void play_reference();
+  void control();
+  void apply_safety_command(std::int64_t now_ns);
+  /// The safety layer's clock: the simulated time [ns] (poise-sim uses its wall clock; in
+  /// lockstep a command is applied as it arrives, so the watchdog never sees an age either way).
+  std::int64_t clock_ns() const;
 
   scenario::Scenario scenario_;
   LoopOptions options_;
@@ -131,6 +178,23 @@ class InProcessLoop {
   std::vector<int> sim_to_model_;  // sim joint i -> model joint
   std::vector<int> model_to_sim_;  // model joint j -> sim joint
   std::array<int, 2> sim_foot_of_side_{-1, -1};
+  std::array<int, 2> wire_feet_{-1, -1};  // sim_node::foot_order: message foot f -> sim foot
+  std::int64_t first_tick_ = 0;
+  std::int64_t steps_ = 0;  // control ticks of the run
+
+  // The topics' message types of one tick (what the nodes exchange).
+  std::unique_ptr<msg::Sensors> sensors_msg_;
+  std::unique_ptr<msg::State> state_msg_;
+  std::unique_ptr<msg::GroundTruth> truth_msg_;  // the fields --ground-truth-state uses
+  std::unique_ptr<msg::ContactProblem> problem_msg_;
+  std::unique_ptr<msg::ContactSolution> solution_msg_;
+  std::unique_ptr<msg::JointCommand> command_msg_;
+  contact::ContactProblem problem_;          // the controller's (phase A)
+  contact::ContactProblem solver_problem_;   // as the contact node decodes it
+  contact::ContactSolution solution_;        // the optimiser's
+  contact::ContactSolution answer_;          // as the controller node decodes it
+  contact::Priority priority_ = contact::Priority::kLexicographic;  // poise-contact --priority
+  std::unique_ptr<safety::SafetyLayer> safety_;
 
   sim::SensorFrame sensors_;
   sim::GroundTruth truth_;

@@ -23,8 +23,8 @@ void to_msg(const estimator::EstimatorState& in, const std::vector<int>& model_t
             msg::State& out) noexcept;
 
 /// Debug (--ground-truth-state): overwrites the base pose and twist, the CoM, its velocity, the
-/// linear momentum (mass * CoM velocity) and the feet's contact flags of `state` with the
-/// simulator's ground truth, and sets STATE_GROUND_TRUTH.
+/// linear momentum (mass * CoM velocity) and the feet's contact flags and centres of pressure of
+/// `state` with the simulator's ground truth, and sets STATE_GROUND_TRUTH.
 void overwrite_with_ground_truth(const msg::GroundTruth& truth, double mass,
                                  msg::State& state) noexcept;
 
