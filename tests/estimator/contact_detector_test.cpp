@@ -84,6 +84,99 @@ TEST(ContactDetector, NoChatterWhileALoadedFootSlides) {
   EXPECT_EQ(changes, 0);
 }
 
+TEST(ContactDetector, APlannedSwingEndsTheContactAtTheLowerLoadOrWhenTheSoleLeaves) {
+  // off 5 N, so swing_off_force = 2.5 N by default.
+  ContactThresholds t{75.0, 5.0};
+  t.touch_force = 10.0;
+  ContactDetector c(t);
+  EXPECT_DOUBLE_EQ(c.thresholds().swing_off_force, 2.5);
+  FootKinematics k;
+  k.sole_z = 0.0;
+  EXPECT_TRUE(c.update(wrench_with_fz(200.0), k));
+  // The plan says swing; the controller unloads the foot: 4 N and 3 N (below off, above
+  // swing_off) keep the contact however long, where without the plan two ticks end it.
+  k.plan = FootPlan::kSwing;
+  for (int i = 0; i < 10; ++i)
+    EXPECT_TRUE(c.update(wrench_with_fz(i % 2 ? 4.0 : 3.0), k));
+  // Below 2.5 N for two ticks (confirm_ticks): lift-off.
+  EXPECT_TRUE(c.update(wrench_with_fz(2.0), k));
+  EXPECT_FALSE(c.update(wrench_with_fz(2.0), k));
+
+  // The same unloading without a plan: two ticks below 5 N end the contact.
+  ContactDetector d(t);
+  k = FootKinematics{};
+  k.sole_z = 0.0;
+  EXPECT_TRUE(d.update(wrench_with_fz(200.0), k));
+  EXPECT_TRUE(d.update(wrench_with_fz(4.0), k));
+  EXPECT_FALSE(d.update(wrench_with_fz(3.0), k));
+
+  // Planned swing, the load below 2.5 N for one tick, the sole rising from its lowest height
+  // since the swing began: 0.02 mm up is within swing_lift_height (0.03 mm), 0.04 mm is not.
+  ContactDetector e(t);
+  k = FootKinematics{};
+  k.sole_z = 0.0;
+  EXPECT_TRUE(e.update(wrench_with_fz(200.0), k));
+  k.plan = FootPlan::kSwing;
+  k.sole_z = -1e-5;  // the lowest since the swing began
+  EXPECT_TRUE(e.update(wrench_with_fz(3.0), k));
+  k.sole_z = 1e-5;  // 0.02 mm above it, rising, but the load 3 N > 2.5 N
+  EXPECT_TRUE(e.update(wrench_with_fz(3.0), k));
+  k.sole_z = 2.5e-5;  // 0.035 mm above the lowest, rising, load 2 N: lift-off at once
+  EXPECT_FALSE(e.update(wrench_with_fz(2.0), k));
+
+  // A planned support is no evidence: it unloads as without a plan.
+  ContactDetector g(t);
+  k = FootKinematics{};
+  k.sole_z = 0.0;
+  k.plan = FootPlan::kSupport;
+  EXPECT_TRUE(g.update(wrench_with_fz(200.0), k));
+  EXPECT_TRUE(g.update(wrench_with_fz(4.0), k));
+  EXPECT_FALSE(g.update(wrench_with_fz(4.0), k));
+}
+
+TEST(ContactDetector, AFootRestingLightlyKeepsItsContactWhenTheRuleIsOn) {
+  ContactThresholds t{75.0, 5.0};
+  t.touch_force = 10.0;
+  t.rest_time = 0.05;
+  ContactDetector c(t);
+  FootKinematics k;
+  k.sole_z = 0.0;
+  EXPECT_TRUE(c.update(wrench_with_fz(200.0), k));
+  // Unloaded slowly by a weight shift: 8 N (below touch_force) for 60 ticks, the sole still.
+  for (int i = 0; i < 60; ++i)
+    EXPECT_TRUE(c.update(wrench_with_fz(8.0), k));
+  EXPECT_TRUE(c.resting());
+  // Then 0-4 N (below off) for 200 ticks: still in contact.
+  for (int i = 0; i < 200; ++i)
+    EXPECT_TRUE(c.update(wrench_with_fz(0.02 * (i % 200)), k));
+  // The sole rises 5 mm: lift-off.
+  k.sole_z = 0.002;
+  EXPECT_TRUE(c.update(wrench_with_fz(1.0), k));
+  k.sole_z = 0.005;
+  EXPECT_FALSE(c.update(wrench_with_fz(1.0), k));
+  EXPECT_FALSE(c.resting());
+
+  // A foot unloaded fast (a push): below touch_force for 3 ticks only, then below off: the
+  // force rule ends its contact as without the resting rule.
+  ContactDetector d(t);
+  k = FootKinematics{};
+  k.sole_z = 0.0;
+  EXPECT_TRUE(d.update(wrench_with_fz(200.0), k));
+  EXPECT_TRUE(d.update(wrench_with_fz(9.0), k));
+  EXPECT_TRUE(d.update(wrench_with_fz(4.0), k));
+  EXPECT_FALSE(d.update(wrench_with_fz(1.0), k));
+
+  // Off by default: the resting foot loses its contact two ticks below off.
+  ContactDetector e(ContactThresholds{75.0, 5.0});
+  k = FootKinematics{};
+  k.sole_z = 0.0;
+  EXPECT_TRUE(e.update(wrench_with_fz(200.0), k));
+  for (int i = 0; i < 100; ++i)
+    EXPECT_TRUE(e.update(wrench_with_fz(8.0), k));
+  EXPECT_TRUE(e.update(wrench_with_fz(1.0), k));
+  EXPECT_FALSE(e.update(wrench_with_fz(1.0), k));
+}
+
 TEST(ContactDetector, RejectsBadThresholds) {
   EXPECT_THROW(ContactDetector(ContactThresholds{10.0, 10.0}), std::invalid_argument);
   EXPECT_THROW(ContactDetector(ContactThresholds{10.0, -1.0}), std::invalid_argument);
@@ -96,6 +189,15 @@ TEST(ContactDetector, RejectsBadThresholds) {
   EXPECT_THROW(ContactDetector{t}, std::invalid_argument);
   t = ContactThresholds{100.0, 10.0};
   t.lift_height = std::nan("");
+  EXPECT_THROW(ContactDetector{t}, std::invalid_argument);
+  t = ContactThresholds{100.0, 10.0};
+  t.rest_time = -0.1;
+  EXPECT_THROW(ContactDetector{t}, std::invalid_argument);
+  t = ContactThresholds{100.0, 10.0};
+  t.swing_off_force = 11.0;  // above off_force
+  EXPECT_THROW(ContactDetector{t}, std::invalid_argument);
+  t = ContactThresholds{100.0, 10.0};
+  t.swing_lift_height = -1e-5;
   EXPECT_THROW(ContactDetector{t}, std::invalid_argument);
 }
 

@@ -29,6 +29,12 @@ ContactDetector::ContactDetector(const ContactThresholds& thresholds) : threshol
       !std::isfinite(t.tare_height))
     fail("max_touch_height, lift_height and tare_height must be finite and >= 0");
   if (!(t.tare_time > 0.0) || !std::isfinite(t.tare_time)) fail("tare_time must be > 0");
+  if (!(t.rest_time >= 0.0) || !std::isfinite(t.rest_time)) fail("rest_time must be >= 0");
+  if (!std::isfinite(t.swing_off_force)) fail("swing_off_force must be finite");
+  if (t.swing_off_force <= 0.0) t.swing_off_force = 0.5 * t.off_force;
+  if (t.swing_off_force > t.off_force) fail("swing_off_force must be <= off_force");
+  if (!(t.swing_lift_height >= 0.0) || !std::isfinite(t.swing_lift_height))
+    fail("swing_lift_height must be finite and >= 0");
 }
 
 void ContactDetector::reset(bool in_contact) noexcept {
@@ -37,6 +43,9 @@ void ContactDetector::reset(bool in_contact) noexcept {
   have_prev_ = false;
   have_support_ = false;
   have_z_ = false;
+  light_time_ = 0.0;
+  resting_ = false;
+  swing_seen_ = false;
 }
 
 bool ContactDetector::update(const Force& wrench_Fo_F, const FootKinematics& kin) noexcept {
@@ -60,6 +69,14 @@ bool ContactDetector::update(const Force& wrench_Fo_F, const FootKinematics& kin
   } else {
     have_z_ = false;
   }
+  // The plan: the lowest sole height since it said swing.
+  const bool swing = kin.plan == FootPlan::kSwing;
+  if (swing && have_kin) {
+    swing_low_z_ = swing_seen_ ? std::min(swing_low_z_, kin.sole_z) : kin.sole_z;
+    swing_seen_ = true;
+  } else {
+    swing_seen_ = false;
+  }
 
   // F/T offset: learnt while the foot is clearly in the air (the reading is then the offset).
   if (!in_contact_ && have_kin && height > t.tare_height) {
@@ -72,17 +89,32 @@ bool ContactDetector::update(const Force& wrench_Fo_F, const FootKinematics& kin
   have_prev_ = true;
 
   if (in_contact_) {
+    light_time_ = fn < t.touch_force ? light_time_ + (have_kin ? kin.dt : 0.001) : 0.0;
+    // Resting (rule on when rest_time > 0): lightly loaded for rest_time with the sole where it
+    // stood (kinematics given).
+    resting_ = t.rest_time > 0.0 && have_kin && !(height > t.lift_height) &&
+               light_time_ >= t.rest_time;
     const bool lifted = have_kin && height > t.lift_height && rising;
-    if (lifted) {
+    // Planned swing: the load must fall to swing_off_force (the controller unloads the foot to
+    // zero), or below it the sole leaves its lowest height since the swing began.
+    const double off = swing_seen_ ? t.swing_off_force : t.off_force;
+    const bool swing_lifted = swing_seen_ && fn < off && rising &&
+                              kin.sole_z - swing_low_z_ > t.swing_lift_height;
+    if (lifted || swing_lifted) {
       in_contact_ = false;
       pending_ = 0;
-    } else if (fn < t.off_force) {
-      if (++pending_ >= t.confirm_ticks) {
+    } else if (fn < off) {
+      ++pending_;
+      if (!resting_ && pending_ >= t.confirm_ticks) {
         in_contact_ = false;
         pending_ = 0;
       }
     } else {
       pending_ = 0;
+    }
+    if (!in_contact_) {
+      light_time_ = 0.0;
+      resting_ = false;
     }
   } else {
     const bool too_high = have_kin && height > t.max_touch_height;

@@ -420,6 +420,7 @@ StatusFlags Estimator::update(const SensorFrame& frame, EstimatorState& out) noe
   for (int f = 0; f < kNumFeet; ++f) {
     FootKinematics kin;
     kin.dt = dt;
+    kin.plan = frame.foot_plan[f];
     if (initialized_) {
       const InvariantEkf::Mean& m = ekf_.mean();
       const Vector3 sole_B = legs_.X_BF[f].act(Vector3(0.0, 0.0, -sole_height_[f]));

@@ -6,6 +6,9 @@
 //   subscribes  poise/robot_description  RobotDescription  once at start (latched): joint order
 //               poise/sensors            Sensors           1 kHz  reliable, keep-last 1
 //               poise/ground_truth       GroundTruth       only with --ground-truth-state (debug)
+//               poise/balance_reference  BalanceReference  on change (latched, 512 held): the
+//                                                           feet's planned modes, the contact
+//                                                           detector's prior (off: --ignore-plan)
 //   publishes   poise/state              State             one per sensor sample, same tick k
 //                                                           reliable, keep-last 1
 //               poise/diagnostics        Diagnostics       ~10 Hz best-effort, keep-last 1
@@ -19,6 +22,9 @@
 //               DEGRADED, kinematics-only fallback (status bit). Reasons in last_error.
 //   threading   each sensor sample is handled on the DDS listener thread as it arrives (no
 //               wake-up of a loop thread per tick); the main thread publishes the diagnostics.
+//   plan        the plan of state k is that of the reference with the largest header tick <= k
+//               (held until due, as poise-controller applies references: FootPlanQueue); before
+//               any reference, and with --ignore-plan, no plan (the detector's rules alone).
 //   debug       --ground-truth-state: base pose/twist, CoM and contacts copied from the
 //               simulator's ground truth of the same tick (STATE_GROUND_TRUTH set). Off by default.
 // ------------------------------------------------------------------------------------------------
@@ -33,8 +39,11 @@
 #include <string>
 #include <vector>
 
+#include <poise/msg/balance_reference.h>
+
 #include "poise/estimator/estimator.hpp"
 #include "poise/estimator_node/estimator_messages.hpp"
+#include "poise/estimator_node/foot_plan_queue.hpp"
 #include "poise/model/robot_config.hpp"
 #include "poise/node/mailbox.hpp"
 #include "poise/node/node.hpp"
@@ -99,6 +108,10 @@ int run(int argc, char** argv) {
                  "from being taken for a dead one")
       ->check(CLI::Range(2, 1000000))
       ->capture_default_str();
+  bool ignore_plan = false;
+  app.add_flag("--ignore-plan", ignore_plan,
+               "do not subscribe to poise/balance_reference: contact from the sensors alone "
+               "(no FOOT_SWING prior for the contact detector)");
   CLI11_PARSE(app, argc, argv);
 
   node::Node node(options);
@@ -147,6 +160,21 @@ int run(int argc, char** argv) {
     node.watch(*truths);
   }
   dds::Publisher<msg::State> states(node.participant());
+  // The feet's planned modes, held until their tick (the contact detector's prior).
+  constexpr std::size_t kPlanQueue = 512;
+  estimator_node::FootPlanQueue plans(kPlanQueue);
+  std::unique_ptr<dds::Subscriber<msg::BalanceReference>> references;
+  if (!ignore_plan) {
+    references = std::make_unique<dds::Subscriber<msg::BalanceReference>>(
+        node.participant(),
+        [&plans](const msg::BalanceReference& r) {
+          plans.put(r.header().tick(),
+                    {estimator::foot_plan_of_mode(static_cast<int>(r.feet()[0].mode())),
+                     estimator::foot_plan_of_mode(static_cast<int>(r.feet()[1].mode()))});
+        },
+        dds::Qos::latched(static_cast<int>(kPlanQueue)));
+    node.watch(*references);
+  }
 
   msg::GroundTruth truth;
   msg::State out;
@@ -189,6 +217,7 @@ int run(int argc, char** argv) {
     }
     node.input_seen(sensors_input, k);
     estimator_node::from_msg(in, model_to_wire, frame);
+    frame.foot_plan = plans.at(k);
     const std::int64_t t_lib = node::now_ns();
     const estimator::StatusFlags flags = estimator.update(frame, state);
     const std::int64_t lib_ns = node::now_ns() - t_lib;
@@ -256,7 +285,7 @@ int run(int argc, char** argv) {
                 "\"filter_resets\": %llu, "
                 "\"rejected_frames\": %llu, \"dropped_frames\": %llu, \"frozen_imu_ticks\": %llu, "
                 "\"orientation_rejections\": %llu, \"out_of_sequence\": %llu, \"stream_restarts\": %llu, "
-                "\"stale_events\": %llu}",
+                "\"stale_events\": %llu, \"plans_received\": %llu, \"plan_overflows\": %llu}",
                 ground_truth_state ? "ground_truth" : "estimator",
                 estimator::to_string(config.kind), estimator::to_string(config.supports), static_cast<unsigned long long>(d.resets),
                 static_cast<unsigned long long>(d.rejected_frames),
@@ -265,7 +294,9 @@ int run(int argc, char** argv) {
                 static_cast<unsigned long long>(d.orientation_rejections),
                 static_cast<unsigned long long>(sequencer.rejected()),
                 static_cast<unsigned long long>(sequencer.restarts()),
-                static_cast<unsigned long long>(node.stale_events()));
+                static_cast<unsigned long long>(node.stale_events()),
+                static_cast<unsigned long long>(plans.received()),
+                static_cast<unsigned long long>(plans.overflows()));
   node.write_summary(extra);
   return 0;
 }

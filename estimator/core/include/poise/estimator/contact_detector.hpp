@@ -9,8 +9,21 @@
 //              touch_rate (at once: an impact), or fn > touch_force for confirm_ticks ticks;
 //              never while the sole is more than max_touch_height above where it last stood
 //              (kinematics given);
-//   lift-off   when fn < off_force for confirm_ticks ticks, or (kinematics given) the sole is
-//              lift_height above where it stood and still rising.
+//   lift-off   when (kinematics given) the sole is lift_height above where it stood and still
+//              rising, or when fn < off_force for confirm_ticks ticks;
+//   plan       FootPlan::kSwing (the balance reference's FOOT_SWING): the controller unloads
+//              the foot to zero, so the load must fall below swing_off_force (default
+//              off_force / 2) for confirm_ticks ticks, or below it the sole (kinematics given)
+//              must rise swing_lift_height (0.03 mm) above the lowest it was since the plan
+//              said swing (the lift of a swing starts at zero velocity: the 4 mm of lift_height
+//              come ~0.1 s after the sole left). kNone / kSupport: the rules above (a planned
+//              support may still be lifted by a push);
+//   resting    (off by default: rest_time = 0) with rest_time > 0, a foot whose load stayed below
+//              touch_force for rest_time with its sole within lift_height of where it stood
+//              keeps its contact whatever its load, until its sole rises or the plan's swing
+//              rule fires. Off because the balance controller takes the flag for "loaded" (its
+//              CoP rule, balance_controller.cpp): with the rule on, the step in place slipped
+//              (idl/README.md "Contact flags").
 // A sliding foot keeps its load, so neither rule fires while it slides (no chatter).
 
 #include <limits>
@@ -32,12 +45,21 @@ struct ContactThresholds {
   double lift_height = 0.004;      ///< lift-off once the sole is this far up and rising [m]
   double tare_height = 0.03;  ///< above this (in the air) the F/T reading is learnt as offset [m]
   double tare_time = 0.05;    ///< time constant of that offset estimate [s]
+  /// A foot whose load stayed below touch_force this long without its sole rising rests: low
+  /// force alone no longer ends its contact [s] (>= 0; 0: the resting rule is off).
+  double rest_time = 0.0;
+  /// With the plan kSwing: lift-off below this load [N] (<= off_force; <= 0: off_force / 2).
+  double swing_off_force = 0.0;
+  /// With the plan kSwing and fn < swing_off_force: lift-off once the sole is this far above the
+  /// lowest it was since the plan said swing, and rising [m] (>= 0).
+  double swing_lift_height = 3e-5;
 };
 
 /// What the estimator knows of the foot's motion this tick (NaN: unknown).
 struct FootKinematics {
   double sole_z = std::numeric_limits<double>::quiet_NaN();  ///< sole centre height in W [m]
   double dt = 0.001;                                         ///< since the previous tick [s]
+  FootPlan plan = FootPlan::kNone;  ///< the plan in force (not kinematics: the detector's prior)
 };
 
 /// One foot's contact state. Real-time safe (no allocation, no exception).
@@ -46,13 +68,15 @@ class ContactDetector {
   ContactDetector() = default;
   /// Throws std::invalid_argument unless 0 <= off_force < on_force and the other fields are
   /// finite and in range (touch_force < on_force, touch_rate > 0, confirm_ticks >= 1, heights
-  /// >= 0, tare_time > 0).
+  /// >= 0, tare_time > 0, rest_time >= 0, swing_off_force <= off_force, swing_lift_height >= 0).
   explicit ContactDetector(const ContactThresholds& thresholds);
 
   /// Feeds one wrench [force; torque] at Fo in F axes, and optionally the foot's kinematics;
   /// returns the contact state after it. A non-finite normal force leaves the state unchanged.
   bool update(const Force& wrench_Fo_F, const FootKinematics& kin = FootKinematics{}) noexcept;
   bool in_contact() const noexcept { return in_contact_; }
+  /// The foot is in contact and rests (see the header comment).
+  bool resting() const noexcept { return resting_; }
   void reset(bool in_contact = false) noexcept;
   const ContactThresholds& thresholds() const noexcept { return thresholds_; }
   /// Normal force offset learnt in the air [N] (0 until the foot was clearly up once).
@@ -69,6 +93,10 @@ class ContactDetector {
   double z_prev_ = 0.0;
   bool have_z_ = false;
   double offset_ = 0.0;
+  double light_time_ = 0.0;  ///< how long the load has stayed below touch_force in contact [s]
+  bool resting_ = false;
+  bool swing_seen_ = false;  ///< the plan says kSwing (and said so at the previous update)
+  double swing_low_z_ = 0.0;  ///< lowest sole height since then [m]
 };
 
 /// Centre of pressure on the sole plane z = -sole_height of the foot frame F, in F coordinates:

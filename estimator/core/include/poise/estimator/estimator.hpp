@@ -142,7 +142,8 @@ struct EstimatorConfig {
   double translating_orientation_max_chi2 = 16.3;  // 99.9 % of chi2(3)
   /// Contact thresholds as fractions of the robot's weight m |g| on the foot normal force:
   /// touch-down at once above on, lift-off confirmed below off (ContactDetector; a light load of
-  /// 2 % of the weight, or an impact, also makes a touch-down; kinematics gate both).
+  /// 2 % of the weight, or an impact, also makes a touch-down; kinematics gate both; when the
+  /// plan, SensorFrame::foot_plan, says a foot swings, its contact ends below off / 2).
   double contact_on_fraction = 0.15;
   double contact_off_fraction = 0.01;
   /// Identical consecutive IMU samples (gyro, accelerometer and orientation bit for bit) after

@@ -38,6 +38,20 @@ enum StatusFlag : std::uint32_t {
 };
 using StatusFlags = std::uint32_t;
 
+/// What the plan says of a foot (the balance reference's FootMode, idl/balance_reference.idl):
+/// the contact detector's prior. kNone: no plan (FOOT_AUTO, or no planner at all).
+enum class FootPlan : std::uint8_t {
+  kNone = 0,     ///< FOOT_AUTO or no reference: contact from the sensors alone
+  kSupport = 1,  ///< FOOT_SUPPORT: planned to stand (not used as evidence: a push may lift it)
+  kSwing = 2,    ///< FOOT_SWING: planned to leave the ground (a light load ends the contact)
+};
+
+/// The plan of a FootMode value (0 FOOT_AUTO, 1 FOOT_SUPPORT, 2 FOOT_SWING, as in the IDL and
+/// poise::controller::FootMode); any other value: kNone.
+constexpr FootPlan foot_plan_of_mode(int mode) noexcept {
+  return mode == 1 ? FootPlan::kSupport : mode == 2 ? FootPlan::kSwing : FootPlan::kNone;
+}
+
 /// One sensor frame (robot -> estimator), the content of poise::msg::Sensors.
 struct SensorFrame {
   std::int64_t tick = 0;         ///< sensor tick k
@@ -53,6 +67,9 @@ struct SensorFrame {
   /// Per foot: wrench the ground exerts on the foot, at the foot frame origin Fo, foot axes F,
   /// ordered [force (3); torque (3)] (poise::model Force convention).
   std::array<Force, kNumFeet> foot_wrench_Fo_F{Force::Zero(), Force::Zero()};
+  /// Per foot: the planned mode in force at this tick (not a sensor: the node takes it from
+  /// poise/balance_reference, the in-process loop from its reference). kNone when no plan.
+  std::array<FootPlan, kNumFeet> foot_plan{FootPlan::kNone, FootPlan::kNone};
 };
 
 /// Estimated state of one foot (idl FootState).
