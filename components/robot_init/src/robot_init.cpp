@@ -580,7 +580,7 @@ int run_init(const Options& opt) {
   //  - stance (leg joints): the leg's own foot held by the ground (6D: a flat sole), M^-1 becomes
   //    M^-1 - M^-1 J^T (J M^-1 J^T)^-1 J M^-1 (J: the foot body's Jacobian). Holding a body only
   //    takes freedom away, so I_stance >= I_swing: the ankle now moves the robot above it (badger:
-  //    5.4 kg m^2, 2100 x), a knee or a hip yaw 5-7 x, a hip roll or pitch 2.2-3.3 x.
+  //    5.4 kg m^2, 2100 x), a knee or a hip yaw 4.9-7 x, a hip roll or pitch 2.2-3.3 x.
   // The explicit PD at the control period dt must be stable on the SMALLER inertia, the one it
   // sees in swing (in stance the same gains only gain margin): kp dt^2 / I_swing <= 0.04,
   // kd dt / I_swing <= 0.4. (A one-joint semi-implicit Euler loop is stable for
@@ -589,8 +589,8 @@ int run_init(const Options& opt) {
   // Stiffness from the swing inertia: kp = I_swing wn^2 (kp dt^2 / I_swing = 0.01), ceiling
   // kp_max. Stiffer legs were measured worse: kp = I_stance wn^2 up to the cap above (4 x on
   // every leg joint below the ceiling) made badger and kestrel slip 30-37 mm after the pushes
-  // (the double-support chain is closed through the ground: joint stiffness the plan does not
-  // know about pushes the feet against each other).
+  // (likely, not verified: the double-support chain is closed through the ground, and joint
+  // stiffness the plan does not know about pushes the feet against each other).
   // Damping: kd = 2 zeta sqrt(kp I_swing) damps the swing loop critically, but leaves the stance
   // loop the damping ratio sqrt(I_swing / I_stance): 0.02 for an ankle roll, whose foot then
   // rocks on its edges after a push (badger fell). Where that ratio is below 1 / sqrt(3) (stance
