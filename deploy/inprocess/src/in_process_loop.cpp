@@ -175,7 +175,7 @@ InProcessLoop::InProcessLoop(const scenario::Scenario& scenario, const LoopOptio
 }
 
 std::int64_t InProcessLoop::clock_ns() const {
-  return std::llround(sim_->time() * 1e9);
+  return std::llround(sim_->time() * 1e9) + clock_offset_ns_;
 }
 
 void InProcessLoop::apply_safety_command(std::int64_t now_ns) {
@@ -194,7 +194,7 @@ double InProcessLoop::time() const {
   return sim_->time();
 }
 
-void InProcessLoop::read_state() {
+bool InProcessLoop::read_state() {
   const int n = model_.njoints;
 #if POISE_INPROCESS_HAVE_ESTIMATOR
   if (estimator_) {
@@ -207,7 +207,9 @@ void InProcessLoop::read_state() {
     for (int side = 0; side < 2; ++side)
       estimator_->frame.foot_plan[static_cast<std::size_t>(side)] = estimator::foot_plan_of_mode(
           static_cast<int>(reference_.feet[static_cast<std::size_t>(side)].mode));
+    const std::uint64_t rejected = estimator_->est.diagnostics().rejected_frames;
     estimator_->est.update(estimator_->frame, estimator_->out);
+    if (estimator_->est.diagnostics().rejected_frames != rejected) return false;  // no state
     estimator_node::to_msg(estimator_->out, model_to_sim_, *state_msg_);
     if (options_.state_source == StateSource::kGroundTruth) {
       // poise-estimator --ground-truth-state: the truth of the same tick over the estimate.
@@ -225,7 +227,7 @@ void InProcessLoop::read_state() {
       estimator_node::overwrite_with_ground_truth(g, model_.total_mass, *state_msg_);
     }
     controller_node::from_msg(*state_msg_, model_to_sim_, state_);
-    return;
+    return true;
   }
 #endif
   // Ground truth in a build without the estimator library: the simulator's truth (joints from the
@@ -253,7 +255,8 @@ void InProcessLoop::read_state() {
     f.normal_force = t.in_contact ? (t.X_WF.linear().transpose() * t.force_W).z() : 0.0;
   }
   state_msg_->header().tick(static_cast<std::uint64_t>(sensors_.tick));
-  state_msg_->header().stamp_ns(clock_ns());
+  state_msg_->header().stamp_ns(std::llround(sensors_.time * 1e9));
+  return true;
 }
 
 void InProcessLoop::play_reference() {
@@ -291,8 +294,24 @@ void InProcessLoop::control() {
 }
 
 void InProcessLoop::step() {
+  if (aborted_) return;
   const auto t0 = std::chrono::steady_clock::now();
-  read_state();
+  if (!read_state()) {
+    // No state, so no command: poise-sim waits for it until its timeout, then applies what the
+    // safety layer says at that moment, or gives up after too many such ticks in a row.
+    ++command_timeouts_;
+    clock_offset_ns_ += std::llround(options_.command_timeout_ms * 1e6);
+    if (++consecutive_timeouts_ >= options_.max_consecutive_timeouts) {
+      aborted_ = true;
+      return;
+    }
+    apply_safety_command(clock_ns());
+    if (sim_->step(sim_command_, sensors_, truth_) != sim::StepStatus::kOk) ++rejected_commands_;
+    monitor_.update(truth_);
+    wall_ += std::chrono::steady_clock::now() - t0;
+    return;
+  }
+  consecutive_timeouts_ = 0;
   play_reference();
   control();
   const auto t1 = std::chrono::steady_clock::now();
@@ -316,7 +335,7 @@ RunResult InProcessLoop::run(const std::function<void(double)>& progress) {
   const double dt = sim_->dt();
   double next_report = 1.0;
   const std::int64_t steps = first_tick_ + steps_;
-  while (sim_->tick() < steps) {
+  while (!aborted_ && sim_->tick() < steps) {
     step();
     if (progress && time() >= next_report - 0.5 * dt) {
       progress(time());
@@ -340,6 +359,12 @@ RunResult InProcessLoop::result() const {
   r.trunk_pitch_max_deg = m.trunk_pitch_max_deg;
   r.trunk_roll_max_deg = m.trunk_roll_max_deg;
   r.failed = monitor_.failed_criteria();
+  r.completed = !aborted_;
+  r.command_timeouts = command_timeouts_;
+  if (aborted_) {  // as poise-sim's result
+    r.survived = false;
+    r.failed.push_back("run aborted before its end");
+  }
   std::vector<double> lat = latency_us_;
   if (!lat.empty()) {
     std::sort(lat.begin(), lat.end());

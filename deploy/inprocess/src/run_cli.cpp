@@ -44,6 +44,8 @@ nlohmann::json to_json(const RunResult& r) {
     for (const auto& f : r.failed) why += (why.empty() ? "" : "; ") + f;
     j["failure"] = why;
   }
+  j["completed"] = r.completed;
+  j["command_timeouts"] = r.command_timeouts;
   j["contact_fallbacks"] = r.contact_fallbacks;
   j["qp_failures"] = r.qp_failures;
   j["rejected_commands"] = r.rejected_commands;

@@ -89,6 +89,13 @@ struct LoopOptions {
   /// Start-up hold: simulator steps with the joints held by the safety layer before the first
   /// control tick (poise-sim --settle-ticks); < 0: poise-sim's default (kDefaultSettleTicks).
   int settle_ticks = -1;
+  /// A tick without a joint command (the estimator refused its sensor frame: poise-estimator
+  /// sends no state then) is handled as poise-sim handles it in lockstep: after this wait
+  /// (poise run --command-timeout-ms) the safety layer's command of that moment is applied (the
+  /// watchdog has expired: HOLD of the last targets), and after `max_consecutive_timeouts`
+  /// such ticks in a row the run is aborted (poise-sim --max-consecutive-timeouts).
+  double command_timeout_ms = 2000.0;
+  int max_consecutive_timeouts = 3;
 };
 
 struct LatencyStats {
@@ -110,6 +117,8 @@ struct RunResult {
   double trunk_pitch_max_deg = 0.0;   ///< ScenarioMonitor::Result
   double trunk_roll_max_deg = 0.0;
   std::vector<std::string> failed;    ///< the success criteria that failed, readable
+  bool completed = true;              ///< false: aborted (ticks without a command, see LoopOptions)
+  std::uint64_t command_timeouts = 0;  ///< ticks without a joint command
   LatencyStats tick_latency_us;       ///< compute time of state + controller + optimiser per tick
   std::uint64_t deadline_misses = 0;  ///< ticks whose latency exceeded the control period
   double realtime_factor = 0.0;       ///< simulated time / wall time (whole loop incl. simulator)
@@ -154,7 +163,8 @@ class InProcessLoop {
 
  private:
   struct EstimatorParts;
-  void read_state();
+  /// False when the estimator refused the frame (no state: poise-estimator sends none).
+  bool read_state();
   void play_reference();
   void control();
   void apply_safety_command(std::int64_t now_ns);
@@ -181,6 +191,10 @@ class InProcessLoop {
   std::array<int, 2> wire_feet_{-1, -1};  // sim_node::foot_order: message foot f -> sim foot
   std::int64_t first_tick_ = 0;
   std::int64_t steps_ = 0;  // control ticks of the run
+  std::int64_t clock_offset_ns_ = 0;  // command waits that timed out (added to the safety clock)
+  int consecutive_timeouts_ = 0;
+  std::uint64_t command_timeouts_ = 0;
+  bool aborted_ = false;
 
   // The topics' message types of one tick (what the nodes exchange).
   std::unique_ptr<msg::Sensors> sensors_msg_;
