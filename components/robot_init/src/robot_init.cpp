@@ -595,8 +595,9 @@ int run_init(const Options& opt) {
   // loop the damping ratio sqrt(I_swing / I_stance): 0.02 for an ankle roll, whose foot then
   // rocks on its edges after a push (badger fell). Where that ratio is below 1 / sqrt(3) (stance
   // inertia more than 3 x the swing one: ankles, knees, hip yaws), kd = 2 zeta sqrt(kp I_stance)
-  // damps the stance loop critically instead, within the cap above. Hip roll and pitch (2.2-3.3 x)
-  // keep the swing kd: damping them for stance too made badger slip 17-19 mm (seeds 1 and 5).
+  // damps the stance loop critically instead, within the cap above. Hip roll and pitch below 3 x
+  // keep the swing kd (the 3 is measured, not derived: damping every leg joint for stance made
+  // badger slip 17-19 mm, seeds 1 and 5; tests/robots/README.md).
   // Joints outside the legs carry no foot: I_stance = I_swing.
   // The caps bound each joint alone, not the coupled loop. So the whole robot's explicit loop
   // (free floating, every joint's PD, as the simulator applies it) is checked to stay stable
