@@ -25,9 +25,9 @@
 #include <string>
 #include <vector>
 
+#include <poise/msg/ground_truth.h>
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
-#include <poise/msg/ground_truth.h>
 
 #include "child_process.hpp"
 #include "poise/dds/topics.hpp"
@@ -76,8 +76,8 @@ InProcessRun run_in_process(const std::string& scenario, double duration, bool g
   opt.settle_ticks = settle_ticks;
   opt.state_source = ground_truth ? poise::inprocess::StateSource::kGroundTruth
                                   : poise::inprocess::StateSource::kEstimator;
-  opt.contact_method = *poise::contact::parse_method(
-      sc.contact_method.empty() ? "sequential" : sc.contact_method);
+  opt.contact_method =
+      *poise::contact::parse_method(sc.contact_method.empty() ? "sequential" : sc.contact_method);
   opt.estimator = sc.estimator.type;
   poise::inprocess::InProcessLoop loop(sc, opt);
   InProcessRun out;
@@ -198,7 +198,8 @@ double base_travel(const Trajectory& t) {
   if (t.empty()) return 0.0;
   const Eigen::Vector3d p0 = t.begin()->second.base;
   double m = 0.0;
-  for (const auto& [tick, s] : t) m = std::max(m, (s.base - p0).head<2>().norm());
+  for (const auto& [tick, s] : t)
+    m = std::max(m, (s.base - p0).head<2>().norm());
   return m;
 }
 
@@ -219,13 +220,14 @@ void check_case(const Case& c) {
   const InProcessRun inp = run_in_process(c.scenario, c.duration, c.ground_truth);
   const Difference d = compare(dist.trajectory, inp.trajectory, kBound);
   const std::size_t expected = static_cast<std::size_t>(std::llround(c.duration / 1e-3));
-  std::printf("[%s %s %s] %zu ticks compared (%zu recorded, %zu expected, %zu not in process, "
-              "%llu undecoded): base max diff %.3g m, CoM max diff %.3g m, first tick above "
-              "%.0e: %lld; base travel %.4f m\n",
-              c.scenario.c_str(), c.vendor.c_str(), c.ground_truth ? "truth" : "estimator",
-              d.compared, dist.trajectory.size(), expected, d.missing,
-              static_cast<unsigned long long>(dist.undecoded), d.base_max, d.com_max, kBound,
-              static_cast<long long>(d.first_tick), base_travel(inp.trajectory));
+  std::printf(
+      "[%s %s %s] %zu ticks compared (%zu recorded, %zu expected, %zu not in process, "
+      "%llu undecoded): base max diff %.3g m, CoM max diff %.3g m, first tick above "
+      "%.0e: %lld; base travel %.4f m\n",
+      c.scenario.c_str(), c.vendor.c_str(), c.ground_truth ? "truth" : "estimator", d.compared,
+      dist.trajectory.size(), expected, d.missing, static_cast<unsigned long long>(dist.undecoded),
+      d.base_max, d.com_max, kBound, static_cast<long long>(d.first_tick),
+      base_travel(inp.trajectory));
   // The lockstep run publishes the truth of each tick it hands to the loop (not of the state after
   // its last step); the recorder, a reader of its own with keep-last 1, may miss some when it
   // falls behind (measured on 2 busy cores: 0-635 of 3000-7000, on either vendor; `poise info`
@@ -249,7 +251,8 @@ void check_case(const Case& c) {
     // before this change (no start-up hold) against the same recording.
     const InProcessRun old = run_in_process(c.scenario, c.duration, c.ground_truth, 0);
     Trajectory shifted;  // compare by simulated time: without the hold, tick k is tick k + 10
-    for (const auto& [tick, s] : old.trajectory) shifted[tick + 10] = s;
+    for (const auto& [tick, s] : old.trajectory)
+      shifted[tick + 10] = s;
     const Difference o = compare(dist.trajectory, shifted, kBound);
     std::printf("  without the start-up hold: base max diff %.3g m, CoM %.3g m\n", o.base_max,
                 o.com_max);
@@ -293,9 +296,9 @@ TEST(OneAnswer, InProcessCommandLineForwardPush) {
   std::ifstream in(dir / "run.json");
   const Json inp = Json::parse(in, nullptr, false);
   ASSERT_TRUE(inp.is_object()) << p.output();
-  for (const char* k : {"com_error_max_m", "com_error_final_m", "foot_slip_max_m",
-                        "trunk_pitch_max_deg", "trunk_roll_max_deg", "min_base_height_m",
-                        "sim_time_s"})
+  for (const char* k :
+       {"com_error_max_m", "com_error_final_m", "foot_slip_max_m", "trunk_pitch_max_deg",
+        "trunk_roll_max_deg", "min_base_height_m", "sim_time_s"})
     EXPECT_EQ(inp.value(k, -1.0), dist.result.value(k, -2.0)) << k;
   EXPECT_EQ(inp.value("survived", false), dist.result.value("survived", true));
   EXPECT_GT(inp.value("com_error_max_m", 0.0), 0.0);

@@ -126,8 +126,8 @@ InProcessLoop::InProcessLoop(const scenario::Scenario& scenario, const LoopOptio
   priority_ = controller_->config().contact.priority;
   {
     // The robot side of poise-sim: its safety layer, configured as poise-sim configures it.
-    safety::Config sc = safety::make_config(model_, &robot_, sim_->joint_names(), sim_->dt(),
-                                            sim_->damping_kd());
+    safety::Config sc =
+        safety::make_config(model_, &robot_, sim_->joint_names(), sim_->dt(), sim_->damping_kd());
     sc.watchdog_s = 5e-3;  // poise-sim --watchdog-ms default
     sc.hold_s = 5.0;       // poise-sim --hold-s default
     safety_ = std::make_unique<safety::SafetyLayer>(std::move(sc));
@@ -280,8 +280,7 @@ void InProcessLoop::control() {
     solver_problem_.weights.priority = priority_;
     optimizer_.solve(solver_problem_, solution_);
   }
-  contact_node::to_msg(solution_, problem_msg_->header(), 0.0, optimizer_.method(),
-                       *solution_msg_);
+  contact_node::to_msg(solution_, problem_msg_->header(), 0.0, optimizer_.method(), *solution_msg_);
   if (!reflect::validate(*solution_msg_)) {
     contact::set_safe_solution(contact::ContactStatus::kSolverFailure, solution_);
     contact_node::to_msg(solution_, problem_msg_->header(), 0.0, optimizer_.method(),

@@ -113,15 +113,15 @@ struct RunResult {
   double foot_slip_max_m = 0.0;
   int non_foot_contacts = 0;  ///< ticks with a non-foot body touching something
   double min_base_height_m = 0.0;
-  double recovery_time_s = 0.0;       ///< after the last push
-  double trunk_pitch_max_deg = 0.0;   ///< ScenarioMonitor::Result
+  double recovery_time_s = 0.0;      ///< after the last push
+  double trunk_pitch_max_deg = 0.0;  ///< ScenarioMonitor::Result
   double trunk_roll_max_deg = 0.0;
-  std::vector<std::string> failed;    ///< the success criteria that failed, readable
-  bool completed = true;              ///< false: aborted (ticks without a command, see LoopOptions)
+  std::vector<std::string> failed;  ///< the success criteria that failed, readable
+  bool completed = true;            ///< false: aborted (ticks without a command, see LoopOptions)
   std::uint64_t command_timeouts = 0;  ///< ticks without a joint command
-  LatencyStats tick_latency_us;       ///< compute time of state + controller + optimiser per tick
-  std::uint64_t deadline_misses = 0;  ///< ticks whose latency exceeded the control period
-  double realtime_factor = 0.0;       ///< simulated time / wall time (whole loop incl. simulator)
+  LatencyStats tick_latency_us;        ///< compute time of state + controller + optimiser per tick
+  std::uint64_t deadline_misses = 0;   ///< ticks whose latency exceeded the control period
+  double realtime_factor = 0.0;        ///< simulated time / wall time (whole loop incl. simulator)
   StateSource state_source = StateSource::kGroundTruth;
   double sim_time_s = 0.0;
   std::uint64_t ticks = 0;
@@ -190,7 +190,7 @@ class InProcessLoop {
   std::array<int, 2> sim_foot_of_side_{-1, -1};
   std::array<int, 2> wire_feet_{-1, -1};  // sim_node::foot_order: message foot f -> sim foot
   std::int64_t first_tick_ = 0;
-  std::int64_t steps_ = 0;  // control ticks of the run
+  std::int64_t steps_ = 0;            // control ticks of the run
   std::int64_t clock_offset_ns_ = 0;  // command waits that timed out (added to the safety clock)
   int consecutive_timeouts_ = 0;
   std::uint64_t command_timeouts_ = 0;
@@ -203,10 +203,10 @@ class InProcessLoop {
   std::unique_ptr<msg::ContactProblem> problem_msg_;
   std::unique_ptr<msg::ContactSolution> solution_msg_;
   std::unique_ptr<msg::JointCommand> command_msg_;
-  contact::ContactProblem problem_;          // the controller's (phase A)
-  contact::ContactProblem solver_problem_;   // as the contact node decodes it
-  contact::ContactSolution solution_;        // the optimiser's
-  contact::ContactSolution answer_;          // as the controller node decodes it
+  contact::ContactProblem problem_;         // the controller's (phase A)
+  contact::ContactProblem solver_problem_;  // as the contact node decodes it
+  contact::ContactSolution solution_;       // the optimiser's
+  contact::ContactSolution answer_;         // as the controller node decodes it
   contact::Priority priority_ = contact::Priority::kLexicographic;  // poise-contact --priority
   std::unique_ptr<safety::SafetyLayer> safety_;
 
