@@ -42,7 +42,8 @@ std::map<std::string, Grant> grants() {
         {"poise/joint_command", "poise/disturbance", "poise/estop"}}},
       {"estimator",
        {{"poise/state", "poise/diagnostics"},
-        {"poise/robot_description", "poise/sensors", "poise/ground_truth"}}},
+        {"poise/robot_description", "poise/sensors", "poise/ground_truth",
+         "poise/balance_reference"}}},  // the contact plan: the detector's prior
       {"controller",
        {{"poise/contact_problem", "poise/joint_command", "poise/diagnostics"},
         {"poise/robot_description", "poise/state", "poise/contact_solution",
