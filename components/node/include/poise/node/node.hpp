@@ -112,7 +112,9 @@ class Node {
 
   /// Declares a per-tick input of this node (poise/sensors, poise/state, ...): once a first
   /// sample came, the input is STALE when no sample came for `stale_ms`. While an input is
-  /// stale the diagnostics say HEALTH_FAULT with last_error "no <topic> for N ms (last tick k)";
+  /// stale the diagnostics say HEALTH_FAULT with last_error "no <topic> for N ms (last tick k)",
+  /// followed by "; newest error: ..." when error() was called since the previous diagnostics
+  /// sample (samples arriving but rejected);
   /// both transitions are logged. Returns the id for input_seen(). Configuration time; at most
   /// kMaxInputs inputs.
   int expect_input(const std::string& topic, double stale_ms);
