@@ -179,13 +179,7 @@ std::int64_t InProcessLoop::clock_ns() const {
 }
 
 void InProcessLoop::apply_safety_command(std::int64_t now_ns) {
-  const safety::Command& c = safety_->update(now_ns, sensors_.q);
-  sim_command_.tick = c.tick;
-  sim_command_.tau_ff = c.tau_ff;
-  sim_command_.q_ref = c.q_ref;
-  sim_command_.qd_ref = c.qd_ref;
-  sim_command_.kp = c.kp;
-  sim_command_.kd = c.kd;
+  sim_node::to_sim(safety_->update(now_ns, sensors_.q), sim_command_);
 }
 
 InProcessLoop::~InProcessLoop() = default;

@@ -252,4 +252,13 @@ void settle(sim::Simulator& sim, int ticks, sim::SensorFrame& sensors, sim::Grou
   }
 }
 
+void to_sim(const safety::Command& in, sim::JointCommand& out) noexcept {
+  out.tick = in.tick;
+  out.tau_ff = in.tau_ff;
+  out.q_ref = in.q_ref;
+  out.qd_ref = in.qd_ref;
+  out.kp = in.kp;
+  out.kd = in.kd;
+}
+
 }  // namespace poise::sim_node

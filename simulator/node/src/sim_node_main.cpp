@@ -263,14 +263,7 @@ class SimNode {
   }
 
   /// Safety layer command -> simulator command (kPd: the same law).
-  void apply_safety(const safety::Command& c) noexcept {
-    applied_.tick = c.tick;
-    applied_.tau_ff = c.tau_ff;
-    applied_.q_ref = c.q_ref;
-    applied_.qd_ref = c.qd_ref;
-    applied_.kp = c.kp;
-    applied_.kd = c.kd;
-  }
+  void apply_safety(const safety::Command& c) noexcept { sim_node::to_sim(c, applied_); }
 
   /// Start-up: the safety layer holds the initial posture for --settle-ticks steps, so that the
   /// first frame the components see measures the feet loaded.

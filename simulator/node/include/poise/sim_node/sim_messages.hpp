@@ -15,6 +15,7 @@
 #include <poise/msg/robot_description.h>
 #include <poise/msg/sensors.h>
 
+#include "poise/safety/safety_layer.hpp"
 #include "poise/sim/world.hpp"
 #include "poise/sim/simulator.hpp"
 
@@ -68,6 +69,10 @@ void to_msg(const sim::GroundTruth& in, const FootOrder& feet, const SlipTracker
 /// tau_ff plus the PD terms (the simulator's kPd), COMMAND_DAMPING is -kd qd, COMMAND_ZERO is no
 /// torque. False (out untouched) when joint_count differs from the simulator's joint count.
 bool from_msg(const msg::JointCommand& in, sim::JointCommand& out) noexcept;
+
+/// The robot safety layer's command -> simulator command (kPd: the same law). poise-sim and the
+/// in-process loop both apply the layer's output through this. No allocation once `out` is sized.
+void to_sim(const safety::Command& in, sim::JointCommand& out) noexcept;
 
 /// Disturbance (PUSH) -> Push; a negative start time means now (`now_s`). False for a kind the
 /// simulator cannot apply live (PLATFORM).
