@@ -4,7 +4,7 @@
 // fourth host that only looks (`poise topic list` on the DDS files the launcher generates).
 // The forward push (run for 15 s, so that the observer looks while even a lockstep run is on)
 // must survive in lockstep and in real time, match the single-machine run of the same scenario
-// and vendors, and no DDS packet may leave the namespaces (packet counters of
+// and vendors (lockstep: to 1e-9; real time: the verdict and the settled CoM error), and no DDS packet may leave the namespaces (packet counters of
 // the root namespace's interfaces).
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -127,17 +127,30 @@ TEST_P(LaunchMultiHost, ForwardPushSurvivesAcrossThreeHostsAsOnOne) {
   ASSERT_EQ(single.wait_for(240s).value_or(-1), 0) << single.output();
   const Json one = read_json(dir / "single.json");
   const Json& three = r["sim"];
-  std::printf("%s: com_error_max three hosts %.6f m, one machine %.6f m; foot slip %.6f / %.6f m\n",
+  const auto misses = [](const Json& j, const char* key) {
+    return j.contains(key) && j[key].is_number() ? j[key].get<double>() : -1.0;
+  };
+  std::printf("%s: com_error_max three hosts %.6f m, one machine %.6f m; com_error_final %.6f / "
+              "%.6f m; foot slip %.6f / %.6f m; hold ticks %.0f / %.0f, overruns (three hosts) "
+              "%.0f, deadline misses (one machine) %.0f\n",
               mode.c_str(), three.value("com_error_max_m", -1.0), one.value("com_error_max_m", -1.0),
-              three.value("foot_slip_max_m", -1.0), one.value("foot_slip_max_m", -1.0));
+              three.value("com_error_final_m", -1.0), one.value("com_error_final_m", -1.0),
+              three.value("foot_slip_max_m", -1.0), one.value("foot_slip_max_m", -1.0),
+              misses(three, "hold_ticks"), misses(one, "hold_ticks"), misses(three, "overruns"),
+              misses(one, "deadline_misses"));
   EXPECT_EQ(three.value("survived", false), one.value("survived", true));
   if (mode == "lockstep") {
     // Lockstep is deterministic: the same numbers, wherever the processes run.
     EXPECT_NEAR(three.value("com_error_max_m", -1.0), one.value("com_error_max_m", 1.0), 1e-9);
     EXPECT_NEAR(three.value("foot_slip_max_m", -1.0), one.value("foot_slip_max_m", 1.0), 1e-9);
   } else {
-    // Real time depends on the wall clock: the same verdict, errors of the same size.
-    EXPECT_LT(three.value("com_error_max_m", 1.0), 2 * one.value("com_error_max_m", 0.0) + 0.002);
+    // Real time depends on the wall clock: which ticks miss their deadline (and are held by the
+    // safety layer) differs from run to run, and the CoM error at the push depends on them. On a
+    // loaded 2-core machine the single-machine run alone measured 5.5 to 23.9 mm of CoM error max
+    // in CI (and three hosts 8.4 to 21.5 mm), so the peak is no measure of "the same result".
+    // What must match: the verdict (asserted above: every criterion of the scenario met in both)
+    // and where the robot settles once the push is over (final CoM error, 14 s after the push).
+    EXPECT_NEAR(three.value("com_error_final_m", 1.0), one.value("com_error_final_m", -1.0), 0.005);
   }
 }
 
