@@ -1,8 +1,12 @@
 // `poise record`, `poise info`, `poise replay` and `poise run --record` as users run them: real
 // processes on a DDS domain of this test's own (loopback only), real files, and every file read
 // by the independent MCAP reader (npm @mcap/core + @foxglove/omgidl-*, mcap_reader_js/).
+#include <arpa/inet.h>
 #include <gtest/gtest.h>
+#include <linux/if_ether.h>
 #include <signal.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <cmath>
@@ -753,12 +757,21 @@ samples_by_topic(const fs::path& file) {
   return out;
 }
 
+/// Whether this process may open a packet socket (CAP_NET_RAW), as `poise record --passive` does.
+bool can_capture() {
+  const int fd = ::socket(AF_PACKET, SOCK_DGRAM | SOCK_CLOEXEC, htons(ETH_P_IP));
+  if (fd < 0) return false;
+  ::close(fd);
+  return true;
+}
+
 // The passive recorder is no reader of the loop's topics: it takes the samples out of the UDP
 // datagrams the loop sends anyway (RTPS DATA and DATA_FRAG, announced by SEDP). Checked against
 // a subscribing recorder on the same run, mixed vendors (the simulator on Fast DDS, the rest on
 // Cyclone, which fragments samples above 1344 bytes): every topic, the same samples, byte for
 // byte, with the same source timestamps; and the independent reader decodes the file.
 TEST(Record, PassiveCaptureHoldsWhatASubscribingRecorderHolds) {
+  if (!can_capture()) GTEST_SKIP() << "no CAP_NET_RAW: passive capture needs root or the capability";
   const fs::path dir = work_dir("passive");
   const int domain = poise::testing::unique_domain_id();
   const fs::path passive = dir / "passive.mcap", subscribing = dir / "subscribing.mcap";
@@ -822,3 +835,117 @@ TEST(Record, PassiveCaptureRefusesAnUnknownInterface) {
 }
 
 }  // namespace
+
+// `poise run --record --passive`: the recording a user gets without slowing the loop. The
+// passive recorder starts first, holds DDS readers of the ground truth and the diagnostics only
+// (nothing else reads them; a writer sends only to matched readers), the nodes wait for their
+// consumer alone, and the file holds every per-tick topic from the first tick, each tick exactly
+// once (one copy per writer and sequence number out of the datagrams), decoded independently.
+TEST(Record, RunRecordPassiveHoldsEveryTickOfEveryPerTickTopicOnce) {
+  if (!can_capture()) GTEST_SKIP() << "no CAP_NET_RAW: passive capture needs root or the capability";
+  const fs::path dir = work_dir("run_passive");
+  const fs::path file = dir / "push.mcap";
+  auto [code, out] =
+      run({bin("poise"), "run", "forward_push_double_support", "--domain",
+           std::to_string(poise::testing::unique_domain_id()), "--record", file.string(),
+           "--passive", "-o", (dir / "run.json").string(), "--log-dir", (dir / "logs").string()},
+          300s);
+  ASSERT_EQ(code, 0) << out;
+  EXPECT_NE(out.find("(passive capture on lo)"), std::string::npos) << out;
+  const Json result = Json::parse(std::ifstream(dir / "run.json"));
+  EXPECT_TRUE(result["recording_ok"].get<bool>()) << out;
+  // The recorder had no reader of the loop's topics: its readers are the passive ones.
+  {
+    std::ifstream err(dir / "logs" / "recorder.err");
+    const std::string text((std::istreambuf_iterator<char>(err)), std::istreambuf_iterator<char>());
+    EXPECT_NE(text.find("poise record: passive readers (their writers send to them): "
+                        "poise/ground_truth, poise/diagnostics"),
+              std::string::npos)
+        << text;
+  }
+  const Json info = info_json(file);
+  ASSERT_TRUE(info["complete"].get<bool>()) << info.dump(2);
+  EXPECT_EQ(info["metadata"]["poise_recording"]["capture"], "passive:lo");
+  auto node_ticks = [&](const std::string& node) {
+    const Json j = Json::parse(std::ifstream(dir / "logs" / (node + ".summary.json")));
+    return j["diagnostics"]["ticks"].get<std::uint64_t>();
+  };
+  const std::uint64_t sim_ticks = node_ticks("sim");
+  EXPECT_GE(sim_ticks, 3900u);  // 4 s at 1 kHz, lockstep
+  const Json* sensors = find_topic(info, "poise/sensors");
+  ASSERT_NE(sensors, nullptr);
+  const std::uint64_t first = (*sensors)["first_tick"].get<std::uint64_t>();
+  for (const auto& [topic, node] :
+       std::vector<std::pair<std::string, std::string>>{{"poise/sensors", "sim"},
+                                                        {"poise/ground_truth", "sim"},
+                                                        {"poise/state", "estimator"},
+                                                        {"poise/contact_problem", "controller"},
+                                                        {"poise/contact_solution", "contact"},
+                                                        {"poise/joint_command", "controller"}}) {
+    const Json* s = find_topic(info, topic);
+    ASSERT_NE(s, nullptr) << topic << " is not in the file";
+    EXPECT_TRUE((*s)["per_tick"].get<bool>()) << topic;
+    // Lockstep: every node handles every tick the simulator published.
+    EXPECT_EQ(node_ticks(node), sim_ticks) << node;
+    EXPECT_EQ((*s)["messages"].get<std::uint64_t>(), sim_ticks) << topic;
+    EXPECT_EQ((*s)["distinct_ticks"].get<std::uint64_t>(), sim_ticks) << topic;
+    EXPECT_EQ((*s)["missing_ticks"], 0) << topic;
+    EXPECT_EQ((*s)["duplicate_ticks"], 0) << topic;
+    EXPECT_EQ((*s)["first_tick"].get<std::uint64_t>(), first) << topic << " began late";
+    EXPECT_EQ((*s)["last_tick"].get<std::uint64_t>(), first + sim_ticks - 1) << topic;
+    EXPECT_EQ((*s)["sequence_gaps"], 0) << topic;
+  }
+  for (const char* topic : {"poise/robot_description", "poise/diagnostics"})
+    EXPECT_NE(find_topic(info, topic), nullptr) << topic << " is not in the file";
+  const Json& m = info["metadata"]["poise_recorder"];
+  EXPECT_EQ(m["total.dropped"], "0") << m.dump(2);
+  EXPECT_EQ(m["total.vendor_lost"], "0") << m.dump(2);
+  EXPECT_EQ(m["total.tick_gaps"], "0") << m.dump(2);
+  EXPECT_EQ(m["capture.kernel_drops"], "0") << m.dump(2);
+  EXPECT_EQ(m["capture.malformed"], "0") << m.dump(2);
+  EXPECT_EQ(m["capture.unknown_writer"], "0") << m.dump(2);
+  // Every message of every topic decodes against its stored schema, in an indexed and a
+  // streaming read.
+  for (const bool streaming : {false, true}) {
+    auto [check_code, report] = check_independently(file, streaming);
+    EXPECT_EQ(check_code, 0) << (streaming ? "streaming: " : "indexed: ") << report.dump(2);
+  }
+}
+
+// Without CAP_NET_RAW `poise run --record --passive` fails before the run with the cause and
+// the remedy. As root, the capability is dropped for the run (setpriv).
+TEST(Record, RunRecordPassiveWithoutCapNetRawSaysWhy) {
+  std::vector<std::string> argv;
+  if (can_capture()) {
+    if (!fs::exists("/usr/bin/setpriv")) GTEST_SKIP() << "cannot drop CAP_NET_RAW: no setpriv";
+    argv = {"/usr/bin/setpriv", "--inh-caps", "-net_raw", "--bounding-set", "-net_raw"};
+  }
+  const fs::path dir = work_dir("run_passive_nocap");
+  argv.insert(argv.end(),
+              {bin("poise"), "run", "forward_push_double_support", "--duration", "1", "--domain",
+               std::to_string(poise::testing::unique_domain_id()), "--record",
+               (dir / "x.mcap").string(), "--passive", "-o", (dir / "run.json").string(),
+               "--log-dir", (dir / "logs").string()});
+  auto [code, out] = run(argv, 120s);
+  EXPECT_EQ(code, 2) << out;
+  EXPECT_NE(out.find("cannot record to"), std::string::npos) << out;
+  EXPECT_NE(out.find("needs CAP_NET_RAW"), std::string::npos) << out;
+  // It failed at once: no component ran.
+  EXPECT_FALSE(fs::exists(dir / "logs" / "sim.summary.json"));
+  const Json result = Json::parse(std::ifstream(dir / "run.json"));
+  EXPECT_TRUE(result["failed"].get<bool>());
+}
+
+TEST(Record, PassiveReadNamesKnownTopicsOnlyAndNeedsPassive) {
+  const fs::path dir = work_dir("passive_read_bad");
+  auto [code, out] = run({bin("poise"), "record", "--passive", "--passive-read", "poise/nope",
+                          "--domain", "3", "-o", (dir / "x.mcap").string()},
+                         30s);
+  EXPECT_EQ(code, 2) << out;
+  EXPECT_NE(out.find("--passive-read: unknown topic 'poise/nope'"), std::string::npos) << out;
+  std::tie(code, out) = run({bin("poise"), "record", "--passive-read", "poise/ground_truth",
+                             "--domain", "3", "-o", (dir / "y.mcap").string()},
+                            30s);
+  EXPECT_EQ(code, 2) << out;
+  EXPECT_NE(out.find("need --passive"), std::string::npos) << out;
+}

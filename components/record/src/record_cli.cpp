@@ -5,6 +5,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <chrono>
@@ -13,11 +14,15 @@
 #include <cstring>
 #include <map>
 #include <memory>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 #include <poise/dds/cli.hpp>
 #include <poise/dds/dds.hpp>
+#include <poise/dds/subscriber.hpp>
+#include <poise/dds/topics.hpp>
 
 #include "poise/record/cli.hpp"
 #include "poise/record/recorder.hpp"
@@ -85,6 +90,10 @@ int record_main(int argc, char** argv) {
   int nice_value = 0;
   bool idle = false;
   bool all = false;
+  // Passive: topics whose writers would otherwise send to nobody (nothing in a plain run reads
+  // them), so that they are on the wire and in the file.
+  std::vector<std::string> passive_read{"poise/ground_truth", "poise/diagnostics"};
+  bool no_passive_read = false;
   CLI::App app{
       "Record Poise DDS topics to an MCAP file (schema encoding omgidl, message encoding cdr), "
       "from writers of either vendor, until Ctrl-C, SIGTERM or --duration.\n"
@@ -137,7 +146,37 @@ int record_main(int argc, char** argv) {
   app.add_option("--interface", options.capture_interface,
                  "network interface of --passive (default lo)")
       ->capture_default_str();
+  auto* passive_read_opt =
+      app.add_option("--passive-read", passive_read,
+                     "--passive: topics to hold a DDS reader of, so that their writers send them "
+                     "(a writer sends only to matched readers; the samples are still taken from the "
+                     "datagrams). Give the topics nothing else reads: a reader of a loop topic "
+                     "costs its writer one more send per sample (default: poise/ground_truth "
+                     "poise/diagnostics, which no node reads)")
+          ->capture_default_str();
+  app.add_flag("--no-passive-read", no_passive_read,
+               "--passive: no DDS reader at all (topics nobody else reads are then not recorded)")
+      ->excludes(passive_read_opt);
   CLI11_PARSE(app, argc, argv);
+  if (!options.passive && (passive_read_opt->count() > 0 || no_passive_read)) {
+    std::fprintf(stderr, "poise record: --passive-read and --no-passive-read need --passive\n");
+    return 2;
+  }
+  if (no_passive_read) passive_read.clear();
+  for (const auto& t : passive_read)
+    if (dds::find_topic(t) == nullptr) {
+      std::string known;
+      for (const auto& k : dds::topic_table())
+        known += (known.empty() ? "" : ", ") + std::string(k.topic_name);
+      std::fprintf(stderr, "poise record: --passive-read: unknown topic '%s'; Poise topics: %s\n",
+                   t.c_str(), known.c_str());
+      return 2;
+    }
+  // Only topics that are recorded.
+  if (!options.topics.empty())
+    std::erase_if(passive_read, [&](const std::string& t) {
+      return std::find(options.topics.begin(), options.topics.end(), t) == options.topics.end();
+    });
   // Before any thread exists: DDS and writer threads inherit it.
   if (idle) {
     sched_param sp{};
@@ -181,12 +220,35 @@ int record_main(int argc, char** argv) {
   std::unique_ptr<Recorder> subscribing_recorder;
   if (!options.passive) subscribing_recorder = std::make_unique<Recorder>(participant, options);
   Recorder& recorder = options.passive ? *passive_recorder : *subscribing_recorder;
+  // Passive readers: best effort, keep-last 1, no callback. A reliable writer serves a best-effort
+  // reader with one send per sample and nothing else (no heartbeats, acknowledgments or repairs
+  // for it); what this reader receives is never read: the capture takes the sample from the
+  // datagram, once per (writer, sequence number).
+  std::vector<std::unique_ptr<dds::RawSubscriber>> passive_readers;
+  std::string passive_names;
+  if (options.passive) {
+    for (const auto& t : passive_read) {
+      const dds::TopicDescription* d = dds::find_topic(t);
+      dds::Qos q = d->qos;
+      q.reliability = dds::Reliability::best_effort;
+      q.durability = dds::Durability::volatile_;
+      q.history_depth = 1;
+      q.writer_history_depth = 0;
+      q.deadline = dds::Qos::infinite;
+      passive_readers.push_back(
+          std::make_unique<dds::RawSubscriber>(participant, d->topic_name, d->type_name, q));
+      passive_names += (passive_names.empty() ? "" : ", ") + t;
+    }
+  }
   std::fprintf(stderr, "poise record: %s, domain %d, %s -> %s\n",
                options.passive ? ("passive capture on " + options.capture_interface).c_str()
                                : std::string(dds::to_string(participant.vendor())).c_str(),
                participant.domain_id(),
                options.topics.empty() ? "every Poise topic" : "the topics named",
                options.output.c_str());
+  if (options.passive)
+    std::fprintf(stderr, "poise record: passive readers (their writers send to them): %s\n",
+                 passive_names.empty() ? "none" : passive_names.c_str());
   const auto start = std::chrono::steady_clock::now();
   auto next_progress = start + std::chrono::duration<double>(progress_s);
   std::string error;
@@ -217,6 +279,7 @@ int record_main(int argc, char** argv) {
   }
   if (tty && progress_s > 0) std::fprintf(stderr, "\n");
   const RecorderStatus final_status = recorder.finish();
+  passive_readers.clear();
   print_recording_summary(final_status, stderr);
   if (!final_status.error.empty()) {
     std::fprintf(stderr,

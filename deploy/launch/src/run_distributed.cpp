@@ -73,6 +73,7 @@ struct Settings {
   double timeout_s = -1.0;
   bool quiet = false;
   std::string record;  ///< MCAP file of `--record` ("" with the flag alone: the default path)
+  bool record_passive = false;  ///< `--record --passive`: `poise record --passive` (packet capture)
   std::string security;  ///< DDS Security directory (poise security init), "" = none
   int rt_priority = 0;   ///< SCHED_FIFO base priority of the processes (0: normal scheduling)
   bool lock_memory = false;  ///< every process locks its memory (mlockall)
@@ -97,8 +98,13 @@ int rt_priority_of(const std::string& component, int base) {
 std::string wait_for_recorder(Child& recorder, double timeout_s) {
   const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
   while (std::chrono::steady_clock::now() < end) {
-    if (tail_lines(recorder.stderr_path(), 20).find("poise record: ") != std::string::npos)
-      return "";
+    const std::string tail = tail_lines(recorder.stderr_path(), 20);
+    if (tail.find("poise record: error") != std::string::npos) {
+      // It exits after saying why (a passive recorder without CAP_NET_RAW, a bad path).
+      recorder.stop(3000);
+      return "the recorder failed:\n" + recorder.stderr_tail(8);
+    }
+    if (tail.find("poise record: ") != std::string::npos) return "";
     if (auto code = recorder.poll())
       return "the recorder " + recorder.exit_description() + ":\n" +
              recorder.stderr_tail(8);
@@ -216,6 +222,12 @@ int run_distributed(int argc, char** argv) {
                      "record every topic of the run (all processes, whole run) to this MCAP file "
                      "with `poise record` (default: results/<scenario>.mcap)")
           ->expected(0, 1);
+  app.add_flag("--passive", s.record_passive,
+               "with --record: record with `poise record --passive`, from copies of the loopback "
+               "datagrams the stack sends anyway (no DDS reader of the loop's topics: the loop is "
+               "not slowed, components/record/README.md), instead of a subscribing recorder. "
+               "Needs root or CAP_NET_RAW (`sudo setcap cap_net_raw+ep build/bin/poise`)")
+      ->needs(record_opt);
   app.add_option("--security", s.security,
                  "DDS Security for every process of the run: the directory `poise security "
                  "init` made (each node authenticates as its name, the recorder as recorder)")
@@ -310,9 +322,16 @@ int run_distributed(int argc, char** argv) {
     std::error_code ignored;
     fs::remove(start_file, ignored);
     const bool recording_run = record_opt->count() > 0;
+    // A passive recorder reads no sensors (it captures the estimator's copy) but holds a reader
+    // of the ground truth, which nothing else reads: its writer sends only to matched readers.
+    const bool passive = recording_run && s.record_passive;
     if (recording_run)
-      sim_args.insert(sim_args.end(), {"--wait-readers", "2", "--wait-truth-readers", "1",
-                                       "--start-file", start_file.string()});
+      sim_args.insert(sim_args.end(), {"--wait-readers", passive ? "1" : "2",
+                                       "--wait-truth-readers", "1", "--start-file",
+                                       start_file.string()});
+    // Each node's outputs: their consumer and a subscribing recorder (a passive recorder captures
+    // what is sent to the consumer), matched before its first input.
+    const char* output_readers = passive ? "1" : "2";
     std::vector<std::string> est_args = common("estimator");
     if (s.ground_truth_state) est_args.push_back("--ground-truth-state");
     est_args.insert(est_args.end(), {"--supports", scenario.estimator.supports});
@@ -338,10 +357,9 @@ int run_distributed(int argc, char** argv) {
     }
     est_args.insert(est_args.end(), {"--initial-xy", exact(scenario.sim.initial.base_position.x()),
                                       exact(scenario.sim.initial.base_position.y())});
-    // Each node's outputs: their consumer and the recorder, matched before its first input.
-    if (recording_run) est_args.insert(est_args.end(), {"--output-readers", "2"});
+    if (recording_run) est_args.insert(est_args.end(), {"--output-readers", output_readers});
     std::vector<std::string> contact_args = common("contact");
-    if (recording_run) contact_args.insert(contact_args.end(), {"--output-readers", "2"});
+    if (recording_run) contact_args.insert(contact_args.end(), {"--output-readers", output_readers});
     contact_args.insert(contact_args.end(), {"--method", s.method});
     // The controller configuration: --controller-config, else the scenario's section (written to
     // the log directory for the controller node), checked here so a bad key fails before launch.
@@ -378,7 +396,7 @@ int run_distributed(int argc, char** argv) {
     if (!ctrl_config_file.empty())
       ctrl_args.insert(ctrl_args.end(), {"--config", ctrl_config_file.string()});
     ctrl_args.insert(ctrl_args.end(), {"--contact-deadline-us", std::to_string(deadline_us)});
-    if (recording_run) ctrl_args.insert(ctrl_args.end(), {"--output-readers", "2"});
+    if (recording_run) ctrl_args.insert(ctrl_args.end(), {"--output-readers", output_readers});
 
     if (!s.quiet)
       std::printf(
@@ -453,6 +471,9 @@ int run_distributed(int argc, char** argv) {
             std::vector<std::string> a{(bin / "poise").string(), "record", "--dds", "cyclone",
                                        "--domain", std::to_string(domain), "-o",
                                        recording.string(), "--progress", "0"};
+            // Passive: the capture on loopback (every process of `poise run` is on this
+            // machine), and readers of the topics nothing else reads (ground truth, diagnostics).
+            if (s.record_passive) a.insert(a.end(), {"--passive", "--interface", "lo"});
             if (!s.security.empty())
               a.insert(a.end(), {"--security", s.security, "--identity", "recorder"});
             return a;
@@ -467,7 +488,9 @@ int run_distributed(int argc, char** argv) {
         write_failure("cannot record to " + recording.string() + ": " + why);
         return 2;
       }
-      if (!s.quiet) std::printf("  recording every topic to %s\n", recording.c_str());
+      if (!s.quiet)
+        std::printf("  recording every topic to %s%s\n", recording.c_str(),
+                    s.record_passive ? " (passive capture on lo)" : "");
     }
 
     std::string failure;
