@@ -19,6 +19,7 @@ namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 using poise::testing::bin;
 using poise::testing::ChildProcess;
+using poise::testing::run_command;
 
 fs::path work_dir(const std::string& name) {
   const fs::path d = fs::path(POISE_BINARY_DIR) / "test_output" / "envelope" / name;
@@ -27,11 +28,6 @@ fs::path work_dir(const std::string& name) {
   return d;
 }
 
-std::pair<int, std::string> run_cmd(std::vector<std::string> argv, std::chrono::seconds limit) {
-  ChildProcess p(std::move(argv), {}, false, true);
-  const auto c = p.wait_for(limit);
-  return {c.value_or(-1), p.output()};
-}
 
 /// CSV rows as maps column -> text (no quoted commas in the columns read here).
 std::vector<std::map<std::string, std::string>> read_csv(const fs::path& file) {
@@ -105,7 +101,7 @@ void check_push_study(const fs::path& dir, double step) {
 TEST(Envelope, PushBoundariesAgreeWithTheRunsInProcess) {
   const fs::path dir = work_dir("pushes");
   auto [code, out] =
-      run_cmd({bin("poise"), "envelope", "pushes", "--directions", "1", "--single-directions", "1",
+      run_command({bin("poise"), "envelope", "pushes", "--directions", "1", "--single-directions", "1",
                "--force-step", "120", "--force-tol", "30", "--force-max", "480", "--probes", "1",
                "-o", dir.string()},
               240s);
@@ -117,7 +113,7 @@ TEST(Envelope, PushBoundariesAgreeWithTheRunsInProcess) {
 
 TEST(Envelope, Fig11ReportsTheLongestPushSurvived) {
   const fs::path dir = work_dir("fig11");
-  auto [code, out] = run_cmd(
+  auto [code, out] = run_command(
       {bin("poise"), "envelope", "fig11", "--fig11-forces", "150", "--duration-max", "0.4",
        "--duration-tol", "0.05", "-o", dir.string()},
       240s);
@@ -141,7 +137,7 @@ TEST(Envelope, Fig11ReportsTheLongestPushSurvived) {
 TEST(Envelope, DistributedLockstepRunsTheSameStudy) {
   const fs::path dir = work_dir("lockstep");
   auto [code, out] =
-      run_cmd({bin("poise"), "envelope", "pushes", "--mode", "lockstep", "--directions", "1",
+      run_command({bin("poise"), "envelope", "pushes", "--mode", "lockstep", "--directions", "1",
                "--single-directions", "1", "--force-step", "150", "--force-tol", "150",
                "--force-max", "450", "--probes", "0", "-o", dir.string()},
               280s);
@@ -160,12 +156,12 @@ TEST(Envelope, BadInputIsRefusedNamingTheProblem) {
       << "name: nopush\nrobot: {config: "
       << (fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/robot.yaml").string()
       << "}\nduration: 1.0\n";
-  auto [code, out] = run_cmd({bin("poise"), "envelope", "pushes", "--supports", "double",
+  auto [code, out] = run_command({bin("poise"), "envelope", "pushes", "--supports", "double",
                               "--double", (dir / "nopush.yaml").string(), "-o", dir.string()},
                              60s);
   EXPECT_EQ(code, 2) << out;
   EXPECT_NE(out.find("has no push to vary"), std::string::npos) << out;
-  auto [code2, out2] = run_cmd({bin("poise"), "envelope", "sideways"}, 30s);
+  auto [code2, out2] = run_command({bin("poise"), "envelope", "sideways"}, 30s);
   EXPECT_NE(code2, 0);
   EXPECT_NE(out2.find("sideways"), std::string::npos) << out2;
 }

@@ -26,6 +26,7 @@ using Json = nlohmann::json;
 using namespace std::chrono_literals;
 using poise::testing::bin;
 using poise::testing::ChildProcess;
+using poise::testing::run_command;
 
 fs::path work_dir(const std::string& name) {
   const fs::path d = fs::path(POISE_BINARY_DIR) / "test_output" / "launch" / name;
@@ -157,11 +158,7 @@ TEST(Launch, DocumentedCommandLinesParse) {
   ChildProcess launcher(run_args("standing", domain, dir, {"--realtime", "--duration", "8"}), {},
                         false, true);
   ASSERT_TRUE(launcher.wait_for_output("t=1.0 s", 60s)) << launcher.output();
-  auto run = [](std::vector<std::string> argv) {
-    ChildProcess p(std::move(argv), {}, false, true);
-    const auto c = p.wait_for(30s);
-    return std::pair<int, std::string>(c.value_or(-1), p.output());
-  };
+  auto run = [](std::vector<std::string> argv) { return run_command(std::move(argv), 30s); };
   const std::string d = std::to_string(domain);
   {
     auto [code, out] = run({bin("poise"), "topic", "echo", "poise/state", "--domain", d, "--once",
@@ -195,11 +192,6 @@ TEST(Launch, DocumentedCommandLinesParse) {
 
 namespace {
 
-std::pair<int, std::string> run_cmd(std::vector<std::string> argv, std::chrono::seconds limit) {
-  ChildProcess p(std::move(argv), {}, false, true);
-  const auto c = p.wait_for(limit);
-  return {c.value_or(-1), p.output()};
-}
 
 }  // namespace
 
@@ -218,7 +210,7 @@ TEST(Launch, ABadDeploymentFileIsRefusedWithEveryProblemNamed) {
                                      "  estimator: {host: c, dds: rti, cpu: [4096]}\n"
                                      "  driver: {host: a}\n"
                                      "  contact: {host: b, colour: red}\n";
-  auto [code, out] = run_cmd({bin("poise"), "launch", (dir / "bad.yaml").string(), "--check"}, 30s);
+  auto [code, out] = run_command({bin("poise"), "launch", (dir / "bad.yaml").string(), "--check"}, 30s);
   EXPECT_EQ(code, 2) << out;
   for (const char* expected :
        {"name: 'a..b' is not a plain file name", "domain: 300 is outside 0..232",
@@ -233,7 +225,7 @@ TEST(Launch, ABadDeploymentFileIsRefusedWithEveryProblemNamed) {
     EXPECT_NE(out.find(expected), std::string::npos) << expected << "\n" << out;
   std::ofstream(dir / "not_yaml.yaml") << "hosts: [a, b\n";
   auto [code2, out2] =
-      run_cmd({bin("poise"), "launch", (dir / "not_yaml.yaml").string(), "--check"}, 30s);
+      run_command({bin("poise"), "launch", (dir / "not_yaml.yaml").string(), "--check"}, 30s);
   EXPECT_EQ(code2, 2) << out2;
   EXPECT_NE(out2.find("not valid YAML"), std::string::npos) << out2;
 }
@@ -245,7 +237,7 @@ TEST(Launch, ABadDeploymentFileIsRefusedWithEveryProblemNamed) {
 TEST(Launch, TheResultCountsEveryMissAndDampingFailsTheRun) {
   const fs::path dir = work_dir("accounting");
   const std::string ok_json = (dir / "lockstep.json").string();
-  auto [ok_code, ok_out] = run_cmd({bin("poise"), "run", "standing", "--duration", "1", "-o",
+  auto [ok_code, ok_out] = run_command({bin("poise"), "run", "standing", "--duration", "1", "-o",
                                     ok_json, "--log-dir", (dir / "lockstep.logs").string()},
                                    120s);
   ASSERT_EQ(ok_code, 0) << ok_out;
@@ -273,7 +265,7 @@ TEST(Launch, TheResultCountsEveryMissAndDampingFailsTheRun) {
   // A watchdog of 0.2 ms and no hold: the robot damps between commands -> the run fails.
   const std::string bad_json = (dir / "damping.json").string();
   auto [bad_code, bad_out] =
-      run_cmd({bin("poise"), "run", "standing", "--realtime", "--duration", "1", "--watchdog-ms",
+      run_command({bin("poise"), "run", "standing", "--realtime", "--duration", "1", "--watchdog-ms",
                "0.2", "--hold-s", "0", "-o", bad_json, "--log-dir",
                (dir / "damping.logs").string()},
               120s);
@@ -305,7 +297,7 @@ TEST(Launch, TheScenarioConfiguresTheControllerAndTheVerdictNamesWhatFailed) {
   const std::string bad = scenario("bad_key", "  contact: {priority: weighted, w_x: 1}\n");
 
   // In process.
-  auto [in_code, in_out] = run_cmd({bin("poise"), "run", good, "--in-process", "-o",
+  auto [in_code, in_out] = run_command({bin("poise"), "run", good, "--in-process", "-o",
                                     (dir / "in.json").string()}, 120s);
   EXPECT_EQ(in_code, 1) << in_out;  // the 0.01 mm final CoM error cannot be met
   EXPECT_NE(in_out.find("FAILED on com_error_final"), std::string::npos) << in_out;
@@ -313,7 +305,7 @@ TEST(Launch, TheScenarioConfiguresTheControllerAndTheVerdictNamesWhatFailed) {
   EXPECT_EQ(in["contact_priority"], "weighted") << in.dump(2);
 
   // Distributed, lockstep.
-  auto [d_code, d_out] = run_cmd({bin("poise"), "run", good, "-q", "-o", (dir / "d.json").string(),
+  auto [d_code, d_out] = run_command({bin("poise"), "run", good, "-q", "-o", (dir / "d.json").string(),
                                   "--log-dir", (dir / "d.logs").string()}, 180s);
   EXPECT_EQ(d_code, 1) << d_out;
   EXPECT_NE(d_out.find("FAILED weighted (lockstep, cyclone) on com_error_final"), std::string::npos)
@@ -349,7 +341,7 @@ TEST(Launch, TheScenarioConfiguresTheControllerAndTheVerdictNamesWhatFailed) {
   for (const bool in_process : {true, false}) {
     std::vector<std::string> args{bin("poise"), "run", bad, "-o", (dir / "bad.json").string()};
     if (in_process) args.push_back("--in-process");
-    auto [code, out] = run_cmd(args, 60s);
+    auto [code, out] = run_command(args, 60s);
     EXPECT_EQ(code, 2) << out;
     EXPECT_NE(out.find("controller: contact.w_x: unknown key"), std::string::npos) << out;
   }
@@ -377,16 +369,16 @@ TEST(Launch, ADeskHostNeedsNoRobotFiles) {
                                             "  contact: {host: desk}\n"
                                             "  controller: {host: desk}\n";
   const std::string file = (dir / "deployment.yaml").string();
-  auto [desk_code, desk] = run_cmd({bin("poise"), "launch", file, "--check", "--host", "desk"}, 30s);
+  auto [desk_code, desk] = run_command({bin("poise"), "launch", file, "--check", "--host", "desk"}, 30s);
   EXPECT_EQ(desk_code, 0) << desk;
   EXPECT_NE(desk.find("--supports translating"), std::string::npos) << desk;
   EXPECT_NE(desk.find("--method qp"), std::string::npos) << desk;
   EXPECT_EQ(desk.find("--robot"), std::string::npos) << desk;
   auto [robot_code, robot] =
-      run_cmd({bin("poise"), "launch", file, "--check", "--host", "robot"}, 30s);
+      run_command({bin("poise"), "launch", file, "--check", "--host", "robot"}, 30s);
   EXPECT_EQ(robot_code, 2) << robot;
   EXPECT_NE(robot.find("/nonexistent/robots/far/robot.yaml"), std::string::npos) << robot;
-  auto [all_code, all] = run_cmd({bin("poise"), "launch", file, "--check"}, 30s);
+  auto [all_code, all] = run_command({bin("poise"), "launch", file, "--check"}, 30s);
   EXPECT_EQ(all_code, 2) << all;
 }
 
@@ -443,7 +435,7 @@ TEST(Launch, AnAbsurdPushIsRefusedAndASecondCommandWriterIsReported) {
   ChildProcess launcher(run_args("standing", domain, dir, {"--realtime", "--duration", "5"}), {},
                         false, true);
   ASSERT_TRUE(launcher.wait_for_output("t=1.0 s", 60s)) << launcher.output();
-  auto [code, out] = run_cmd({bin("poise"), "push", "--domain", std::to_string(domain), "--force",
+  auto [code, out] = run_command({bin("poise"), "push", "--domain", std::to_string(domain), "--force",
                               "1e9", "0", "0", "--duration", "0.1"},
                              30s);
   EXPECT_EQ(code, 0) << out;
@@ -478,7 +470,7 @@ TEST(Launch, SecuredStackKeepsOutsidersAndEnforcesWhoWritesWhat) {
   const fs::path dir = work_dir("security");
   const std::string sec = (dir / "sec").string();
   {
-    auto [code, out] = run_cmd({bin("poise"), "security", "init", sec}, 120s);
+    auto [code, out] = run_command({bin("poise"), "security", "init", sec}, 120s);
     ASSERT_EQ(code, 0) << out;
   }
   ChildProcess launcher(
@@ -487,20 +479,20 @@ TEST(Launch, SecuredStackKeepsOutsidersAndEnforcesWhoWritesWhat) {
   ASSERT_TRUE(launcher.wait_for_output("t=1.0 s", 60s)) << launcher.output();
   const std::string d = std::to_string(domain);
   {  // no credentials: sees nothing
-    auto [code, out] = run_cmd({bin("poise"), "topic", "echo", "poise/state", "--domain", d,
+    auto [code, out] = run_command({bin("poise"), "topic", "echo", "poise/state", "--domain", d,
                                 "--once", "--timeout", "3"},
                                30s);
     EXPECT_EQ(code, 1) << out;
   }
   {  // no credentials: the simulator never matches the push
-    auto [code, out] = run_cmd({bin("poise"), "push", "--domain", d, "--force", "50", "0", "0",
+    auto [code, out] = run_command({bin("poise"), "push", "--domain", d, "--force", "50", "0", "0",
                                 "--wait-ms", "3000"},
                                30s);
     EXPECT_NE(code, 0) << out;
     EXPECT_NE(out.find("no simulator subscribed"), std::string::npos) << out;
   }
   {  // the operator reads the state
-    auto [code, out] = run_cmd({bin("poise"), "topic", "echo", "poise/state", "--domain", d,
+    auto [code, out] = run_command({bin("poise"), "topic", "echo", "poise/state", "--domain", d,
                                 "--once", "--timeout", "10", "--security", sec, "--identity",
                                 "operator"},
                                30s);
@@ -508,13 +500,13 @@ TEST(Launch, SecuredStackKeepsOutsidersAndEnforcesWhoWritesWhat) {
     EXPECT_NE(out.find("com_W"), std::string::npos) << out;
   }
   {  // the operator may push
-    auto [code, out] = run_cmd({bin("poise"), "push", "--domain", d, "--force", "20", "0", "0",
+    auto [code, out] = run_command({bin("poise"), "push", "--domain", d, "--force", "20", "0", "0",
                                 "--security", sec, "--identity", "operator"},
                                30s);
     EXPECT_EQ(code, 0) << out;
   }
   {  // ... but not command the joints
-    auto [code, out] = run_cmd({bin("poise"), "topic", "pub", "poise/joint_command", "{}",
+    auto [code, out] = run_command({bin("poise"), "topic", "pub", "poise/joint_command", "{}",
                                 "--count", "1", "--domain", d, "--security", sec, "--identity",
                                 "operator"},
                                30s);
@@ -542,7 +534,7 @@ TEST(Launch, ScenariosInWhichContactsChangeSurviveDistributed) {
   for (const std::string name : {"drop_onto_feet", "lateral_push_unloads_foot", "step_in_place"}) {
     const fs::path json = dir / (name + ".json");
     auto [code, out] =
-        run_cmd({bin("poise"), "run", name, "-q", "--domain",
+        run_command({bin("poise"), "run", name, "-q", "--domain",
                  std::to_string(poise::testing::unique_domain_id()), "-o", json.string(),
                  "--log-dir", (dir / (name + ".logs")).string()},
                 240s);

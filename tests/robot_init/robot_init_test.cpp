@@ -25,6 +25,7 @@ namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 using poise::testing::bin;
 using poise::testing::ChildProcess;
+using poise::testing::run_command;
 
 namespace {
 
@@ -35,11 +36,6 @@ fs::path work_dir(const std::string& name) {
   return d;
 }
 
-std::pair<int, std::string> run_cmd(std::vector<std::string> argv, std::chrono::seconds limit) {
-  ChildProcess p(std::move(argv), {}, false, true);
-  const auto c = p.wait_for(limit);
-  return {c.value_or(-1), p.output()};
-}
 
 std::string read(const fs::path& p) {
   std::ifstream f(p);
@@ -52,7 +48,7 @@ std::string read(const fs::path& p) {
 std::string init_and_stand(const fs::path& urdf, const fs::path& dir, bool expect_added) {
   const std::string before = read(urdf);
   const fs::path out = dir / "robot";
-  auto [code, text] = run_cmd({bin("poise"), "robot", "init", urdf.string(), "-o", out.string()}, 60s);
+  auto [code, text] = run_command({bin("poise"), "robot", "init", urdf.string(), "-o", out.string()}, 60s);
   if (code != 0) {
     ADD_FAILURE() << "poise robot init exited " << code << ":\n" << text;
     return text;
@@ -129,7 +125,7 @@ std::string init_and_stand(const fs::path& urdf, const fs::path& dir, bool expec
   EXPECT_GT(knee("r_knee"), 0.2);
 
   auto [info_code, info] =
-      run_cmd({bin("poise"), "model", "info", (out / "robot.yaml").string()}, 30s);
+      run_command({bin("poise"), "model", "info", (out / "robot.yaml").string()}, 30s);
   EXPECT_EQ(info_code, 0) << info;
 
   const fs::path scenario = dir / "standing.yaml";
@@ -140,7 +136,7 @@ std::string init_and_stand(const fs::path& urdf, const fs::path& dir, bool expec
                              "  com_error_max_m: 0.02\n  com_error_final_m: 0.01\n"
                              "  foot_slip_max_m: 0.01\n  allow_non_foot_contacts: false\n"
                              "  min_base_height_m: 0.5\n";
-  auto [run_code, run] = run_cmd({bin("poise"), "run", scenario.string(), "--in-process", "-q",
+  auto [run_code, run] = run_command({bin("poise"), "run", scenario.string(), "--in-process", "-q",
                                   "-o", (dir / "standing.json").string()}, 120s);
   EXPECT_EQ(run_code, 0) << run;
   EXPECT_NE(run.find("SURVIVED"), std::string::npos) << run;
@@ -171,7 +167,7 @@ TEST(RobotInit, AUrdfWithoutSoleLinksGetsSoleOffsetsAndStands) {
       << yaml;
   // Distributed too (simulator, estimator, contact optimiser, controller over DDS, lockstep).
   auto [d_code, d_out] =
-      run_cmd({bin("poise"), "run", (dir / "standing.yaml").string(), "-q", "--domain",
+      run_command({bin("poise"), "run", (dir / "standing.yaml").string(), "-q", "--domain",
                std::to_string(poise::testing::unique_domain_id()), "-o",
                (dir / "distributed.json").string(), "--log-dir", (dir / "logs").string()},
               120s);
@@ -240,7 +236,7 @@ TEST(RobotInit, ForwardAxisIsTheToesDirection) {
   for (const auto& [in, out, expected] :
        {std::tuple<fs::path, fs::path, std::string>{shipped, dir / "shipped", "forward_axis: [1, 0, 0]"},
         {urdf, dir / "back", "forward_axis: [-1, 0, 0]"}}) {
-    auto [code, text] = run_cmd({bin("poise"), "robot", "init", in.string(), "-o", out.string()}, 60s);
+    auto [code, text] = run_command({bin("poise"), "robot", "init", in.string(), "-o", out.string()}, 60s);
     ASSERT_EQ(code, 0) << text;
     const std::string yaml = read(out / "robot.yaml");
     EXPECT_NE(yaml.find(expected), std::string::npos) << yaml;
@@ -279,7 +275,7 @@ TEST(RobotInit, RotatedSoleFramesFromRobotYamlStandInProcess) {
          "    - {link: pelvis, force: [0, 50, 0], frame: heading, start: 3.0, duration: 0.2}\n"
          "success:\n  com_error_max_m: 0.15\n  com_error_final_m: 0.01\n  foot_slip_max_m: 0.01\n"
          "  allow_non_foot_contacts: false\n  min_base_height_m: 0.5\n";
-  auto [code, out] = run_cmd({bin("poise"), "run", scenario.string(), "--in-process", "-q", "-o",
+  auto [code, out] = run_command({bin("poise"), "run", scenario.string(), "--in-process", "-q", "-o",
                               (dir / "push.json").string()}, 120s);
   EXPECT_EQ(code, 0) << out;
   EXPECT_NE(out.find("SURVIVED"), std::string::npos) << out;
@@ -308,7 +304,7 @@ TEST(RobotInit, BadInputsAreRefusedWithAClearError) {
       << joint("roll", "base", "arm", "0 -0.2 0.2", "1 0 0") << "<link name=\"arm\">" << link
       << "</link></robot>";
   std::ofstream(dir / "one_leg.urdf") << one.str();
-  auto [c1, t1] = run_cmd({bin("poise"), "robot", "init", (dir / "one_leg.urdf").string(), "-o",
+  auto [c1, t1] = run_command({bin("poise"), "robot", "init", (dir / "one_leg.urdf").string(), "-o",
                            (dir / "one").string()}, 30s);
   EXPECT_EQ(c1, 1) << t1;
   EXPECT_NE(t1.find("no second leg"), std::string::npos) << t1;
@@ -316,17 +312,17 @@ TEST(RobotInit, BadInputsAreRefusedWithAClearError) {
 
   // No links with joints at all.
   std::ofstream(dir / "empty.urdf") << "<robot name=\"empty\"><link name=\"base\"/></robot>";
-  auto [c2, t2] = run_cmd({bin("poise"), "robot", "init", (dir / "empty.urdf").string(), "-o",
+  auto [c2, t2] = run_command({bin("poise"), "robot", "init", (dir / "empty.urdf").string(), "-o",
                            (dir / "empty").string()}, 30s);
   EXPECT_EQ(c2, 1) << t2;
   EXPECT_NE(t2.find("0 movable joints"), std::string::npos) << t2;
 
   // Not XML, missing file.
   std::ofstream(dir / "junk.urdf") << "\x01\x02 not xml";
-  auto [c3, t3] = run_cmd({bin("poise"), "robot", "init", (dir / "junk.urdf").string()}, 30s);
+  auto [c3, t3] = run_command({bin("poise"), "robot", "init", (dir / "junk.urdf").string()}, 30s);
   EXPECT_EQ(c3, 1) << t3;
   EXPECT_NE(t3.find("poise robot init: error:"), std::string::npos) << t3;
-  auto [c4, t4] = run_cmd({bin("poise"), "robot", "init", (dir / "missing.urdf").string()}, 30s);
+  auto [c4, t4] = run_command({bin("poise"), "robot", "init", (dir / "missing.urdf").string()}, 30s);
   EXPECT_EQ(c4, 1) << t4;
   EXPECT_NE(t4.find("no such file"), std::string::npos) << t4;
 
@@ -335,12 +331,12 @@ TEST(RobotInit, BadInputsAreRefusedWithAClearError) {
       (fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/poise_humanoid.urdf").string();
   fs::create_directories(dir / "exists");
   std::ofstream(dir / "exists" / "robot.yaml") << "mine\n";
-  auto [c5, t5] = run_cmd({bin("poise"), "robot", "init", shipped, "-o", (dir / "exists").string()}, 30s);
+  auto [c5, t5] = run_command({bin("poise"), "robot", "init", shipped, "-o", (dir / "exists").string()}, 30s);
   EXPECT_EQ(c5, 1) << t5;
   EXPECT_NE(t5.find("--force"), std::string::npos) << t5;
   EXPECT_EQ(read(dir / "exists" / "robot.yaml"), "mine\n");
 
-  auto [c6, t6] = run_cmd({bin("poise"), "robot", "init", "--help"}, 30s);
+  auto [c6, t6] = run_command({bin("poise"), "robot", "init", "--help"}, 30s);
   EXPECT_EQ(c6, 0) << t6;
   EXPECT_NE(t6.find("--force"), std::string::npos) << t6;
 }

@@ -29,6 +29,7 @@ namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 using poise::testing::bin;
 using poise::testing::ChildProcess;
+using poise::testing::run_command;
 
 namespace {
 
@@ -105,11 +106,6 @@ fs::path work_dir(const std::string& name) {
   return d;
 }
 
-std::pair<int, std::string> run_cmd(std::vector<std::string> argv, std::chrono::seconds limit) {
-  ChildProcess p(std::move(argv), {}, false, true);
-  const auto c = p.wait_for(limit);
-  return {c.value_or(-1), p.output()};
-}
 
 std::string read(const fs::path& p) {
   std::ifstream f(p);
@@ -129,7 +125,7 @@ fs::path init_and_write_scenario(const Robot& r, const fs::path& dir) {
   const std::string before = read(urdf);
   const fs::path out = dir / "robot";
   auto [code, text] =
-      run_cmd({bin("poise"), "robot", "init", urdf.string(), "-o", out.string()}, 60s);
+      run_command({bin("poise"), "robot", "init", urdf.string(), "-o", out.string()}, 60s);
   std::cout << text;
   if (code != 0) {
     ADD_FAILURE() << "poise robot init " << r.name << " exited " << code << ":\n" << text;
@@ -186,7 +182,7 @@ fs::path init_and_write_scenario(const Robot& r, const fs::path& dir) {
   EXPECT_GT(base_height, 0.3);
 
   auto [info_code, info] =
-      run_cmd({bin("poise"), "model", "info", (out / "robot.yaml").string()}, 30s);
+      run_command({bin("poise"), "model", "info", (out / "robot.yaml").string()}, 30s);
   EXPECT_EQ(info_code, 0) << info;
 
   // 0.2 N s/kg: 2 * mass N for 0.1 s, forward at 3 s, leftward at 6 s, in the robot's own
@@ -246,7 +242,7 @@ TEST_P(TestRobot, InitThenStandAndPushInProcess) {
   const fs::path scenario = init_and_write_scenario(r, dir);
   ASSERT_FALSE(scenario.empty());
   const auto t0 = std::chrono::steady_clock::now();
-  auto [code, out] = run_cmd({bin("poise"), "run", scenario.string(), "--in-process", "-q", "-o",
+  auto [code, out] = run_command({bin("poise"), "run", scenario.string(), "--in-process", "-q", "-o",
                               (dir / "result.json").string()},
                              120s);
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -259,7 +255,7 @@ TEST_P(TestRobotDistributed, InitThenStandAndPushDistributed) {
   const fs::path scenario = init_and_write_scenario(r, dir);
   ASSERT_FALSE(scenario.empty());
   const auto t0 = std::chrono::steady_clock::now();
-  auto [code, out] = run_cmd(
+  auto [code, out] = run_command(
       {bin("poise"), "run", scenario.string(), "-q", "--lockstep", "--domain",
        std::to_string(poise::testing::unique_domain_id()), "-o", (dir / "result.json").string(),
        "--log-dir", (dir / "logs").string(), "--timeout", "150"},
@@ -316,7 +312,7 @@ TEST(TestRobotTraits, FootBoxOffTheSolePlaneIsAWarningWithBothHeights) {
   const fs::path dir = work_dir("badger_own_soles");
   ASSERT_FALSE(badger_with_its_own_soles(dir).empty());
   auto [info_code, info] =
-      run_cmd({bin("poise"), "model", "info", (dir / "robot" / "robot.yaml").string()}, 30s);
+      run_command({bin("poise"), "model", "info", (dir / "robot" / "robot.yaml").string()}, 30s);
   EXPECT_EQ(info_code, 0) << info;
   for (const char* side : {"left", "right"}) {
     const std::regex warn(
@@ -340,7 +336,7 @@ TEST(TestRobotTraits, DISABLED_FootBoxOffTheSolePlaneStandsAndSurvivesThePushes)
   const fs::path scenario = badger_with_its_own_soles(dir);
   ASSERT_FALSE(scenario.empty());
   const auto t0 = std::chrono::steady_clock::now();
-  auto [code, out] = run_cmd({bin("poise"), "run", scenario.string(), "--in-process", "-q", "-o",
+  auto [code, out] = run_command({bin("poise"), "run", scenario.string(), "--in-process", "-q", "-o",
                               (dir / "result.json").string()},
                              120s);
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -384,7 +380,7 @@ TEST(TestRobotFiles, AreWhatTheGeneratorWrites) {
   if (std::system("python3 --version > /dev/null 2>&1") != 0) GTEST_SKIP() << "no python3";
   const fs::path dir = work_dir("generated");
   const fs::path src = fs::path(POISE_SOURCE_DIR) / "tests/robots";
-  auto [code, out] = run_cmd(
+  auto [code, out] = run_command(
       {"/usr/bin/env", "python3", (src / "generate_robots.py").string(), "--out", dir.string()},
       60s);
   ASSERT_EQ(code, 0) << out;

@@ -179,4 +179,13 @@ class ChildProcess {
   std::optional<int> exit_code_;
 };
 
+/// Runs argv to its end (killed by its pid past `limit`) and returns its exit code (-1 when it
+/// was killed or did not start) with what it printed, stdout and stderr together.
+inline std::pair<int, std::string> run_command(std::vector<std::string> argv,
+                                               std::chrono::milliseconds limit) {
+  ChildProcess p(std::move(argv), {}, false, true);
+  const auto code = p.wait_for(limit);
+  return {code.value_or(-1), p.output()};
+}
+
 }  // namespace poise::testing
