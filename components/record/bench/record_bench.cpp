@@ -35,6 +35,7 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <set>
 #include <memory>
 #include <optional>
 #include <random>
@@ -658,11 +659,19 @@ CaseResult run_case(const fs::path& poise, const fs::path& self, const fs::path&
 // ------------------------------------------------------------------------------------------------
 // `poise run` (latency cost, long run).
 
-/// How a latency run records: not at all, `poise run --record` (a subscribing recorder), or
-/// `poise record --passive` started before the run (no reader of the loop's topics).
-enum class RecordMode { none, subscribing, passive };
+/// How a latency run records: not at all, `poise run --record` (a subscribing recorder),
+/// `poise run --record --passive` (the launcher starts `poise record --passive`: no reader of the
+/// loop's topics, readers of ground truth and diagnostics), or `poise record --passive` started by
+/// hand before a plain `poise run` (passive-hand: the nodes do not wait for it).
+enum class RecordMode { none, subscribing, passive, passive_hand };
 const char* mode_name(RecordMode m) {
-  return m == RecordMode::none ? "no" : m == RecordMode::subscribing ? "dds" : "passive";
+  switch (m) {
+    case RecordMode::none: return "no";
+    case RecordMode::subscribing: return "dds";
+    case RecordMode::passive: return "passive";
+    case RecordMode::passive_hand: return "passive-hand";
+  }
+  return "?";
 }
 
 /// Extra settings of the latency runs (--loop-cpus): the loop's processes on these CPUs with
@@ -685,6 +694,9 @@ struct RunResult {
   bool survived = false;
   double realtime_factor = 0;
   double tree_cpu_s = 0;  ///< every process of the run (wait4 of the launcher)
+  /// The loop's processes: tree_cpu_s less the recorder's CPU when the recorder is a child of
+  /// `poise run` (dds, passive; its last sample, up to 250 ms before its end).
+  double loop_cpu_s = 0;
   double wall_s = 0;
   CpuSampler recorder;
   Json result, info;
@@ -708,13 +720,14 @@ RunResult run_stack(const fs::path& poise, const fs::path& dir, const std::strin
   if (loop.domain > 0) argv.insert(argv.end(), {"--domain", std::to_string(loop.domain)});
   if (!loop.loop_cpus.empty())
     argv.insert(argv.end(), {"--cpus", loop.loop_cpus, "--rt-priority", "80", "--lock-memory"});
-  if (mode == RecordMode::subscribing) {
+  if (mode == RecordMode::subscribing || mode == RecordMode::passive) {
     argv.push_back("--record");
     argv.push_back(mcap.string());
+    if (mode == RecordMode::passive) argv.push_back("--passive");
   }
   // The passive recorder captures before the run starts (it must see the writers' announcements).
   std::unique_ptr<Child> passive;
-  if (mode == RecordMode::passive) {
+  if (mode == RecordMode::passive_hand) {
     std::vector<std::string> rec;
     if (!loop.recorder_cpus.empty()) rec = {"/usr/bin/taskset", "-c", loop.recorder_cpus};
     rec.insert(rec.end(), {poise.string(), "record", "--passive", "--domain",
@@ -729,8 +742,8 @@ RunResult run_stack(const fs::path& poise, const fs::path& dir, const std::strin
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
     r.recorder.pid = passive->pid();
-  } else if (mode == RecordMode::subscribing && !loop.recorder_cpus.empty()) {
-    progress("  note: the subscribing recorder of `poise run --record` is not pinned");
+  } else if (record && !loop.recorder_cpus.empty()) {
+    progress("  note: the recorder of `poise run --record` is not pinned");
   }
   const auto t0 = Clock::now();
   Child run("run_" + tag, argv, dir / "logs");
@@ -763,6 +776,9 @@ RunResult run_stack(const fs::path& poise, const fs::path& dir, const std::strin
     if (!passive->wait(30)) passive->stop(3000);
   }
   r.tree_cpu_s = cpu_seconds(run.usage());
+  r.loop_cpu_s = r.tree_cpu_s;
+  if (mode == RecordMode::subscribing || mode == RecordMode::passive)
+    r.loop_cpu_s -= r.recorder.last_cpu;
   r.result = Json::parse(slurp(json), nullptr, false);
   if (r.result.is_discarded() || !r.result.is_object()) {
     r.problem = "no result JSON (exit " + std::to_string(r.exit_code) + ", see " +
@@ -781,8 +797,8 @@ RunResult run_stack(const fs::path& poise, const fs::path& dir, const std::strin
   r.damping_ticks = r.result.value("damping_ticks", 0ULL);
   r.survived = r.result.value("survived", false);
   r.realtime_factor = r.result.value("realtime_factor", 0.0);
-  if (mode == RecordMode::passive) r.info = poise_info(poise, mcap, dir / "logs", tag);
-  if (mode == RecordMode::subscribing) {
+  if (mode == RecordMode::passive_hand) r.info = poise_info(poise, mcap, dir / "logs", tag);
+  if (mode == RecordMode::subscribing || mode == RecordMode::passive) {
     if (r.result.contains("pids") && r.result["pids"].contains("recorder") &&
         r.result["pids"]["recorder"].get<pid_t>() != r.recorder.pid)
       progress("  %s: note: sampled pid %d, result says recorder pid %d", tag.c_str(),
@@ -886,20 +902,21 @@ void print_sample_sizes(const CaseResult& c) {
 }
 
 void print_run_table(const std::vector<RunResult>& runs) {
-  std::printf("%-4s %-7s %8s %8s %8s %8s %8s %8s %6s %8s %8s %7s %9s\n", "RUN", "RECORD", "p50[us]",
-              "p99[us]", "max[us]", "mean[us]", "MISSES", "DAMPING", "RTF", "CPU[s]", "REC-CPU%",
-              "SURVIVED", "FILE[MB]");
+  std::printf("%-4s %-12s %8s %8s %8s %8s %8s %8s %6s %8s %11s %8s %7s %9s\n", "RUN", "RECORD",
+              "p50[us]", "p99[us]", "max[us]", "mean[us]", "MISSES", "DAMPING", "RTF", "CPU[s]",
+              "LOOP-CPU[s]", "REC-CPU%", "SURVIVED", "FILE[MB]");
   int i = 0;
   for (const auto& r : runs) {
     ++i;
     if (!r.ok) {
-      std::printf("%-4d %-7s FAILED: %s\n", i, mode_name(r.mode), r.problem.c_str());
+      std::printf("%-4d %-12s FAILED: %s\n", i, mode_name(r.mode), r.problem.c_str());
       continue;
     }
-    std::printf("%-4d %-7s %8.0f %8.0f %8.0f %8.0f %8llu %8llu %6.3f %8.2f %8s %7s %9s\n", i,
-                mode_name(r.mode), r.p50, r.p99, r.max, r.mean,
+    std::printf("%-4d %-12s %8.0f %8.0f %8.0f %8.0f %8llu %8llu %6.3f %8.2f %11.2f %8s %7s %9s\n",
+                i, mode_name(r.mode), r.p50, r.p99, r.max, r.mean,
                 static_cast<unsigned long long>(r.deadline_misses),
                 static_cast<unsigned long long>(r.damping_ticks), r.realtime_factor, r.tree_cpu_s,
+                r.loop_cpu_s,
                 r.recorded ? std::to_string(r.recorder.percent()).substr(0, 5).c_str() : "-",
                 r.survived ? "yes" : "NO",
                 r.recorded && r.info.is_object()
@@ -983,7 +1000,7 @@ void usage() {
   std::printf(
       "usage: poise-bench-record [--seconds S] [--saturation-seconds S] [--dir DIR] "
       "[--skip-throughput] [--skip-latency] [--latency-duration S] [--latency-reps N] "
-      "[--latency-modes no,dds,passive] [--loop-cpus LIST --recorder-cpus LIST] "
+      "[--latency-modes no,dds,passive,passive-hand] [--loop-cpus LIST --recorder-cpus LIST] "
       "[--long-minutes M] [--ramp R1,R2,..] [--disk-mb N] [--keep]\n"
       "\n"
       "Measures `poise record` in one run and prints the figures (progress on stderr):\n"
@@ -996,12 +1013,15 @@ void usage() {
       "              --ramp tick rates (default 2000,4000,6000,8000; empty: none) until the\n"
       "              first loss, per compression\n"
       "  latency     `poise run standing --realtime --duration D` (default 10) without a\n"
-      "              recorder (no), with `--record` (dds: a subscribing recorder) and with\n"
-      "              `poise record --passive` started before it (passive: no reader of the loop's\n"
-      "              topics; needs root), alternated N times each (default 2); --latency-modes\n"
-      "              picks (default no,dds,passive as root, else no,dds); --loop-cpus LIST runs\n"
-      "              the loop there with SCHED_FIFO 80 and locked memory (`poise run --cpus`),\n"
-      "              --recorder-cpus LIST pins the passive recorder (taskset)\n"
+      "              recorder (no), with `--record` (dds: a subscribing recorder), with\n"
+      "              `--record --passive` (passive: `poise record --passive` started by the\n"
+      "              launcher, no reader of the loop's topics; needs root) and with\n"
+      "              `poise record --passive` started by hand before it (passive-hand),\n"
+      "              alternated N times each (default 2); --latency-modes picks (default\n"
+      "              no,dds,passive as root, else no,dds); --loop-cpus LIST runs the loop there\n"
+      "              with SCHED_FIFO 80 and locked memory (`poise run --cpus`), --recorder-cpus\n"
+      "              LIST pins the hand-started passive recorder (taskset). LOOP-CPU = CPU of\n"
+      "              the run's processes less the recorder's (dds, passive)\n"
       "  long        with --long-minutes M: one M-minute real-time run with --record\n"
       "Options:\n"
       "  --dir DIR        where files go (default: a fresh /tmp/poise-bench-record-<pid>)\n"
@@ -1086,8 +1106,11 @@ int main(int argc, char** argv) {
         if (m == "no") latency_modes.push_back(RecordMode::none);
         else if (m == "dds") latency_modes.push_back(RecordMode::subscribing);
         else if (m == "passive") latency_modes.push_back(RecordMode::passive);
+        else if (m == "passive-hand") latency_modes.push_back(RecordMode::passive_hand);
         else {
-          std::fprintf(stderr, "poise-bench-record: --latency-modes: '%s' is not no, dds or passive\n",
+          std::fprintf(stderr,
+                       "poise-bench-record: --latency-modes: '%s' is not no, dds, passive or "
+                       "passive-hand\n",
                        m.c_str());
           return 2;
         }
@@ -1244,13 +1267,14 @@ int main(int argc, char** argv) {
       std::printf(
           "\nLATENCY COST: poise run standing --realtime --duration %.0f%s%s, alternated (tick "
           "latency = sensors k published -> command k received); recorder: no = none, dds = "
-          "`poise run --record` (a subscribing recorder), passive = `poise record --passive`%s%s\n",
+          "`poise run --record` (a subscribing recorder), passive = `poise run --record --passive`, "
+          "passive-hand = `poise record --passive` started by hand%s%s\n",
           latency_duration, loop_cpus.empty() ? "" : " --cpus ", loop_cpus.c_str(),
           recorder_cpus.empty() ? "" : " on CPUs ", recorder_cpus.c_str());
       print_run_table(runs);
       auto rt = [](double a, double b) { return b > 0 ? a / b : 0.0; };
       struct Agg {
-        std::vector<double> p50, p99, mx, cpu;
+        std::vector<double> p50, p99, mx, cpu, loop_cpu, rec_pct;
         std::uint64_t misses = 0, damping = 0;
       };
       std::map<RecordMode, Agg> agg;
@@ -1261,30 +1285,38 @@ int main(int argc, char** argv) {
         a.p99.push_back(r.p99);
         a.mx.push_back(r.max);
         a.cpu.push_back(r.tree_cpu_s);
+        a.loop_cpu.push_back(r.loop_cpu_s);
+        if (r.recorded) a.rec_pct.push_back(r.recorder.percent());
         a.misses += r.deadline_misses;
         a.damping += r.damping_ticks;
       }
       const Agg base = agg.count(RecordMode::none) ? agg[RecordMode::none] : Agg{};
       for (const auto& [mode, a] : agg) {
-        std::printf("median over runs, recorder %-7s: p50 %.0f p99 %.0f max %.0f us, CPU %.2f s; "
-                    "deadline misses %llu, damping ticks %llu (sums)",
-                    mode_name(mode), median(a.p50), median(a.p99), median(a.mx), median(a.cpu),
+        std::printf("median over %zu runs, recorder %-12s: p50 %.0f p99 %.0f max %.0f us, CPU %.2f s, "
+                    "loop CPU %.2f s, recorder %.1f %% of a core; deadline misses %llu, damping "
+                    "ticks %llu (sums)",
+                    a.p50.size(), mode_name(mode), median(a.p50), median(a.p99), median(a.mx),
+                    median(a.cpu), median(a.loop_cpu), a.rec_pct.empty() ? 0.0 : median(a.rec_pct),
                     static_cast<unsigned long long>(a.misses),
                     static_cast<unsigned long long>(a.damping));
         if (mode != RecordMode::none && !base.p50.empty())
-          std::printf(" | ratio to none: p50 %.2f, p99 %.2f, max %.2f, CPU of the run %.2f",
+          std::printf(" | ratio to none: p50 %.2f, p99 %.2f, max %.2f, CPU of the run %.2f, loop "
+                      "CPU %.2f",
                       rt(median(a.p50), median(base.p50)), rt(median(a.p99), median(base.p99)),
-                      rt(median(a.mx), median(base.mx)), rt(median(a.cpu), median(base.cpu)));
+                      rt(median(a.mx), median(base.mx)), rt(median(a.cpu), median(base.cpu)),
+                      rt(median(a.loop_cpu), median(base.loop_cpu)));
         std::printf("\n");
       }
+      // The first recording of each kind, against the nodes' own tick counts.
+      std::set<RecordMode> shown;
       for (const auto& r : runs)
-        if (r.ok && r.recorded) {
+        if (r.ok && r.recorded && shown.insert(r.mode).second) {
           std::printf(
-              "recording of a real run (recorder CPU %.1f %% of a core, peak RSS %.0f MB):\n",
-              r.recorder.percent(), r.recorder.peak_mb);
+              "recording of a real run, recorder %s (recorder CPU %.1f %% of a core, peak RSS "
+              "%.0f MB):\n",
+              mode_name(r.mode), r.recorder.percent(), r.recorder.peak_mb);
           print_recording_losses(r.info);
           print_node_crosscheck(r.logs, r.info);
-          break;
         }
       std::fflush(stdout);
     }
