@@ -661,8 +661,9 @@ CaseResult run_case(const fs::path& poise, const fs::path& self, const fs::path&
 
 /// How a latency run records: not at all, `poise run --record` (a subscribing recorder),
 /// `poise run --record --passive` (the launcher starts `poise record --passive`: no reader of the
-/// loop's topics, readers of ground truth and diagnostics), or `poise record --passive` started by
-/// hand before a plain `poise run` (passive-hand: the nodes do not wait for it).
+/// loop's topics, readers of ground truth and diagnostics), or `poise record --passive
+/// --no-passive-read` started by hand before a plain `poise run` (passive-hand: no DDS reader at
+/// all; the nodes do not wait for it).
 enum class RecordMode { none, subscribing, passive, passive_hand };
 const char* mode_name(RecordMode m) {
   switch (m) {
@@ -730,7 +731,9 @@ RunResult run_stack(const fs::path& poise, const fs::path& dir, const std::strin
   if (mode == RecordMode::passive_hand) {
     std::vector<std::string> rec;
     if (!loop.recorder_cpus.empty()) rec = {"/usr/bin/taskset", "-c", loop.recorder_cpus};
-    rec.insert(rec.end(), {poise.string(), "record", "--passive", "--domain",
+    // No DDS reader at all (--no-passive-read): nothing but the capture (ground truth and
+    // diagnostics are then not in the file: nothing else reads them).
+    rec.insert(rec.end(), {poise.string(), "record", "--passive", "--no-passive-read", "--domain",
                            std::to_string(loop.domain), "-o", mcap.string(), "--progress", "0"});
     passive = std::make_unique<Child>("rec_" + tag, rec, dir / "logs");
     const auto w0 = Clock::now();
@@ -1016,7 +1019,8 @@ void usage() {
       "              recorder (no), with `--record` (dds: a subscribing recorder), with\n"
       "              `--record --passive` (passive: `poise record --passive` started by the\n"
       "              launcher, no reader of the loop's topics; needs root) and with\n"
-      "              `poise record --passive` started by hand before it (passive-hand),\n"
+      "              `poise record --passive --no-passive-read` started by hand before it\n"
+      "              (passive-hand: no DDS reader at all),\n"
       "              alternated N times each (default 2); --latency-modes picks (default\n"
       "              no,dds,passive as root, else no,dds); --loop-cpus LIST runs the loop there\n"
       "              with SCHED_FIFO 80 and locked memory (`poise run --cpus`), --recorder-cpus\n"
@@ -1268,7 +1272,7 @@ int main(int argc, char** argv) {
           "\nLATENCY COST: poise run standing --realtime --duration %.0f%s%s, alternated (tick "
           "latency = sensors k published -> command k received); recorder: no = none, dds = "
           "`poise run --record` (a subscribing recorder), passive = `poise run --record --passive`, "
-          "passive-hand = `poise record --passive` started by hand%s%s\n",
+          "passive-hand = `poise record --passive --no-passive-read` started by hand%s%s\n",
           latency_duration, loop_cpus.empty() ? "" : " --cpus ", loop_cpus.c_str(),
           recorder_cpus.empty() ? "" : " on CPUs ", recorder_cpus.c_str());
       print_run_table(runs);
