@@ -796,6 +796,12 @@ RunResult run_stack(const fs::path& poise, const fs::path& dir, const std::strin
     r.mean = lat.value("mean", 0.0);
     r.latency_count = lat.value("count", 0ULL);
   }
+  if (r.latency_count == 0) {
+    // A run that failed (a component exited, ...) has no latency: not a sample of the cost.
+    r.problem = "no tick latency in the result: " + r.result.value("failure", std::string("?")) +
+                " (see " + logs.string() + ")";
+    return r;
+  }
   r.deadline_misses = r.result.value("deadline_misses", 0ULL);
   r.damping_ticks = r.result.value("damping_ticks", 0ULL);
   r.survived = r.result.value("survived", false);
