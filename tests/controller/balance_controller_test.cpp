@@ -120,6 +120,57 @@ TEST(BalanceController, SupportsFollowModesAndMeasuredContacts) {
   EXPECT_FALSE(c.diagnostics().resting[1]);
 }
 
+TEST(BalanceController, AFootRestsOnItsMeasuredLoadNotOnItsContactFlag) {
+  // Sec. 4.2 with the flag meaning "touching" (idl/README.md "Contact flags"): a foot flagged in
+  // contact with a load below resting_force_fraction of the weight (its CoP, here at the sole
+  // centre, would be noise) is a support but does not rest: it is held where it last rested
+  // instead of following its own velocity. A loaded foot rests whatever its flag.
+  BalanceController c = make_controller();
+  const double weight = humanoid().model.total_mass * humanoid().model.gravity.norm();
+  const double threshold = ControllerConfig{}.resting_force_fraction * weight;
+  RobotState s = test::standing_state(c);
+  BalanceReference ref = c.make_reference();
+  contact::ContactProblem p;
+  c.prepare(s, ref, p);  // both feet rest: their pose is the hold pose
+  ASSERT_TRUE(c.diagnostics().resting[0] && c.diagnostics().resting[1]);
+
+  s.feet[0].in_contact = true;
+  s.feet[0].normal_force = 0.9 * threshold;
+  c.prepare(s, ref, p);
+  EXPECT_TRUE(p.feet[0].in_contact);  // touching: still a support (kAuto)
+  EXPECT_FALSE(c.diagnostics().resting[0]);
+  EXPECT_TRUE(c.diagnostics().resting[1]);
+  // Not resting: held. With the foot moving 0.1 m/s forward in the state, a resting foot would
+  // be asked zero acceleration (v_d = v, T_d = T); a held one is pulled back (kd (0 - v)).
+  s.feet[0].normal_force = 0.9 * threshold;
+  RobotState moving = s;
+  moving.v_WB.x() += 0.1;  // the whole robot, both feet included, moves forward
+  c.prepare(moving, ref, p);
+  EXPECT_FALSE(c.diagnostics().resting[0]);
+  EXPECT_LT(c.diagnostics().foot_acceleration_desired[0][0], -1.0);
+  EXPECT_NEAR(c.diagnostics().foot_acceleration_desired[1][0], 0.0, 1e-9);
+  // Loaded just above the threshold: rests again.
+  s.feet[0].normal_force = 1.1 * threshold;
+  c.prepare(s, ref, p);
+  EXPECT_TRUE(c.diagnostics().resting[0]);
+  // Not flagged (a late detector) but loaded above support_force_fraction: a support, resting.
+  // Not flagged and lightly loaded: no support in kAuto, so not resting.
+  s.feet[0].in_contact = false;
+  c.prepare(s, ref, p);
+  EXPECT_FALSE(p.feet[0].in_contact);
+  EXPECT_FALSE(c.diagnostics().resting[0]);
+  s.feet[0].normal_force = 250.0;
+  c.prepare(s, ref, p);
+  EXPECT_TRUE(p.feet[0].in_contact);
+  EXPECT_TRUE(c.diagnostics().resting[0]);
+  // A planned support (FOOT_SUPPORT) is a support at any load, and rests only when loaded.
+  ref.feet[0].mode = FootMode::kSupport;
+  s.feet[0].normal_force = 0.0;
+  c.prepare(s, ref, p);
+  EXPECT_TRUE(p.feet[0].in_contact);
+  EXPECT_FALSE(c.diagnostics().resting[0]);
+}
+
 // Central second difference of the foot frame along q(t) = q (+) (v t + qdd t^2 / 2).
 model::Motion foot_acceleration_fd(const model::Model& model, const Eigen::VectorXd& q,
                                    const Eigen::VectorXd& v, const Eigen::VectorXd& qdd, int frame,

@@ -53,6 +53,7 @@ TEST(ControllerConfig, ShippedFileLoadsWithTheDefaults) {
   EXPECT_EQ(c.foot.kp, d.foot.kp);
   EXPECT_EQ(c.foot.support_acceleration_tau, d.foot.support_acceleration_tau);
   EXPECT_EQ(c.feedback.max_position_error, d.feedback.max_position_error);
+  EXPECT_EQ(c.resting_force_fraction, d.resting_force_fraction);
 }
 
 std::string write_temp(const std::string& name, const std::string& text) {
@@ -79,6 +80,8 @@ TEST(ControllerConfig, BadFilesNameTheProblem) {
   expect_error("fot: {kp: 1}\n", "fot");
   expect_error("foot: {kq: 1}\n", "foot.kq");
   expect_error("dt: -1\n", "dt");
+  expect_error("resting_force_fraction: -0.01\n", "resting_force_fraction");
+  expect_error("resting_force_fraction: 1.5\n", "resting_force_fraction");
   try {
     load_controller_config("/nonexistent/controller.yaml");
     ADD_FAILURE();
@@ -87,6 +90,8 @@ TEST(ControllerConfig, BadFilesNameTheProblem) {
   }
   const std::string p = write_temp("controller_config_ok.yaml", "acceleration: {w_b: 0.9}\n");
   EXPECT_EQ(load_controller_config(p).acceleration.w_b, 0.9);
+  const std::string q = write_temp("controller_config_rest.yaml", "resting_force_fraction: 0.05\n");
+  EXPECT_EQ(load_controller_config(q).resting_force_fraction, 0.05);
 }
 
 }  // namespace

@@ -265,13 +265,14 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
     }
     // Sec. 4.2: a support foot rests when its measured CoP is inside the safe region. The CoP of
     // a foot that carries no load means nothing (the simulator's truth puts it at the foot
-    // origin, the estimator at zero), so an unloaded foot does not rest: a planned support that
-    // is not (or no longer) loaded -- a foot tipped up by the other, a stepping foot just before
-    // it lands -- is held where it last rested instead of following its own velocity, which
-    // let it drift up without bound (a step in place: the landed foot rose 0.32 m).
-    const bool loaded = meas.in_contact || (config_.support_force_fraction > 0.0 &&
-                                            meas.normal_force >
-                                                config_.support_force_fraction * weight);
+    // origin, the estimator at zero; from a load within the F/T noise it is noise), so a foot
+    // rests only with a measured load, not on its contact flag (which means "touching": a foot
+    // resting on the ground with 0-5 N keeps it). A planned support that is not (or no longer)
+    // loaded -- a foot tipped up by the other, a stepping foot just before it lands or after
+    // the weight went over the other foot -- is held where it last rested instead of following
+    // its own velocity, which let it drift (a step in place: up 0.32 m, or 18-24 mm of slip with
+    // the flag of a touching foot taken for a load).
+    const bool loaded = meas.normal_force > config_.resting_force_fraction * weight;
     const bool resting =
         support && loaded &&
         cop_in_safe_region(X_WF_[i], meas.cop_W, foot.sole,

@@ -105,6 +105,9 @@ void ControllerConfig::validate() const {
           "feedback.max_*_error", "must be >= 0");
   require(fallback.max_reuse_ticks >= 0, "fallback.max_reuse_ticks", "must be >= 0");
   require(std::isfinite(resting_extra_margin), "resting_extra_margin", "must be finite");
+  require(std::isfinite(resting_force_fraction) && resting_force_fraction >= 0.0 &&
+              resting_force_fraction < 1.0,
+          "resting_force_fraction", "must be in [0, 1)");
   require(std::isfinite(com_height), "com_height", "must be finite");
 }
 
@@ -116,9 +119,10 @@ ControllerConfig from_yaml(const YAML::Node& root, const std::string& file) {
   if (root.IsNull()) return c;
   r.keys(root, "",
          {"dt", "momentum", "contact", "foot", "acceleration", "feedback", "fallback",
-          "resting_extra_margin", "com_height"});
+          "resting_extra_margin", "resting_force_fraction", "com_height"});
   r.number(root, "dt", "", c.dt);
   r.number(root, "resting_extra_margin", "", c.resting_extra_margin);
+  r.number(root, "resting_force_fraction", "", c.resting_force_fraction);
   r.number(root, "com_height", "", c.com_height);
   if (const auto m = root["momentum"]) {
     r.keys(m, "momentum", {"gamma11", "gamma21", "gamma22"});

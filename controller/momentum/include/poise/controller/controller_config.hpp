@@ -112,6 +112,13 @@ struct ControllerConfig {
   /// that is late, e.g. while the estimator initialises; a support wrongly dropped makes the
   /// controller plan a fall). <= 0: the contact flag only.
   double support_force_fraction = 0.1;
+  /// Sec. 4.2: a support foot rests (follows its own, possibly moving, support) only when its
+  /// measured normal force exceeds this fraction of the robot's weight, whatever its contact flag
+  /// says: the flag means "touching" (idl/README.md "Contact flags"), and a foot that touches
+  /// with almost no load cannot rest on anything, its CoP (a torque divided by a force within
+  /// the F/T noise) is noise. 0.02: the contact detector's light-contact threshold; below it the
+  /// foot is held where it last rested. >= 0 (0: any positive load).
+  double resting_force_fraction = 0.02;
   /// Desired CoM height above the mean sole height of the support feet when the reference gives
   /// no CoM target [m]; <= 0: the nominal posture's CoM height.
   double com_height = 0.0;
