@@ -74,6 +74,8 @@ Estimator::Estimator(const model::Model& model, const model::RobotConfig& robot,
               config.contact_off_fraction >= 0.0 &&
               config.contact_off_fraction < config.contact_on_fraction,
           "contact thresholds must satisfy 0 <= contact_off_fraction < contact_on_fraction");
+  require(std::isfinite(config.contact_rest_time) && config.contact_rest_time >= 0.0,
+          "contact_rest_time must be finite and >= 0");
   require(config.frozen_imu_ticks >= 2, "frozen_imu_ticks must be >= 2");
   require(positive_finite(config.max_gap) && config.max_gap > config.dt,
           "max_gap must be finite and > dt");
@@ -115,6 +117,7 @@ Estimator::Estimator(const model::Model& model, const model::RobotConfig& robot,
   for (int f = 0; f < kNumFeet; ++f) {
     ContactThresholds t{config.contact_on_fraction * weight_, config.contact_off_fraction * weight_};
     t.touch_force = std::max(t.off_force, std::min(0.02 * weight_, 0.5 * t.on_force));
+    t.rest_time = config.contact_rest_time;
     contact_[f] = ContactDetector(t);
   }
   require(config.supports == SupportModel::kFixed || config.supports == SupportModel::kMoving ||

@@ -112,6 +112,13 @@ int run(int argc, char** argv) {
   app.add_flag("--ignore-plan", ignore_plan,
                "do not subscribe to poise/balance_reference: contact from the sensors alone "
                "(no FOOT_SWING prior for the contact detector)");
+  double contact_rest_time = estimator::EstimatorConfig{}.contact_rest_time;
+  app.add_option("--contact-rest-time", contact_rest_time,
+                 "contact detector's resting rule: a foot whose load stayed below 2 % of the "
+                 "weight this long with its sole still keeps its contact (the flag means "
+                 "touching); 0: off, the flag drops below 1 % of the weight [s]")
+      ->check(CLI::Range(0.0, 10.0))
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   node::Node node(options);
@@ -126,6 +133,7 @@ int run(int argc, char** argv) {
   estimator::EstimatorConfig config;
   config.supports = estimator::parse_support_model(supports);
   config.frozen_imu_ticks = frozen_imu_ticks;
+  config.contact_rest_time = contact_rest_time;
   config.kind = estimator::parse_estimator_kind(kind);
   config.ground_height = ground_height;
   if (support_heights.size() == 2) config.support_height = {support_heights[0], support_heights[1]};

@@ -18,12 +18,19 @@
 //              said swing (the lift of a swing starts at zero velocity: the 4 mm of lift_height
 //              come ~0.1 s after the sole left). kNone / kSupport: the rules above (a planned
 //              support may still be lifted by a push);
-//   resting    (off by default: rest_time = 0) with rest_time > 0, a foot whose load stayed below
-//              touch_force for rest_time with its sole within lift_height of where it stood
-//              keeps its contact whatever its load, until its sole rises or the plan's swing
-//              rule fires. Off because the balance controller takes the flag for "loaded" (its
-//              CoP rule, balance_controller.cpp): with the rule on, the step in place slipped
-//              (idl/README.md "Contact flags").
+//   resting    with rest_time > 0 (0 here; the Estimator sets EstimatorConfig::contact_rest_time,
+//              0.02 s), a foot whose load stayed below touch_force for rest_time with its sole
+//              within lift_height of where it stood keeps its contact whatever its load, until
+//              its sole rises (lift_height) or the plan's swing rule fires: the flag then means
+//              "touching", not "loaded" (a foot the weight shifted off rests on the ground with
+//              3-10 N). The balance controller rests a foot (Sec. 4.2, its CoP rule) on the
+//              measured load, not on this flag (ControllerConfig::resting_force_fraction).
+//              rest_time tells a fast unloading (pushes, the drop's bounces: the load went from
+//              touch_force to below off_force within 0-9 ms, measured) from the weight moving
+//              off a foot that stays down (40-58 ms on the step in place); the former still ends
+//              the contact by force. A planned swing's foot (below touch_force for 29 ms before
+//              its sole left) may rest too: its lift-off then comes from the plan's rule
+//              (the sole swing_lift_height up), or without a plan once the sole is lift_height up.
 // A sliding foot keeps its load, so neither rule fires while it slides (no chatter).
 
 #include <limits>
@@ -46,7 +53,8 @@ struct ContactThresholds {
   double tare_height = 0.03;  ///< above this (in the air) the F/T reading is learnt as offset [m]
   double tare_time = 0.05;    ///< time constant of that offset estimate [s]
   /// A foot whose load stayed below touch_force this long without its sole rising rests: low
-  /// force alone no longer ends its contact [s] (>= 0; 0: the resting rule is off).
+  /// force alone no longer ends its contact [s] (>= 0; 0: the resting rule is off, the default
+  /// of the detector alone; the Estimator's is EstimatorConfig::contact_rest_time).
   double rest_time = 0.0;
   /// With the plan kSwing: lift-off below this load [N] (<= off_force; <= 0: off_force / 2).
   double swing_off_force = 0.0;

@@ -146,6 +146,13 @@ struct EstimatorConfig {
   /// plan, SensorFrame::foot_plan, says a foot swings, its contact ends below off / 2).
   double contact_on_fraction = 0.15;
   double contact_off_fraction = 0.01;
+  /// The detector's resting rule (ContactThresholds::rest_time): a foot whose load stayed below
+  /// 2 % of the weight this long with its sole where it stood keeps its contact at any load, so
+  /// the flag means "touching" (idl/README.md "Contact flags") [s]. 0.02: longer than a push
+  /// unloads a foot (<= 9 ms from 2 % to 1 %), shorter than the weight moves off a foot that
+  /// stays down (40-58 ms), measured (contact_detector.hpp). 0: off (the flag drops below
+  /// contact_off_fraction). >= 0.
+  double contact_rest_time = 0.02;
   /// Identical consecutive IMU samples (gyro, accelerometer and orientation bit for bit) after
   /// which the IMU counts as frozen.
   int frozen_imu_ticks = 20;
