@@ -691,6 +691,10 @@ struct RunResult {
   int exit_code = -1;
   double p50 = 0, p99 = 0, max = 0, mean = 0;
   std::uint64_t latency_count = 0;
+  /// Time the nodes (estimator, controller, contact optimiser) spend in DDS writes per tick: the
+  /// sums of their dds_write_us p50 and p99 (a subscribing recorder is one more reader each write
+  /// serves; a passive one is none).
+  double write_p50 = 0, write_p99 = 0;
   std::uint64_t deadline_misses = 0, damping_ticks = 0;
   bool survived = false;
   double realtime_factor = 0;
@@ -795,6 +799,13 @@ RunResult run_stack(const fs::path& poise, const fs::path& dir, const std::strin
     r.max = lat.value("max", 0.0);
     r.mean = lat.value("mean", 0.0);
     r.latency_count = lat.value("count", 0ULL);
+  }
+  if (const Json& w = r.result["dds_write_us"]; w.is_object()) {
+    for (const char* node : {"estimator", "controller", "contact"})
+      if (w.contains(node)) {
+        r.write_p50 += w[node].value("p50", 0.0);
+        r.write_p99 += w[node].value("p99", 0.0);
+      }
   }
   if (r.latency_count == 0) {
     // A run that failed (a component exited, ...) has no latency: not a sample of the cost.
@@ -911,9 +922,9 @@ void print_sample_sizes(const CaseResult& c) {
 }
 
 void print_run_table(const std::vector<RunResult>& runs) {
-  std::printf("%-4s %-12s %8s %8s %8s %8s %8s %8s %6s %8s %11s %8s %7s %9s\n", "RUN", "RECORD",
-              "p50[us]", "p99[us]", "max[us]", "mean[us]", "MISSES", "DAMPING", "RTF", "CPU[s]",
-              "LOOP-CPU[s]", "REC-CPU%", "SURVIVED", "FILE[MB]");
+  std::printf("%-4s %-12s %8s %8s %8s %8s %8s %8s %6s %8s %11s %13s %8s %7s %9s\n", "RUN",
+              "RECORD", "p50[us]", "p99[us]", "max[us]", "mean[us]", "MISSES", "DAMPING", "RTF",
+              "CPU[s]", "LOOP-CPU[s]", "WRITE50/99us", "REC-CPU%", "SURVIVED", "FILE[MB]");
   int i = 0;
   for (const auto& r : runs) {
     ++i;
@@ -921,11 +932,11 @@ void print_run_table(const std::vector<RunResult>& runs) {
       std::printf("%-4d %-12s FAILED: %s\n", i, mode_name(r.mode), r.problem.c_str());
       continue;
     }
-    std::printf("%-4d %-12s %8.0f %8.0f %8.0f %8.0f %8llu %8llu %6.3f %8.2f %11.2f %8s %7s %9s\n",
+    std::printf("%-4d %-12s %8.0f %8.0f %8.0f %8.0f %8llu %8llu %6.3f %8.2f %11.2f %6.0f/%-6.0f %8s %7s %9s\n",
                 i, mode_name(r.mode), r.p50, r.p99, r.max, r.mean,
                 static_cast<unsigned long long>(r.deadline_misses),
                 static_cast<unsigned long long>(r.damping_ticks), r.realtime_factor, r.tree_cpu_s,
-                r.loop_cpu_s,
+                r.loop_cpu_s, r.write_p50, r.write_p99,
                 r.recorded ? std::to_string(r.recorder.percent()).substr(0, 5).c_str() : "-",
                 r.survived ? "yes" : "NO",
                 r.recorded && r.info.is_object()
@@ -1031,7 +1042,8 @@ void usage() {
       "              no,dds,passive as root, else no,dds); --loop-cpus LIST runs the loop there\n"
       "              with SCHED_FIFO 80 and locked memory (`poise run --cpus`), --recorder-cpus\n"
       "              LIST pins the hand-started passive recorder (taskset). LOOP-CPU = CPU of\n"
-      "              the run's processes less the recorder's (dds, passive)\n"
+      "              the run's processes less the recorder's (dds, passive); WRITE = the sums of\n"
+      "              the estimator's, controller's and contact optimiser's DDS write time p50/p99\n"
       "  long        with --long-minutes M: one M-minute real-time run with --record\n"
       "Options:\n"
       "  --dir DIR        where files go (default: a fresh /tmp/poise-bench-record-<pid>)\n"
@@ -1284,7 +1296,7 @@ int main(int argc, char** argv) {
       print_run_table(runs);
       auto rt = [](double a, double b) { return b > 0 ? a / b : 0.0; };
       struct Agg {
-        std::vector<double> p50, p99, mx, cpu, loop_cpu, rec_pct;
+        std::vector<double> p50, p99, mx, cpu, loop_cpu, rec_pct, w50, w99;
         std::uint64_t misses = 0, damping = 0;
       };
       std::map<RecordMode, Agg> agg;
@@ -1296,6 +1308,8 @@ int main(int argc, char** argv) {
         a.mx.push_back(r.max);
         a.cpu.push_back(r.tree_cpu_s);
         a.loop_cpu.push_back(r.loop_cpu_s);
+        a.w50.push_back(r.write_p50);
+        a.w99.push_back(r.write_p99);
         if (r.recorded) a.rec_pct.push_back(r.recorder.percent());
         a.misses += r.deadline_misses;
         a.damping += r.damping_ticks;
@@ -1303,18 +1317,20 @@ int main(int argc, char** argv) {
       const Agg base = agg.count(RecordMode::none) ? agg[RecordMode::none] : Agg{};
       for (const auto& [mode, a] : agg) {
         std::printf("median over %zu runs, recorder %-12s: p50 %.0f p99 %.0f max %.0f us, CPU %.2f s, "
-                    "loop CPU %.2f s, recorder %.1f %% of a core; deadline misses %llu, damping "
-                    "ticks %llu (sums)",
+                    "loop CPU %.2f s, nodes' DDS writes p50 %.0f p99 %.0f us, recorder %.1f %% of a "
+                    "core; deadline misses %llu, damping ticks %llu (sums)",
                     a.p50.size(), mode_name(mode), median(a.p50), median(a.p99), median(a.mx),
-                    median(a.cpu), median(a.loop_cpu), a.rec_pct.empty() ? 0.0 : median(a.rec_pct),
+                    median(a.cpu), median(a.loop_cpu), median(a.w50), median(a.w99),
+                    a.rec_pct.empty() ? 0.0 : median(a.rec_pct),
                     static_cast<unsigned long long>(a.misses),
                     static_cast<unsigned long long>(a.damping));
         if (mode != RecordMode::none && !base.p50.empty())
           std::printf(" | ratio to none: p50 %.2f, p99 %.2f, max %.2f, CPU of the run %.2f, loop "
-                      "CPU %.2f",
+                      "CPU %.2f, DDS writes p50 %.2f p99 %.2f",
                       rt(median(a.p50), median(base.p50)), rt(median(a.p99), median(base.p99)),
                       rt(median(a.mx), median(base.mx)), rt(median(a.cpu), median(base.cpu)),
-                      rt(median(a.loop_cpu), median(base.loop_cpu)));
+                      rt(median(a.loop_cpu), median(base.loop_cpu)),
+                      rt(median(a.w50), median(base.w50)), rt(median(a.w99), median(base.w99)));
         std::printf("\n");
       }
       // The first recording of each kind, against the nodes' own tick counts.
