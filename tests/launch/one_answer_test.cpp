@@ -6,8 +6,8 @@
 // tick is read back from the MCAP file (poise/ground_truth, CDR decoded by the vendor type
 // support). The in-process run is made here, in this process, from the same scenario file. The
 // two are compared tick by tick (the header tick of the ground truth = the simulator's tick):
-// base position and CoM. The scenarios are the forward push, the lateral push in single support
-// and a platform scenario, shortened so that the push (t = 1.0-1.1 s) or the platform motion
+// base position and CoM. The scenarios are the forward push, the lateral push in single support,
+// a platform scenario and the step in place (a balance-reference trajectory), shortened so that the push (t = 1.0-1.1 s) or the platform motion
 // (from t = 2.0 s) is inside the run; both DDS vendors are used.
 //
 // That the comparison can fail is checked too: an in-process run with another start-up
@@ -280,6 +280,14 @@ TEST(OneAnswer, LateralPushSingleSupportFastdds) {
 
 TEST(OneAnswer, PlatformsOutOfPhaseCyclone) {
   check_case({"platforms_out_of_phase", 5.0, false, "cyclone", 0.02});
+}
+
+// A scenario with a balance-reference trajectory: poise-reference plays it over DDS ahead of
+// the state; the in-process loop runs the same player (reference::Player) into the controller's
+// and the estimator's queues. The CoM moves over the left foot (2.0-3.5 s), the right foot steps
+// (3.7-4.3 s) and the CoM starts back: contact changes, on both ends of the comparison.
+TEST(OneAnswer, StepInPlaceReferenceCyclone) {
+  check_case({"step_in_place", 4.6, false, "cyclone", 0.05});
 }
 
 // `poise run --in-process` (the command line, not only the library) writes the verdict of the

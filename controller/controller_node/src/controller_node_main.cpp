@@ -54,7 +54,7 @@
 #include "poise/contact_node/contact_messages.hpp"
 #include "poise/controller/balance_controller.hpp"
 #include "poise/controller_node/controller_messages.hpp"
-#include "poise/controller_node/reference_queue.hpp"
+#include "poise/controller_node/reference_applier.hpp"
 #include "poise/model/robot_config.hpp"
 #include "poise/node/node.hpp"
 #include "poise/node/robot_description.hpp"
@@ -132,7 +132,11 @@ int run(int argc, char** argv) {
   contact::ContactProblem problem;
   contact::ContactSolution solution;
 
-  controller_node::ReferenceQueue reference_queue(kReferenceQueue);
+  // Posture-target velocity of a reference trajectory played per tick (see the contract above).
+  const double period_s =
+      description.control_period_s() > 0.0 ? description.control_period_s() : 1e-3;
+  controller_node::ReferenceApplier reference_applier(kReferenceQueue, model_to_wire, period_s);
+  controller_node::ReferenceQueue& reference_queue = reference_applier.queue();
   dds::Subscriber<msg::BalanceReference> references(
       node.participant(), reference_queue.callback(),
       dds::Qos::latched(static_cast<int>(kReferenceQueue)));
@@ -140,7 +144,6 @@ int run(int argc, char** argv) {
   dds::Publisher<msg::ContactProblem> problems(node.participant());
   dds::Publisher<msg::JointCommand> commands(node.participant());
 
-  msg::BalanceReference ref_in;
   msg::ContactProblem problem_out;
   msg::JointCommand out;
   bool have_last = false;
@@ -150,14 +153,7 @@ int run(int argc, char** argv) {
   const int state_input = node.expect_input("poise/state", options.input_stale_ms);
   int contact_misses = 0;  // ticks in a row without a contact solution
   std::uint64_t commands_withheld = 0;
-  // Posture-target velocity of a reference trajectory played per tick (see the contract above).
-  const double period_s =
-      description.control_period_s() > 0.0 ? description.control_period_s() : 1e-3;
   const auto n_joints = static_cast<Eigen::Index>(model_to_wire.size());
-  std::vector<double> previous_wire_q(msg::MAX_JOINTS, 0.0);
-  Eigen::VectorXd applied_q = Eigen::VectorXd::Zero(n_joints);
-  bool applied_has_q = false;
-  std::uint64_t applied_tick = 0, references_applied = 0;
   const auto deadline_ns = static_cast<std::int64_t>(deadline_us * 1e3);
 
   // Threading: phase A runs in the state callback and phase B in the contact-solution callback,
@@ -214,7 +210,7 @@ int run(int argc, char** argv) {
       case node::TickSequencer::Verdict::kRestart:
         ctrl.reset();
         have_last = false;
-        applied_has_q = false;
+        reference_applier.restart();
         node.error("state stream restarted at tick %llu (previous %llu): controller reset",
                    static_cast<unsigned long long>(k),
                    static_cast<unsigned long long>(sequencer.previous()));
@@ -223,32 +219,13 @@ int run(int argc, char** argv) {
         break;
     }
     node.input_seen(state_input, k);
-    const auto due = reference_queue.take_due(k, have_last, last_tick, ref_in,
-                                              previous_wire_q.data(), previous_wire_q.size());
+    const auto due = reference_applier.apply(k, have_last, last_tick, reference);
     if (due.late > 0)
       node.error("tick %llu: %u balance reference(s) arrived after their tick",
                  static_cast<unsigned long long>(k), due.late);
-    if (due.taken) {
-      ++references_applied;
-      if (!controller_node::from_msg(ref_in, model_to_wire, reference)) {
-        node.error("balance reference with joint_count %u (robot has %zu): joint targets ignored",
-                   ref_in.joint_count(), model_to_wire.size());
-      } else {
-        const bool follows = due.tick > 1 && reference.has_upper_body_q;
-        if (follows && due.has_previous) {
-          for (Eigen::Index j = 0; j < n_joints; ++j)
-            reference.upper_body_qd[j] =
-                (reference.upper_body_q[j] - previous_wire_q[model_to_wire[j]]) / period_s;
-        } else if (follows && applied_has_q && applied_tick + 1 == due.tick) {
-          reference.upper_body_qd = (reference.upper_body_q - applied_q) / period_s;
-        } else {
-          reference.upper_body_qd.setZero();
-        }
-        applied_q = reference.upper_body_q;
-        applied_has_q = reference.has_upper_body_q;
-        applied_tick = due.tick;
-      }
-    }
+    if (due.taken && !due.joints_applied)
+      node.error("balance reference with joint_count %u (robot has %zu): joint targets ignored",
+                 due.joint_count, model_to_wire.size());
     controller_node::from_msg(in, model_to_wire, state);
     const std::int64_t t_lib = node::now_ns();
     ctrl.prepare(state, reference, problem);
@@ -371,7 +348,7 @@ int run(int argc, char** argv) {
                 static_cast<unsigned long long>(d.qp_failures),
                 static_cast<unsigned long long>(d.ticks),
                 static_cast<unsigned long long>(reference_queue.received()),
-                static_cast<unsigned long long>(references_applied),
+                static_cast<unsigned long long>(reference_applier.applied()),
                 static_cast<unsigned long long>(reference_queue.late()),
                 static_cast<unsigned long long>(reference_queue.overflows()),
                 static_cast<unsigned long long>(sequencer.rejected()),

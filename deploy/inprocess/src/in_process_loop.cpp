@@ -8,6 +8,7 @@
 
 #include "poise/contact_node/contact_messages.hpp"
 #include "poise/controller_node/controller_messages.hpp"
+#include "poise/controller_node/reference_applier.hpp"
 #include "poise/model/kinematics.hpp"
 #include "poise/node/convert.hpp"
 #include "poise/reflect/validate.hpp"
@@ -16,6 +17,7 @@
 #if POISE_INPROCESS_HAVE_ESTIMATOR
 #include "poise/estimator/estimator.hpp"
 #include "poise/estimator_node/estimator_messages.hpp"
+#include "poise/estimator_node/foot_plan_queue.hpp"
 #endif
 
 namespace poise::inprocess {
@@ -42,6 +44,9 @@ struct InProcessLoop::EstimatorParts {
   estimator::Estimator est;
   estimator::SensorFrame frame;
   estimator::EstimatorState out;
+  /// poise-estimator's plan queue: the feet's planned modes of the balance references, each
+  /// from its tick on (the contact detector's prior).
+  estimator_node::FootPlanQueue plans{512};
 };
 #else
 struct InProcessLoop::EstimatorParts {};
@@ -150,8 +155,14 @@ InProcessLoop::InProcessLoop(const scenario::Scenario& scenario, const LoopOptio
   }
   if (!scenario_.reference.empty()) {
     try {
-      reference_player_ = std::make_unique<reference::Sampler>(
-          reference::load_trajectory(scenario_.reference.string()), model_, robot_);
+      // As `poise run` starts poise-reference (the file's lead ticks) and poise-controller (a
+      // queue of 512 references, the description's control period).
+      reference::Trajectory traj = reference::load_trajectory(scenario_.reference.string());
+      const int lead = traj.lead_ticks;
+      reference_player_ = std::make_unique<reference::Player>(std::move(traj), model_, robot_,
+                                                              model_to_sim_, sim_->dt(), lead);
+      reference_applier_ =
+          std::make_unique<controller_node::ReferenceApplier>(512, model_to_sim_, sim_->dt());
     } catch (const std::exception& e) {
       throw std::runtime_error("scenario '" + scenario_.name + "', reference: " + e.what());
     }
@@ -197,10 +208,8 @@ bool InProcessLoop::read_state() {
     sim_node::to_msg(sensors_, wire_feet_, *sensors_msg_);
     estimator_node::from_msg(*sensors_msg_, model_to_sim_, estimator_->frame);
     // The contact detector's prior, as poise-estimator takes it from poise/balance_reference:
-    // the planned foot modes (here those of the previous tick's reference).
-    for (int side = 0; side < 2; ++side)
-      estimator_->frame.foot_plan[static_cast<std::size_t>(side)] = estimator::foot_plan_of_mode(
-          static_cast<int>(reference_.feet[static_cast<std::size_t>(side)].mode));
+    // the planned foot modes of the reference due at this tick (none before any reference).
+    estimator_->frame.foot_plan = estimator_->plans.at(static_cast<std::uint64_t>(sensors_.tick));
     const std::uint64_t rejected = estimator_->est.diagnostics().rejected_frames;
     estimator_->est.update(estimator_->frame, estimator_->out);
     if (estimator_->est.diagnostics().rejected_frames != rejected) return false;  // no state
@@ -250,13 +259,36 @@ bool InProcessLoop::read_state() {
   }
   state_msg_->header().tick(static_cast<std::uint64_t>(sensors_.tick));
   state_msg_->header().stamp_ns(std::llround(sensors_.time * 1e9));
+  node::put3(state_.com_W, state_msg_->com_W());  // what the reference player reads
+  for (int side = 0; side < 2; ++side)
+    node::put_pose(state_.feet[side].X_WF.R, state_.feet[side].X_WF.p,
+                   state_msg_->feet()[static_cast<std::size_t>(side)].pose_W());
   return true;
+}
+
+void InProcessLoop::apply_references() {
+  if (!reference_applier_) return;
+  // poise-controller at state k: the references due, applied as the node applies them.
+  const auto k = static_cast<std::uint64_t>(sensors_.tick);
+  reference_applier_->apply(k, have_handled_, handled_tick_, reference_);
+  have_handled_ = true;
+  handled_tick_ = k;
 }
 
 void InProcessLoop::play_reference() {
   if (!reference_player_) return;
-  const std::array<model::SE3, 2> X_WF{state_.feet[0].X_WF, state_.feet[1].X_WF};
-  reference_player_->sample(state_.time, state_.com_W, X_WF, reference_);
+  // poise-reference on the same state: the references of the next lead ticks, to the controller's
+  // queue and to the estimator's (both subscribe to poise/balance_reference).
+  reference_player_->on_state(*state_msg_, [this](const msg::BalanceReference& r) {
+    reference_applier_->queue().put(r);
+#if POISE_INPROCESS_HAVE_ESTIMATOR
+    if (estimator_)
+      estimator_->plans.put(r.header().tick(),
+                            {estimator::foot_plan_of_mode(static_cast<int>(r.feet()[0].mode())),
+                             estimator::foot_plan_of_mode(static_cast<int>(r.feet()[1].mode()))});
+#endif
+    return true;
+  });
 }
 
 void InProcessLoop::control() {
@@ -305,8 +337,9 @@ void InProcessLoop::step() {
     return;
   }
   consecutive_timeouts_ = 0;
-  play_reference();
+  apply_references();
   control();
+  play_reference();
   const auto t1 = std::chrono::steady_clock::now();
   const double us = std::chrono::duration<double, std::micro>(t1 - t0).count();
   if (latency_us_.size() < latency_us_.capacity()) latency_us_.push_back(us);

@@ -78,4 +78,63 @@ class Mailbox {
   std::int64_t arrival_ns_ = 0;
 };
 
+/// Hand-off of EVERY sample, in arrival order, from a DDS listener thread to a loop thread: for a
+/// node whose output depends on each input, not only on the newest (the reference player takes
+/// its CoM origin and step poses from the state of a given tick). `capacity` slots are allocated
+/// at construction; when they are all taken the oldest sample is dropped and counted (dropped()).
+/// put() and pop() neither allocate (fixed-size types) nor throw.
+template <class T>
+class SampleQueue {
+ public:
+  explicit SampleQueue(std::size_t capacity)
+      : slots_(std::make_unique<T[]>(capacity > 0 ? capacity : 1)),
+        capacity_(capacity > 0 ? capacity : 1) {}
+  SampleQueue(const SampleQueue&) = delete;
+  SampleQueue& operator=(const SampleQueue&) = delete;
+
+  std::function<void(const T&)> callback() {
+    return [this](const T& sample) { put(sample); };
+  }
+
+  void put(const T& sample) noexcept {
+    {
+      std::lock_guard lock(mutex_);
+      if (size_ == capacity_) {  // full: the oldest goes
+        head_ = (head_ + 1) % capacity_;
+        --size_;
+        ++dropped_;
+      }
+      slots_[(head_ + size_) % capacity_] = sample;
+      ++size_;
+    }
+    cv_.notify_one();
+  }
+
+  /// Waits until a sample is queued or until `deadline_ns` (monotonic, see now_ns()); moves the
+  /// oldest into `out`. False (nothing written) at the deadline.
+  bool pop(T& out, std::int64_t deadline_ns) noexcept {
+    std::unique_lock lock(mutex_);
+    const auto deadline =
+        std::chrono::steady_clock::time_point(std::chrono::nanoseconds(deadline_ns));
+    if (!cv_.wait_until(lock, deadline, [&] { return size_ > 0; })) return false;
+    out = slots_[head_];
+    head_ = (head_ + 1) % capacity_;
+    --size_;
+    return true;
+  }
+
+  std::uint64_t dropped() const noexcept {
+    std::lock_guard lock(mutex_);
+    return dropped_;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::condition_variable cv_;
+  std::unique_ptr<T[]> slots_;
+  std::size_t capacity_;
+  std::size_t head_ = 0, size_ = 0;
+  std::uint64_t dropped_ = 0;
+};
+
 }  // namespace poise::node

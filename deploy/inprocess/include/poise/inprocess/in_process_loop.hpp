@@ -50,12 +50,15 @@
 
 #include "poise/contact/contact_optimizer.hpp"
 #include "poise/controller/balance_controller.hpp"
-#include "poise/reference/sampler.hpp"
+#include "poise/reference/player.hpp"
 #include "poise/scenario/scenario.hpp"
 #include "poise/sim/simulator.hpp"
 
 namespace poise::safety {
 class SafetyLayer;
+}
+namespace poise::controller_node {
+class ReferenceApplier;
 }
 
 namespace poise::inprocess {
@@ -153,7 +156,8 @@ class InProcessLoop {
   /// Tick of the first control tick (after the start-up hold).
   std::int64_t first_tick() const { return first_tick_; }
   /// The balance reference used every tick (tests change it: CoM shift, upper-body motion).
-  /// With a scenario `reference:` file, step() writes the trajectory's part of it first.
+  /// With a scenario `reference:` file, step() applies the player's references due at the tick
+  /// first, as poise-controller applies those of poise-reference.
   controller::BalanceReference& reference() { return reference_; }
   const controller::BalanceController& controller() const { return *controller_; }
   sim::Simulator& simulator() { return *sim_; }
@@ -165,6 +169,7 @@ class InProcessLoop {
   struct EstimatorParts;
   /// False when the estimator refused the frame (no state: poise-estimator sends none).
   bool read_state();
+  void apply_references();
   void play_reference();
   void control();
   void apply_safety_command(std::int64_t now_ns);
@@ -180,8 +185,14 @@ class InProcessLoop {
   std::unique_ptr<sim::Simulator> sim_;
   std::unique_ptr<controller::BalanceController> controller_;
   std::unique_ptr<EstimatorParts> estimator_;
-  /// The scenario's `reference:` trajectory, sampled into reference_ every tick (null: none).
-  std::unique_ptr<reference::Sampler> reference_player_;
+  /// The scenario's `reference:` trajectory: the player poise-reference runs, fed the state of
+  /// every tick; its references go to the controller's queue and the estimator's plan queue, as
+  /// over DDS (null: no reference file).
+  std::unique_ptr<reference::Player> reference_player_;
+  /// poise-controller's reference queue and how it applies a reference (null: no reference file).
+  std::unique_ptr<controller_node::ReferenceApplier> reference_applier_;
+  bool have_handled_ = false;      // the controller handled a state before (its last tick below)
+  std::uint64_t handled_tick_ = 0;
   contact::ContactOptimizer optimizer_;
   sim::ScenarioMonitor monitor_;
 

@@ -1,0 +1,109 @@
+#include "poise/reference/player.hpp"
+
+#include <cmath>
+#include <stdexcept>
+#include <utility>
+
+#include "poise/node/convert.hpp"
+#include "poise/reference/sampler.hpp"
+
+namespace poise::reference {
+
+Player::Player(Trajectory trajectory, const model::Model& model, const model::RobotConfig& robot,
+               const std::vector<int>& model_to_wire, double period_s, int lead_ticks)
+    : traj_(std::move(trajectory)),
+      period_(period_s),
+      period_ns_(std::llround(period_s * 1e9)),
+      lead_(lead_ticks) {
+  if (lead_ < 1) throw std::runtime_error("reference player: lead ticks must be >= 1");
+  if (!(period_ > 0.0)) throw std::runtime_error("reference player: the period must be > 0");
+  if (model_to_wire.size() != static_cast<std::size_t>(model.njoints) ||
+      model_to_wire.size() > msg::MAX_JOINTS)
+    throw std::runtime_error("reference player: the joint map does not fit the robot");
+  for (const JointSwing& s : traj_.joints) {
+    const int j = model.joint_index(s.joint);
+    if (j < 0)
+      throw std::runtime_error("reference '" + traj_.name + "': joint '" + s.joint +
+                               "' is not in the robot");
+    bool upper = false;
+    for (int u : robot.upper_body_joint_indices)
+      upper = upper || u == j;
+    if (!upper)
+      throw std::runtime_error("reference '" + traj_.name + "': joint '" + s.joint +
+                               "' is not an upper-body joint (robot.yaml joint_groups)");
+    swing_wire_.push_back(model_to_wire[static_cast<std::size_t>(j)]);
+  }
+  ref_.joint_count(static_cast<std::uint32_t>(model_to_wire.size()));
+  for (std::size_t j = 0; j < model_to_wire.size(); ++j)
+    ref_.upper_body_q()[static_cast<std::size_t>(model_to_wire[j])] =
+        robot.q_nominal[7 + static_cast<Eigen::Index>(j)];
+  nominal_q_ = ref_.upper_body_q();
+}
+
+void Player::begin(const msg::State& in) noexcept {
+  k_ = in.header().tick();
+  k_stamp_ns_ = in.header().stamp_ns();
+  t_k_ = static_cast<double>(k_stamp_ns_) * 1e-9;
+  if (started_) return;
+  started_ = true;
+  t_first_ = t_k_;
+  const double ticks_left = std::max(0.0, std::ceil((traj_.end() - t_k_) / period_));
+  end_tick_ = k_ + static_cast<std::uint64_t>(ticks_left);
+  next_ = k_ + 1;
+  started_late_ = t_k_ + period_ > traj_.begin();
+}
+
+bool Player::fill(std::uint64_t j, const msg::State& in) noexcept {
+  // Integer nanoseconds from the state's stamp: the time of tick j comes out the same whichever
+  // state it is computed from.
+  const long long stamp_ns = k_stamp_ns_ + static_cast<long long>(j - k_) * period_ns_;
+  const double t = static_cast<double>(stamp_ns) * 1e-9;
+  if (t < traj_.begin() - 0.5 * period_) return false;
+  ref_.header().tick(j);
+  ref_.header().stamp_ns(stamp_ns);
+  Eigen::Vector3d offset, velocity;
+  const bool com = com_offset(traj_, t, offset, velocity);
+  if (com && !origin_set_) {
+    origin_ = Eigen::Vector3d(in.com_W()[0], in.com_W()[1], in.com_W()[2]);
+    origin_set_ = true;
+  }
+  ref_.has_com_target(com);
+  for (int i = 0; i < 3; ++i) {
+    ref_.com_W()[i] = com ? origin_[i] + offset[i] : 0.0;
+    ref_.com_velocity_W()[i] = com ? velocity[i] : 0.0;
+  }
+  ref_.has_upper_body_q(has_joint_motion(traj_, t));
+  ref_.upper_body_q() = nominal_q_;
+  ref_.upper_body_qdd().fill(0.0);
+  for (std::size_t s = 0; s < traj_.joints.size(); ++s) {
+    double q, qd, qdd;
+    swing_offset(traj_.joints[s], t, q, qd, qdd);
+    ref_.upper_body_q()[static_cast<std::size_t>(swing_wire_[s])] += q;
+    ref_.upper_body_qdd()[static_cast<std::size_t>(swing_wire_[s])] += qdd;
+  }
+  if (!traj_.feet.empty()) {
+    const FootStep* step = active_step(traj_, t);
+    const int index = step != nullptr ? static_cast<int>(step - traj_.feet.data()) : -1;
+    if (step != nullptr && index != step_index_) {
+      step_index_ = index;
+      const msg::Pose& p = in.feet()[static_cast<std::size_t>(step->side)].pose_W();
+      X_stood_ = model::SE3(node::rotation(p), node::vec3(p.position()));
+    }
+    model::SE3 X_target;
+    model::Motion V_target;
+    for (int side = 0; side < 2; ++side) {
+      msg::FootReference& f = ref_.feet()[static_cast<std::size_t>(side)];
+      const bool swing = step != nullptr && step->side == side;
+      f.mode(swing ? msg::FOOT_SWING : msg::FOOT_SUPPORT);
+      f.has_target(swing);
+      if (!swing) continue;
+      step_target(*step, t, X_stood_, X_target, V_target);
+      node::put_pose(X_target.R, X_target.p, f.target_W());
+      node::put3(V_target.head<3>(), f.target_velocity_W().linear());
+      node::put3(V_target.tail<3>(), f.target_velocity_W().angular());
+    }
+  }
+  return true;
+}
+
+}  // namespace poise::reference
