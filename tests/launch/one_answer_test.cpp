@@ -235,7 +235,9 @@ void check_case(const Case& c) {
   EXPECT_EQ(d.missing, 0u);
   EXPECT_GE(2 * (d.compared + 1), inp.trajectory.size());
   EXPECT_EQ(dist.result.value("completed", !inp.result.completed), inp.result.completed);
-  if (inp.result.completed) EXPECT_GE(2 * d.compared, expected);
+  if (inp.result.completed) {
+    EXPECT_GE(2 * d.compared, expected);
+  }
   EXPECT_GE(base_travel(inp.trajectory), c.min_travel) << "the run has no motion to compare";
   EXPECT_LE(d.base_max, kBound) << "first tick above the bound: " << d.first_tick;
   EXPECT_LE(d.com_max, kBound) << "first tick above the bound: " << d.first_tick;
