@@ -20,19 +20,8 @@ Player::Player(Trajectory trajectory, const model::Model& model, const model::Ro
   if (model_to_wire.size() != static_cast<std::size_t>(model.njoints) ||
       model_to_wire.size() > msg::MAX_JOINTS)
     throw std::runtime_error("reference player: the joint map does not fit the robot");
-  for (const JointSwing& s : traj_.joints) {
-    const int j = model.joint_index(s.joint);
-    if (j < 0)
-      throw std::runtime_error("reference '" + traj_.name + "': joint '" + s.joint +
-                               "' is not in the robot");
-    bool upper = false;
-    for (int u : robot.upper_body_joint_indices)
-      upper = upper || u == j;
-    if (!upper)
-      throw std::runtime_error("reference '" + traj_.name + "': joint '" + s.joint +
-                               "' is not an upper-body joint (robot.yaml joint_groups)");
+  for (int j : swing_joint_indices(traj_, model, robot))
     swing_wire_.push_back(model_to_wire[static_cast<std::size_t>(j)]);
-  }
   ref_.joint_count(static_cast<std::uint32_t>(model_to_wire.size()));
   for (std::size_t j = 0; j < model_to_wire.size(); ++j)
     ref_.upper_body_q()[static_cast<std::size_t>(model_to_wire[j])] =

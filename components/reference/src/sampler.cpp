@@ -7,21 +7,27 @@ namespace poise::reference {
 
 Sampler::Sampler(Trajectory trajectory, const model::Model& model,
                  const model::RobotConfig& robot)
-    : traj_(std::move(trajectory)) {
-  for (const JointSwing& s : traj_.joints) {
+    : traj_(std::move(trajectory)), swing_joint_(swing_joint_indices(traj_, model, robot)) {
+  q_nominal_ = robot.q_nominal.tail(model.njoints);
+}
+
+std::vector<int> swing_joint_indices(const Trajectory& trajectory, const model::Model& model,
+                                     const model::RobotConfig& robot) {
+  std::vector<int> out;
+  for (const JointSwing& s : trajectory.joints) {
     const int j = model.joint_index(s.joint);
     if (j < 0)
-      throw std::runtime_error("reference '" + traj_.name + "': joint '" + s.joint +
+      throw std::runtime_error("reference '" + trajectory.name + "': joint '" + s.joint +
                                "' is not in the robot");
     bool upper = false;
     for (int u : robot.upper_body_joint_indices)
       upper = upper || u == j;
     if (!upper)
-      throw std::runtime_error("reference '" + traj_.name + "': joint '" + s.joint +
+      throw std::runtime_error("reference '" + trajectory.name + "': joint '" + s.joint +
                                "' is not an upper-body joint (robot.yaml joint_groups)");
-    swing_joint_.push_back(j);
+    out.push_back(j);
   }
-  q_nominal_ = robot.q_nominal.tail(model.njoints);
+  return out;
 }
 
 void step_target(const FootStep& s, double t, const model::SE3& X_stood, model::SE3& X_target,

@@ -42,6 +42,12 @@ class Sampler {
   model::SE3 X_stood_;
 };
 
+/// The model joint index of each of the trajectory's swings. Throws std::runtime_error naming
+/// the joint when it is not in the model or not an upper-body joint (robot.yaml joint_groups).
+/// Shared by the sampler and the player (player.hpp).
+std::vector<int> swing_joint_indices(const Trajectory& trajectory, const model::Model& model,
+                                     const model::RobotConfig& robot);
+
 /// Foot reference of a step at time t from the stood pose: FOOT_SWING, target raised by the lift
 /// profile (vertical velocity as the target velocity). Shared by the DDS player.
 void step_target(const FootStep& s, double t, const model::SE3& X_stood, model::SE3& X_target,
