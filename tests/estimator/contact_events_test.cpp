@@ -228,7 +228,7 @@ TEST(ContactEvents, StepInPlace) {
   // (the flag means "touching"; the controller rests a foot on its measured load, not on the
   // flag). Every true event is matched within 5 ms, the swing's lift-off and the landing once
   // each, and the flag changes no more often than the truth. Measured (seed 1, 2026-12-02,
-  // rest_time 0.02 s): 2 true changes, 2 flag changes; swing lift-off 4 ms early, landing at the
+  // rest_time 0.02 s): 2 true changes, 2 flag changes; swing lift-off 2 ms early, landing at the
   // tick of the truth. Without the resting rule (before): the flag was off from 0.11 s before a
   // 20 ms true separation (no load, no motion) until 0.19 s after it (2 true changes
   // unmatched, 4 flag changes: this test failed), and the swing lift-off was 4 ms early.
