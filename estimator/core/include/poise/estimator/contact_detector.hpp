@@ -18,9 +18,10 @@
 //              said swing (the lift of a swing starts at zero velocity: the 4 mm of lift_height
 //              come ~0.1 s after the sole left). kNone / kSupport: the rules above (a planned
 //              support may still be lifted by a push);
-//   resting    with rest_time > 0 (0 here; the Estimator sets EstimatorConfig::contact_rest_time,
-//              0.02 s), a foot whose load stayed below touch_force for rest_time with its sole
-//              within lift_height of where it stood keeps its contact whatever its load, until
+//   resting    with rest_time > 0 (0 here and in EstimatorConfig::contact_rest_time: off by
+//              default, see there; poise-estimator --contact-rest-time S), a foot whose load
+//              stayed below touch_force for rest_time with its sole within lift_height of where
+//              it stood keeps its contact whatever its load, until
 //              its sole rises (lift_height) or the plan's swing rule fires: the flag then means
 //              "touching", not "loaded" (a foot the weight shifted off rests on the ground with
 //              3-10 N). The balance controller rests a foot (Sec. 4.2, its CoP rule) on the
