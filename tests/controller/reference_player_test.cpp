@@ -153,6 +153,28 @@ TEST(ReferencePlayer, TheOriginAndTheStoodPoseComeFromTheStateLeadTicksAhead) {
                      s3500.feet()[right].pose_W().position()[i]);
 }
 
+TEST(ReferencePlayer, ARestartedStateStreamIsCountedAndNothingIsProducedTwice) {
+  const Robot& r = robot();
+  reference::Player p(step_in_place(), r.model, r.config, r.model_to_wire, 1e-3, 200);
+  std::map<std::uint64_t, int> produced;
+  auto feed = [&](std::uint64_t from, std::uint64_t to) {
+    for (std::uint64_t k = from; k <= to; ++k)
+      p.on_state(state_of(k, false), [&](const msg::BalanceReference& ref) {
+        ++produced[ref.header().tick()];
+        return true;
+      });
+  };
+  feed(10, 2500);  // references up to tick 2700
+  EXPECT_EQ(p.restarts(), 0u);
+  const std::uint64_t sent = p.sent();
+  feed(1, 2400);  // the robot side restarted: ticks 1.. again
+  EXPECT_EQ(p.restarts(), 1u);
+  EXPECT_EQ(p.sent(), sent) << "nothing new until the stream is past tick 2500";
+  feed(2401, 2600);
+  EXPECT_EQ(p.sent(), sent + 100);
+  for (const auto& [tick, n] : produced) EXPECT_EQ(n, 1) << "tick " << tick;
+}
+
 TEST(ReferencePlayer, ABadSwingJointOrLeadIsRefusedByName) {
   const Robot& r = robot();
   reference::Trajectory t;

@@ -127,7 +127,7 @@ TEST_P(LaunchMultiHost, ForwardPushSurvivesAcrossThreeHostsAsOnOne) {
   ASSERT_EQ(single.wait_for(240s).value_or(-1), 0) << single.output();
   const Json one = read_json(dir / "single.json");
   const Json& three = r["sim"];
-  const auto misses = [](const Json& j, const char* key) {
+  const auto number = [](const Json& j, const char* key) {
     return j.contains(key) && j[key].is_number() ? j[key].get<double>() : -1.0;
   };
   std::printf("%s: com_error_max three hosts %.6f m, one machine %.6f m; com_error_final %.6f / "
@@ -136,8 +136,8 @@ TEST_P(LaunchMultiHost, ForwardPushSurvivesAcrossThreeHostsAsOnOne) {
               mode.c_str(), three.value("com_error_max_m", -1.0), one.value("com_error_max_m", -1.0),
               three.value("com_error_final_m", -1.0), one.value("com_error_final_m", -1.0),
               three.value("foot_slip_max_m", -1.0), one.value("foot_slip_max_m", -1.0),
-              misses(three, "hold_ticks"), misses(one, "hold_ticks"), misses(three, "overruns"),
-              misses(one, "deadline_misses"));
+              number(three, "hold_ticks"), number(one, "hold_ticks"), number(three, "overruns"),
+              number(one, "deadline_misses"));
   EXPECT_EQ(three.value("survived", false), one.value("survived", true));
   if (mode == "lockstep") {
     // Lockstep is deterministic: the same numbers, wherever the processes run.

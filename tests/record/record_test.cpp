@@ -108,6 +108,18 @@ Json info_json(const fs::path& file, int* code = nullptr) {
   }
 }
 
+/// The per-tick topics of the distributed stack and the node that writes each.
+const std::vector<std::pair<std::string, std::string>> kPerTickTopicWriters{
+    {"poise/sensors", "sim"},           {"poise/ground_truth", "sim"},
+    {"poise/state", "estimator"},       {"poise/contact_problem", "controller"},
+    {"poise/contact_solution", "contact"}, {"poise/joint_command", "controller"}};
+
+/// The ticks a node says it handled (its --summary file in `logs`: diagnostics.ticks).
+std::uint64_t summary_ticks(const fs::path& logs, const std::string& node) {
+  const Json j = Json::parse(std::ifstream(logs / (node + ".summary.json")));
+  return j["diagnostics"]["ticks"].get<std::uint64_t>();
+}
+
 const Json* find_topic(const Json& info, const std::string& topic) {
   for (const auto& t : info["topics"])
     if (t["topic"] == topic) return &t;
@@ -691,21 +703,12 @@ TEST(Record, TenSecondsOfTheStackInRealTimeAreRecordedTickByTick) {
   // Each node counts the ticks it handled (its summary): the file holds exactly one sample of
   // each. A tick a node skipped (real time on a busy machine) is missing from its own output,
   // not from the recording.
-  auto node_ticks = [&](const std::string& node) {
-    const Json j = Json::parse(std::ifstream(dir / "logs" / (node + ".summary.json")));
-    return j["diagnostics"]["ticks"].get<std::uint64_t>();
-  };
+  auto node_ticks = [&](const std::string& node) { return summary_ticks(dir / "logs", node); };
   const std::uint64_t sim_ticks = node_ticks("sim");
   EXPECT_GE(sim_ticks, 9900u);
   EXPECT_EQ((*sensors)["missing_ticks"], 0);
   EXPECT_EQ((*sensors)["duplicate_ticks"], 0);
-  for (const auto& [topic, node] :
-       std::vector<std::pair<std::string, std::string>>{{"poise/sensors", "sim"},
-                                                        {"poise/ground_truth", "sim"},
-                                                        {"poise/state", "estimator"},
-                                                        {"poise/contact_problem", "controller"},
-                                                        {"poise/contact_solution", "contact"},
-                                                        {"poise/joint_command", "controller"}}) {
+  for (const auto& [topic, node] : kPerTickTopicWriters) {
     const Json* s = find_topic(info, topic);
     ASSERT_NE(s, nullptr) << topic;
     EXPECT_TRUE((*s)["per_tick"].get<bool>()) << topic;
@@ -866,22 +869,13 @@ TEST(Record, RunRecordPassiveHoldsEveryTickOfEveryPerTickTopicOnce) {
   const Json info = info_json(file);
   ASSERT_TRUE(info["complete"].get<bool>()) << info.dump(2);
   EXPECT_EQ(info["metadata"]["poise_recording"]["capture"], "passive:lo");
-  auto node_ticks = [&](const std::string& node) {
-    const Json j = Json::parse(std::ifstream(dir / "logs" / (node + ".summary.json")));
-    return j["diagnostics"]["ticks"].get<std::uint64_t>();
-  };
+  auto node_ticks = [&](const std::string& node) { return summary_ticks(dir / "logs", node); };
   const std::uint64_t sim_ticks = node_ticks("sim");
   EXPECT_GE(sim_ticks, 3900u);  // 4 s at 1 kHz, lockstep
   const Json* sensors = find_topic(info, "poise/sensors");
   ASSERT_NE(sensors, nullptr);
   const std::uint64_t first = (*sensors)["first_tick"].get<std::uint64_t>();
-  for (const auto& [topic, node] :
-       std::vector<std::pair<std::string, std::string>>{{"poise/sensors", "sim"},
-                                                        {"poise/ground_truth", "sim"},
-                                                        {"poise/state", "estimator"},
-                                                        {"poise/contact_problem", "controller"},
-                                                        {"poise/contact_solution", "contact"},
-                                                        {"poise/joint_command", "controller"}}) {
+  for (const auto& [topic, node] : kPerTickTopicWriters) {
     const Json* s = find_topic(info, topic);
     ASSERT_NE(s, nullptr) << topic << " is not in the file";
     EXPECT_TRUE((*s)["per_tick"].get<bool>()) << topic;

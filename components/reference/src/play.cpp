@@ -93,10 +93,14 @@ int play(int argc, char** argv) {
     const std::int64_t t0 = node::now_ns();
     const std::uint64_t k = in.header().tick();
     const bool was_late = player.started_late();
+    const std::uint64_t restarts = player.restarts();
     player.on_state(in, [&](const msg::BalanceReference& r) { return node.publish(pub, r); });
     if (player.started_late() && !was_late)
       node.error("started late: the trajectory begins at %.3f s, the state is at %.3f s",
                  traj.begin(), player.first_state_time());
+    if (player.restarts() != restarts)
+      node.error("poise/state restarted at tick %llu: references already sent are not sent again",
+                 static_cast<unsigned long long>(k));
     node.tick_done(k, node::now_ns() - t0);
     if (player.done() && !done) {
       done = true;

@@ -30,16 +30,20 @@ Player::Player(Trajectory trajectory, const model::Model& model, const model::Ro
 }
 
 void Player::begin(const msg::State& in) noexcept {
-  k_ = in.header().tick();
+  const std::uint64_t k = in.header().tick();
+  // A state stream that restarts (a tick below one seen before: the robot side restarted) keeps
+  // the player's timeline: the ticks it already produced are not produced again, so nothing is
+  // sent until the stream is past them. Counted (restarts()); poise-reference reports it.
+  if (started_ && k < last_state_tick_) ++restarts_;
+  k_ = k;
   k_stamp_ns_ = in.header().stamp_ns();
-  t_k_ = static_cast<double>(k_stamp_ns_) * 1e-9;
   if (started_) return;
   started_ = true;
-  t_first_ = t_k_;
-  const double ticks_left = std::max(0.0, std::ceil((traj_.end() - t_k_) / period_));
+  t_first_ = static_cast<double>(k_stamp_ns_) * 1e-9;
+  const double ticks_left = std::max(0.0, std::ceil((traj_.end() - t_first_) / period_));
   end_tick_ = k_ + static_cast<std::uint64_t>(ticks_left);
   next_ = k_ + 1;
-  started_late_ = t_k_ + period_ > traj_.begin();
+  started_late_ = t_first_ + period_ > traj_.begin();
 }
 
 bool Player::fill(std::uint64_t j, const msg::State& in) noexcept {

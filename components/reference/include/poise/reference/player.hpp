@@ -59,6 +59,9 @@ class Player {
   /// The first state came after the trajectory began (its start is lost).
   bool started_late() const noexcept { return started_late_; }
   double first_state_time() const noexcept { return t_first_; }
+  /// States whose tick was below one seen before (a restarted state stream). The player keeps
+  /// its timeline: it produces nothing until the stream is past the ticks already produced.
+  std::uint64_t restarts() const noexcept { return restarts_; }
   std::uint64_t sent() const noexcept { return sent_; }
   std::uint64_t first_sent() const noexcept { return first_sent_; }
   std::uint64_t last_sent() const noexcept { return last_sent_; }
@@ -81,9 +84,9 @@ class Player {
   std::uint64_t next_ = 0, end_tick_ = 0, last_state_tick_ = 0;
   std::uint64_t sent_ = 0, first_sent_ = 0, last_sent_ = 0;
   double t_first_ = 0.0;
-  std::uint64_t k_ = 0;  // tick of the state being handled
-  double t_k_ = 0.0;     // its time
-  long long k_stamp_ns_ = 0;
+  std::uint64_t k_ = 0;       // tick of the state being handled
+  long long k_stamp_ns_ = 0;  // its stamp
+  std::uint64_t restarts_ = 0;
   Eigen::Vector3d origin_ = Eigen::Vector3d::Zero();
   int step_index_ = -1;
   model::SE3 X_stood_;

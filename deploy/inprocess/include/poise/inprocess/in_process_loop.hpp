@@ -157,7 +157,10 @@ class InProcessLoop {
   std::int64_t first_tick() const { return first_tick_; }
   /// The balance reference used every tick (tests change it: CoM shift, upper-body motion).
   /// With a scenario `reference:` file, step() applies the player's references due at the tick
-  /// first, as poise-controller applies those of poise-reference.
+  /// first, as poise-controller applies those of poise-reference. The estimator's plan (its
+  /// contact detector's prior) comes from the player's references only, as poise-estimator's
+  /// comes from poise/balance_reference: foot modes set here directly reach the controller, not
+  /// the estimator.
   controller::BalanceReference& reference() { return reference_; }
   const controller::BalanceController& controller() const { return *controller_; }
   sim::Simulator& simulator() { return *sim_; }
