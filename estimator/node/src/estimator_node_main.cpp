@@ -3,7 +3,8 @@
 //
 // ------------------------------------------------------------------------------------------------
 // Contract
-//   subscribes  poise/robot_description  RobotDescription  once at start (latched): joint order
+//   subscribes  poise/robot_description  RobotDescription  once at start (latched): joint order,
+//                                                        and the sample period (control_period_s)
 //               poise/sensors            Sensors           1 kHz  reliable, keep-last 1
 //               poise/ground_truth       GroundTruth       only with --ground-truth-state (debug)
 //               poise/balance_reference  BalanceReference  on change (latched, 512 held): the
@@ -144,6 +145,12 @@ int run(int argc, char** argv) {
   for (double v : support_heights)
     if (!std::isfinite(v)) throw std::runtime_error("--support-heights: values must be finite");
   if (!std::isfinite(ground_height)) throw std::runtime_error("--ground-height must be finite");
+  // The sample period is the robot's (a tick gap of g ticks propagates over g periods): a robot
+  // at 500 Hz is integrated over 2 ms per tick, as the in-process loop does.
+  if (description.control_period_s() > 0.0) config.dt = description.control_period_s();
+  dds::log(dds::LogLevel::info, "sample period %.6g s (%s)", config.dt,
+           description.control_period_s() > 0.0 ? "poise/robot_description"
+                                                 : "not in the description: the 1 kHz default");
   estimator::Estimator estimator(model, robot, config);
   if (support_heights.size() == 2)
     dds::log(dds::LogLevel::info, "estimator: %s, start: right sole at z %.4f m, left sole %.4f m",
