@@ -943,3 +943,25 @@ TEST(Record, PassiveReadNamesKnownTopicsOnlyAndNeedsPassive) {
   EXPECT_EQ(code, 2) << out;
   EXPECT_NE(out.find("need --passive"), std::string::npos) << out;
 }
+
+// A packet capture cannot read a secured domain (the governance of `poise security init`
+// encrypts samples and discovery): both `poise record --passive` and `poise run --record
+// --passive` refuse --security at once, with the reason, before any DDS participant exists.
+TEST(Record, PassiveRefusesDdsSecurityWithTheReason) {
+  const fs::path dir = work_dir("passive_security");
+  auto [code, out] = run({bin("poise"), "record", "--passive", "--security", dir.string(),
+                          "--domain", "3", "-o", (dir / "x.mcap").string()},
+                         30s);
+  EXPECT_EQ(code, 2) << out;
+  EXPECT_NE(out.find("--passive cannot record a domain with DDS Security"), std::string::npos)
+      << out;
+  EXPECT_FALSE(fs::exists(dir / "x.mcap"));
+  std::tie(code, out) =
+      run({bin("poise"), "run", "forward_push_double_support", "--duration", "1", "--record",
+           (dir / "y.mcap").string(), "--passive", "--security", dir.string(), "-o",
+           (dir / "run.json").string(), "--log-dir", (dir / "logs").string()},
+          30s);
+  EXPECT_EQ(code, 2) << out;
+  EXPECT_NE(out.find("--passive cannot record a run with --security"), std::string::npos) << out;
+  EXPECT_FALSE(fs::exists(dir / "logs" / "sim.summary.json"));  // nothing started
+}

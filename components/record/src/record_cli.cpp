@@ -162,6 +162,15 @@ int record_main(int argc, char** argv) {
     std::fprintf(stderr, "poise record: --passive-read and --no-passive-read need --passive\n");
     return 2;
   }
+  if (options.passive && !dds_options.security_dir.empty()) {
+    // The governance `poise security init` writes encrypts data, discovery and liveliness
+    // (ENCRYPT): captured datagrams are ciphertext, and a passive capture holds no keys.
+    std::fprintf(stderr,
+                 "poise record: --passive cannot record a domain with DDS Security (--security): "
+                 "its samples and discovery are encrypted on the wire; record without --passive "
+                 "(the subscribing recorder authenticates as --identity, e.g. recorder)\n");
+    return 2;
+  }
   if (no_passive_read) passive_read.clear();
   for (const auto& t : passive_read)
     if (dds::find_topic(t) == nullptr) {

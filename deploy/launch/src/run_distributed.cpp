@@ -247,6 +247,14 @@ int run_distributed(int argc, char** argv) {
                  "context switch, not a cross-CPU wake-up (deploy/realtime/README.md)")
       ->check(poise::node::cpu_list_check);
   CLI11_PARSE(app, argc, argv);
+  if (s.record_passive && !s.security.empty()) {
+    std::fprintf(stderr,
+                 "poise run: --passive cannot record a run with --security: DDS Security "
+                 "encrypts the samples and discovery on the wire, which a packet capture cannot "
+                 "read; use --record without --passive (the recorder authenticates as "
+                 "'recorder')\n");
+    return 2;
+  }
 
   try {
     s.scenario = resolve_scenario(s.scenario);  // a file, or a name in deploy/scenarios/
@@ -695,6 +703,7 @@ int run_distributed(int argc, char** argv) {
     misses["robot_refused_commands"] = num(safety, "rejected") - num(safety, "rejected_tick");
     misses["estimator_dropped_frames"] = num(est_r, "dropped_frames");
     misses["out_of_sequence"] = num(est_r, "out_of_sequence") + num(ctrl_r, "out_of_sequence");
+    r["contact_problems_resent"] = num(ctrl_r, "problems_resent");  // not a miss: a repeat
     misses["samples_rejected"] = r["rejected_samples"];
     r["misses"] = misses;
     // A damping tick is a lost tick of balance control: the run fails above the scenario's
