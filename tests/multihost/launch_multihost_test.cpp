@@ -60,10 +60,10 @@ TEST_P(LaunchMultiHost, ForwardPushSurvivesAcrossThreeHostsAsOnOne) {
                       << "  solver: {address: " << hosts.address("solver") << "}\n"
                       << "  observer: {address: " << hosts.address("observer") << "}\n"
                       << "components:\n"
-                      << "  sim: {host: robot, dds: fastdds, options: [--duration, 15]}\n"
-                      << "  estimator: {host: brain, dds: cyclone}\n"
-                      << "  controller: {host: brain, dds: fastdds}\n"
-                      << "  contact: {host: solver, dds: cyclone}\n";
+                      << "  sim: {host: robot, dds: fastdds, priority: 60, options: [--duration, 15]}\n"
+                      << "  estimator: {host: brain, dds: cyclone, priority: 57}\n"
+                      << "  controller: {host: brain, dds: fastdds, priority: 58}\n"
+                      << "  contact: {host: solver, dds: cyclone, priority: 59}\n";
   auto launch = [&](const std::string& host) {
     return std::make_unique<ChildProcess>(
         hosts.exec_in(host, {bin("poise"), "launch", file.string(), "--host", host, "-o",
@@ -119,7 +119,7 @@ TEST_P(LaunchMultiHost, ForwardPushSurvivesAcrossThreeHostsAsOnOne) {
 
   // The same scenario and vendors on one machine (loopback).
   ChildProcess single({bin("poise"), "run", "forward_push_double_support", "--" + mode,
-                       "--duration", "15",
+                       "--duration", "15", "--rt-priority", "60",
                        "--dds-sim", "fastdds", "--dds-estimator", "cyclone", "--dds-controller",
                        "fastdds", "--dds-contact", "cyclone", "-o", (dir / "single.json").string(),
                        "--log-dir", (dir / "single.logs").string()},
@@ -132,12 +132,17 @@ TEST_P(LaunchMultiHost, ForwardPushSurvivesAcrossThreeHostsAsOnOne) {
   };
   std::printf("%s: com_error_max three hosts %.6f m, one machine %.6f m; com_error_final %.6f / "
               "%.6f m; foot slip %.6f / %.6f m; hold ticks %.0f / %.0f, overruns (three hosts) "
-              "%.0f, deadline misses (one machine) %.0f\n",
+              "%.0f, deadline misses (one machine) %.0f (controller %.0f), contact problems "
+              "resent (one machine) %.0f\n",
               mode.c_str(), three.value("com_error_max_m", -1.0), one.value("com_error_max_m", -1.0),
               three.value("com_error_final_m", -1.0), one.value("com_error_final_m", -1.0),
               three.value("foot_slip_max_m", -1.0), one.value("foot_slip_max_m", -1.0),
               number(three, "hold_ticks"), number(one, "hold_ticks"), number(three, "overruns"),
-              number(one, "deadline_misses"));
+              number(one, "deadline_misses"),
+              one.contains("deadline_misses_by_node")
+                  ? number(one["deadline_misses_by_node"], "controller")
+                  : -1.0,
+              number(one, "contact_problems_resent"));
   EXPECT_EQ(three.value("survived", false), one.value("survived", true));
   if (mode == "lockstep") {
     // Lockstep is deterministic: the same numbers, wherever the processes run.

@@ -23,8 +23,13 @@
 //               safety layer holds the posture; the fallback wrenches are for isolated misses
 //               only), health FAULT, until solutions come back.
 //   repeats     a state with the tick just handled is answered with the same command again; one
-//               with the tick still waiting for its contact solution is ignored (the command
-//               follows); states that arrive before the start-up is complete are kept (the newest)
+//               with the tick still waiting for its contact solution sends contact problem k
+//               again (the deadline is not moved): at start-up the optimiser's reader may discover
+//               this writer after the writer discovered it, and the first problem is then lost
+//               (the simulator repeats tick 0 in lockstep until it has a command, so a lost
+//               problem costs a repeat, not a fallback); the optimiser answers each copy the same
+//               and the first answer is used. States that arrive before the start-up is complete
+//               are kept (the newest)
 //   threading   phase A runs in the state callback, phase B in the contact-solution callback, on
 //               the DDS listener threads as the samples arrive (no loop-thread wake-up per
 //               sample), under one mutex; the main thread publishes the diagnostics and applies
@@ -153,6 +158,7 @@ int run(int argc, char** argv) {
   const int state_input = node.expect_input("poise/state", options.input_stale_ms);
   int contact_misses = 0;  // ticks in a row without a contact solution
   std::uint64_t commands_withheld = 0;
+  std::uint64_t problems_resent = 0;  // contact problems sent again on a repeated state
   const auto n_joints = static_cast<Eigen::Index>(model_to_wire.size());
   const auto deadline_ns = static_cast<std::int64_t>(deadline_us * 1e3);
 
@@ -185,8 +191,11 @@ int run(int argc, char** argv) {
       if (k > pending.k) {  // a newer tick: handled after the pending one
         *held_state = in;
         have_held = true;
+      } else if (k == pending.k) {  // a repeat: problem k may have been lost (see Contract)
+        node.publish(problems, problem_out);
+        ++problems_resent;
       }
-      return;  // a repeat of the pending tick (the answer follows) or an older one
+      return;  // an older tick: nothing
     }
     if (in.joint_count() != static_cast<std::uint32_t>(n_joints)) {
       node.error("tick %llu: poise/state joint_count %u, the robot has %lld joints: rejected, "
@@ -343,7 +352,8 @@ int run(int argc, char** argv) {
                 "{\"late_solutions\": %llu, \"qp_failures\": %llu, \"controller_ticks\": %llu, "
                 "\"references_received\": %llu, \"references_applied\": %llu, "
                 "\"late_references\": %llu, \"reference_overflows\": %llu, \"out_of_sequence\": %llu, "
-                "\"stream_restarts\": %llu, \"commands_withheld\": %llu, \"stale_events\": %llu}",
+                "\"stream_restarts\": %llu, \"commands_withheld\": %llu, \"stale_events\": %llu, "
+                "\"problems_resent\": %llu}",
                 static_cast<unsigned long long>(d.late_solutions),
                 static_cast<unsigned long long>(d.qp_failures),
                 static_cast<unsigned long long>(d.ticks),
@@ -354,7 +364,8 @@ int run(int argc, char** argv) {
                 static_cast<unsigned long long>(sequencer.rejected()),
                 static_cast<unsigned long long>(sequencer.restarts()),
                 static_cast<unsigned long long>(commands_withheld),
-                static_cast<unsigned long long>(node.stale_events()));
+                static_cast<unsigned long long>(node.stale_events()),
+                static_cast<unsigned long long>(problems_resent));
   node.write_summary(extra);
   return 0;
 }
