@@ -439,6 +439,70 @@ TEST(Nodes, ControllerNodeAnswersEachStateOnceAndFallsBackAtTheDeadline) {
   fs::remove(summary);
 }
 
+// Start-up (until the optimiser has answered once): no fallback wrenches at the real-time
+// deadline, and a newer state replaces the unanswered tick, which gets no command.
+TEST(Nodes, ControllerSendsNoFallbackBeforeTheOptimiserFirstAnswers) {
+  const auto robot =
+      poise::model::load_robot_config(kSource + "/deploy/robots/poise_humanoid/robot.yaml");
+  const auto model = poise::model::load_robot_model(robot);
+  const std::vector<std::string> wire(model.joint_names.begin(), model.joint_names.end());
+  const int n = static_cast<int>(wire.size());
+  const double weight = model.total_mass * 9.81;
+  const std::vector<double> q(n, 0.0);
+  const fs::path summary = fs::temp_directory_path() /
+                           ("poise-controller-start-" + std::to_string(::getpid()) + ".json");
+  fs::remove(summary);
+  dds::Participant participant(options("cyclone"));
+  dds::Publisher<msg::RobotDescription> description(participant);
+  ASSERT_TRUE(description.publish(humanoid_description(wire)));
+  ChildProcess node(node_args("poise-controller", "cyclone",
+                              {"--contact-deadline-us", "400", "--contact-wait-ms", "20000",
+                               "--summary", summary.string()}),
+                    {}, false, true);
+  dds::Publisher<msg::State> states(participant);
+  dds::Subscriber<msg::ContactProblem> problems(participant, dds::Qos::reliable(100));
+  dds::Subscriber<msg::JointCommand> commands(participant, dds::Qos::reliable(100));
+  dds::Publisher<msg::ContactSolution> solutions(participant);
+  ASSERT_TRUE(states.wait_for_matches(1, 20s)) << node.output();
+  ASSERT_TRUE(problems.wait_for_matches(1, 20s)) << node.output();
+  ASSERT_TRUE(commands.wait_for_matches(1, 20s)) << node.output();
+  ASSERT_TRUE(solutions.wait_for_matches(1, 20s)) << node.output();
+  std::this_thread::sleep_for(300ms);  // the node's side of the matches
+
+  // State 0, its problem "lost" (not answered): no fallback command, 400 us or 300 ms later.
+  ASSERT_TRUE(states.publish(standing_state(0, n, q, weight)));
+  msg::ContactProblem p;
+  ASSERT_TRUE(dds::test::eventually([&] { return problems.take(p); }, 10000ms)) << node.output();
+  EXPECT_EQ(p.header().tick(), 0u);
+  std::this_thread::sleep_for(300ms);
+  EXPECT_TRUE(take_all(commands).empty()) << "a fallback command before the first answer";
+  // State 1 replaces tick 0; its problem is answered: command 1, and never one of tick 0.
+  ASSERT_TRUE(states.publish(standing_state(1, n, q, weight)));
+  ASSERT_TRUE(dds::test::eventually([&] { return problems.take(p) && p.header().tick() == 1; },
+                                    10000ms))
+      << node.output();
+  ASSERT_TRUE(solutions.publish(half_weight_solution(p)));
+  msg::JointCommand c;
+  ASSERT_TRUE(dds::test::eventually([&] { return commands.take(c); }, 10000ms)) << node.output();
+  EXPECT_EQ(c.header().tick(), 1u);
+  // From the first answer on, the real-time deadline applies: state 2 unanswered gets the
+  // fallback command within a fraction of a second.
+  ASSERT_TRUE(states.publish(standing_state(2, n, q, weight)));
+  ASSERT_TRUE(dds::test::eventually([&] { return commands.take(c) && c.header().tick() == 2; },
+                                    2000ms))
+      << node.output();
+  std::this_thread::sleep_for(100ms);
+  for (const auto& x : take_all(commands)) EXPECT_NE(x.header().tick(), 0u);
+
+  EXPECT_EQ(node.interrupt(5000ms).value_or(-1), 0) << node.output();
+  std::ifstream in(summary);
+  ASSERT_TRUE(in) << node.output();
+  const auto j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["startup_skipped"].get<int>(), 1) << j.dump(2);
+  EXPECT_EQ(j["diagnostics"]["deadline_misses"].get<int>(), 1) << j.dump(2);  // tick 2 only
+  fs::remove(summary);
+}
+
 // ---------------------------------------------------------------------------------------------
 // The closed loop through the distributed launcher.
 
@@ -585,6 +649,69 @@ TEST(RealTime, WatchdogHoldsThenDampsWhenTheControllerDiesAndResumesWhenOneRetur
   EXPECT_EQ(sim.interrupt(5000ms).value_or(-1), 3) << "an interrupted run reports exit code 3\n"
                                                    << sim.output();
   EXPECT_NE(sim.output().find("\"damp_events\":1"), std::string::npos) << sim.output();
+}
+
+// `poise-sim --realtime --start-when-answered` (what poise run and poise launch use): the first
+// frame is repeated every 100 ms until a joint command for it comes back, and the wall clock
+// starts only then; with no answer within --startup-timeout-ms it says so and starts anyway.
+TEST(RealTime, TheClockStartsOnceTheLoopAnsweredTheFirstFrame) {
+  const std::string scenario = kSource + "/deploy/scenarios/standing.yaml";
+  for (const bool answer : {true, false}) {
+    SCOPED_TRACE(answer ? "answered after two repeats" : "never answered");
+    const fs::path summary = fs::temp_directory_path() /
+                             ("poise-sim-start-" + std::to_string(::getpid()) + ".json");
+    fs::remove(summary);
+    const dds::DdsOptions o = options("cyclone");
+    dds::Participant participant(o);
+    dds::Subscriber<msg::Sensors> sensors(participant, dds::Qos::reliable(100));
+    dds::Publisher<msg::JointCommand> commands(participant);
+    ChildProcess sim(
+        {bin("poise-sim"), "--dds", "cyclone", "--domain", std::to_string(o.domain_id), scenario,
+         "--realtime",
+         "--start-when-answered", "--duration", "0.3", "--startup-timeout-ms",
+         answer ? "20000" : "600", "--summary", summary.string()},
+        {}, false, true);
+    std::int64_t k0 = -1;
+    int k0_seen = 0;
+    bool later_before_answer = false, answered = false, later_after = false;
+    const auto until = std::chrono::steady_clock::now() + 20s;
+    msg::Sensors s;
+    while (std::chrono::steady_clock::now() < until && !later_after) {
+      while (sensors.take(s)) {
+        const auto t = static_cast<std::int64_t>(s.header().tick());
+        if (k0 < 0) k0 = t;
+        if (t == k0) ++k0_seen;
+        if (t > k0) (answered ? later_after : later_before_answer) = true;
+      }
+      if (answer && !answered && k0_seen >= 3) {  // k0 and two repeats: now the loop answers
+        msg::JointCommand c;
+        c.header().tick(static_cast<std::uint64_t>(k0));
+        ASSERT_TRUE(commands.publish(c));
+        answered = true;
+      }
+      if (!answer && k0_seen > 0 && later_before_answer) break;
+      std::this_thread::sleep_for(1ms);
+    }
+    ASSERT_GE(k0, 0) << sim.output();
+    EXPECT_GE(k0_seen, 3) << sim.output();
+    const auto code = sim.wait_for(20s);
+    ASSERT_TRUE(code.has_value()) << sim.output();
+    if (answer) {
+      EXPECT_FALSE(later_before_answer) << "the clock started before the loop answered";
+      EXPECT_TRUE(later_after) << sim.output();
+      EXPECT_NE(sim.output().find("start-up: the loop answered frame"), std::string::npos)
+          << sim.output();
+      std::ifstream in(summary);
+      ASSERT_TRUE(in) << sim.output();
+      const auto j = nlohmann::json::parse(in);
+      EXPECT_GE(j["start_repeats"].get<int>(), 2) << j.dump(2);
+    } else {
+      EXPECT_TRUE(later_before_answer) << "no answer: the run starts anyway\n" << sim.output();
+      EXPECT_NE(sim.output().find("no joint command for frame"), std::string::npos)
+          << sim.output();
+    }
+    fs::remove(summary);
+  }
 }
 
 }  // namespace

@@ -30,6 +30,14 @@
 //               problem costs a repeat, not a fallback); the optimiser answers each copy the same
 //               and the first answer is used. States that arrive before the start-up is complete
 //               are kept (the newest)
+//   start-up    until the optimiser has answered once, no fallback wrenches: a tick waits up to
+//               --contact-wait-ms for its solution (the real-time deadline applies from the
+//               first answer on), and a newer state replaces the pending tick (no command for
+//               it: it would be stale; counted as startup_skipped, and as a contact miss towards
+//               --contact-stale-ticks). So a loop whose optimiser has not yet matched the
+//               controller's writer sends nothing (the robot's safety layer holds) rather than
+//               fallback wrenches, and `poise-sim --start-when-answered` starts its clock on an
+//               answer computed with a contact solution
 //   threading   phase A runs in the state callback, phase B in the contact-solution callback, on
 //               the DDS listener threads as the samples arrive (no loop-thread wake-up per
 //               sample), under one mutex; the main thread publishes the diagnostics and applies
@@ -159,6 +167,14 @@ int run(int argc, char** argv) {
   int contact_misses = 0;  // ticks in a row without a contact solution
   std::uint64_t commands_withheld = 0;
   std::uint64_t problems_resent = 0;  // contact problems sent again on a repeated state
+  // Start-up: until the optimiser has answered once, a tick waits --contact-wait-ms for its
+  // solution (not the real-time deadline) and a newer state replaces it (see Contract).
+  bool answered_once = false;
+  std::uint64_t startup_skipped = 0;  // ticks replaced by a newer state before the first answer
+  const std::int64_t start_wait_ns = std::int64_t{contact_wait_ms} * 1'000'000;
+  static constexpr const char* kSilent =
+      "contact optimiser silent (no poise/contact_solution for --contact-stale-ticks ticks): no "
+      "joint command sent, the robot holds";
   const auto n_joints = static_cast<Eigen::Index>(model_to_wire.size());
   const auto deadline_ns = static_cast<std::int64_t>(deadline_us * 1e3);
 
@@ -188,14 +204,22 @@ int run(int argc, char** argv) {
   auto handle_state = [&](const msg::State& in) noexcept {
     const std::uint64_t k = in.header().tick();
     if (pending.active) {
-      if (k > pending.k) {  // a newer tick: handled after the pending one
-        *held_state = in;
-        have_held = true;
-      } else if (k == pending.k) {  // a repeat: problem k may have been lost (see Contract)
-        node.publish(problems, problem_out);
-        ++problems_resent;
+      if (k > pending.k && !answered_once) {
+        // Start-up, no answer yet (see Contract): the newer state replaces the pending tick,
+        // which gets no command (it would be stale); its problem may have been lost.
+        pending.active = false;
+        ++startup_skipped;
+        if (++contact_misses >= contact_stale_ticks) node.set_condition(msg::HEALTH_FAULT, kSilent);
+      } else {
+        if (k > pending.k) {  // a newer tick: handled after the pending one
+          *held_state = in;
+          have_held = true;
+        } else if (k == pending.k) {  // a repeat: problem k may have been lost (see Contract)
+          node.publish(problems, problem_out);
+          ++problems_resent;
+        }
+        return;  // an older tick: nothing
       }
-      return;  // an older tick: nothing
     }
     if (in.joint_count() != static_cast<std::uint32_t>(n_joints)) {
       node.error("tick %llu: poise/state joint_count %u, the robot has %lld joints: rejected, "
@@ -248,7 +272,7 @@ int run(int argc, char** argv) {
     pending.lib_ns = lib_a;
     const bool sent = node.publish(problems, problem_out);
     pending.t_sent = node::now_ns();
-    pending.deadline = pending.t_sent + deadline_ns;
+    pending.deadline = pending.t_sent + (answered_once ? deadline_ns : start_wait_ns);
     if (!sent)
       complete(nullptr);                        // nobody will answer: the fallback at once
     else if (pending.deadline < main_wakes_at)  // lockstep (1 s deadline): no wake-up per tick
@@ -258,6 +282,7 @@ int run(int argc, char** argv) {
     const std::int64_t t_back = node::now_ns();
     bool send = true;
     if (answer) {
+      answered_once = true;
       contact_misses = 0;
       node.set_condition(msg::HEALTH_OK, nullptr);
       contact_node::from_msg(*answer, solution);
@@ -271,9 +296,7 @@ int run(int argc, char** argv) {
         // robot's safety layer holds the posture better, and resumes with the next command.
         send = false;
         ++commands_withheld;
-        node.set_condition(msg::HEALTH_FAULT,
-                           "contact optimiser silent (no poise/contact_solution for "
-                           "--contact-stale-ticks ticks): no joint command sent, the robot holds");
+        node.set_condition(msg::HEALTH_FAULT, kSilent);
       } else {
         node.error("tick %llu: no contact solution within %.0f us: fallback wrenches",
                    static_cast<unsigned long long>(pending.k), deadline_us);
@@ -353,7 +376,7 @@ int run(int argc, char** argv) {
                 "\"references_received\": %llu, \"references_applied\": %llu, "
                 "\"late_references\": %llu, \"reference_overflows\": %llu, \"out_of_sequence\": %llu, "
                 "\"stream_restarts\": %llu, \"commands_withheld\": %llu, \"stale_events\": %llu, "
-                "\"problems_resent\": %llu}",
+                "\"problems_resent\": %llu, \"startup_skipped\": %llu}",
                 static_cast<unsigned long long>(d.late_solutions),
                 static_cast<unsigned long long>(d.qp_failures),
                 static_cast<unsigned long long>(d.ticks),
@@ -365,7 +388,8 @@ int run(int argc, char** argv) {
                 static_cast<unsigned long long>(sequencer.restarts()),
                 static_cast<unsigned long long>(commands_withheld),
                 static_cast<unsigned long long>(node.stale_events()),
-                static_cast<unsigned long long>(problems_resent));
+                static_cast<unsigned long long>(problems_resent),
+                static_cast<unsigned long long>(startup_skipped));
   node.write_summary(extra);
   return 0;
 }

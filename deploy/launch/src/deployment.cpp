@@ -449,6 +449,11 @@ std::vector<std::string> command_line(const Deployment& d, const Component& c,
   a.insert(a.end(), dds.begin(), dds.end());
   if (c.kind == "sim") {
     a.insert(a.end(), {d.scenario, "--progress", d.realtime ? "--realtime" : "--lockstep"});
+    // Real time with a controller in the file (on any host): the clock starts once the loop has
+    // answered the first frame.
+    if (d.realtime && std::any_of(d.components.begin(), d.components.end(),
+                                  [](const auto& o) { return o.kind == "controller"; }))
+      a.push_back("--start-when-answered");
   } else {
     // The nodes take the robot from poise/robot_description; `robot:` of the file is an explicit
     // override, which each node checks against the description (and refuses on a difference).

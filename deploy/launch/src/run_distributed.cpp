@@ -316,6 +316,8 @@ int run_distributed(int argc, char** argv) {
     sim_args.insert(sim_args.end(), {fs::absolute(s.scenario).string(), "--progress",
                                      s.realtime ? "--realtime" : "--lockstep",
                                      "--command-timeout-ms", std::to_string(s.command_timeout_ms)});
+    // Real time: the clock starts once the loop has answered the first frame (poise-sim).
+    if (s.realtime) sim_args.push_back("--start-when-answered");
     if (s.duration > 0) sim_args.insert(sim_args.end(), {"--duration", std::to_string(s.duration)});
     if (s.settle_ticks >= 0)
       sim_args.insert(sim_args.end(), {"--settle-ticks", std::to_string(s.settle_ticks)});

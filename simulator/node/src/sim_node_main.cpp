@@ -27,7 +27,12 @@
 //               command timeout holds the same way.
 //   start-up    waits for --wait-readers sensors readers (and --wait-truth-readers ground-truth
 //               readers) and for --start-file to exist (a launcher's go signal); real time publishes the frame k0 and waits for its acknowledgment by
-//               every matched reader before the wall clock starts.
+//               every matched reader before the wall clock starts. With --start-when-answered
+//               (what `poise run` and `poise launch` use) real time also repeats k0 every 100 ms
+//               until a joint command for k0 comes back (at most --startup-timeout-ms), as
+//               lockstep does: every link of the loop has then carried a sample, in the
+//               direction it is used (a writer that has matched a reader does not mean that the
+//               reader has matched the writer: between vendors that takes up to ~1 s).
 //               --settle-ticks (10) steps with the joints held by the safety layer's start-up
 //               hold (the robot's PD gains, bounded by each joint's inertia) before tick k0:
 //               the frame right after construction has no contact forces yet, and the
@@ -39,6 +44,7 @@
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <condition_variable>
 #include <cstdio>
@@ -76,6 +82,7 @@ struct Settings {
   int wait_readers = 1;        ///< poise/sensors readers to wait for before tick k0
   int wait_truth_readers = 0;  ///< poise/ground_truth readers to wait for before tick k0
   std::string start_file;      ///< wait until this file exists before tick k0 ("": no wait)
+  bool start_when_answered = false;  ///< real time: repeat k0 until command k0 came back
   double max_push_force = 1000.0;   ///< pushes from poise/disturbance above this are refused [N]
   double max_push_duration = 5.0;   ///< ... and longer than this [s]
 };
@@ -90,6 +97,7 @@ struct Figures {
                 hold_ticks = 0, estop_ticks = 0;
   std::uint64_t overruns = 0, pushes = 0, refused_pushes = 0,
                 total_other_contacts = 0;
+  std::uint64_t start_repeats = 0;  ///< real time, --start-when-answered: k0 sent again
   double wall_s = 0.0;
   double max_joint_speed = 0.0;  ///< largest |qd| of any joint over the run [rad/s | m/s]
   int fastest_joint = -1;
@@ -166,11 +174,14 @@ class SimNode {
       // The settled frame k0 first, and its acknowledgment by every matched reader: a reader
       // matched on this side only would miss the first ticks of the wall clock. (Lockstep
       // repeats k0 until the loop answers, which proves the same for the loop's readers.)
+      start_tick_.store(sensors_.tick);
+      const std::int64_t t_start = node::now_ns();
       publish_tick();
       if (!sensors_pub_.wait_for_acknowledgments(startup) ||
           !truth_pub_.wait_for_acknowledgments(startup))
         dds::log(dds::LogLevel::warn, "start-up: frame %lld not acknowledged by every reader",
                  static_cast<long long>(sensors_.tick));
+      if (settings_.start_when_answered && !wait_for_answer(t_start)) return false;
     }
     return settings_.realtime ? run_realtime(steps) : run_lockstep(steps);
   }
@@ -210,6 +221,7 @@ class SimNode {
     j["loop_wait_us"] = hist(figures_.loop_wait);
     j["publish_us"] = hist(figures_.publish);
     j["command_timeouts"] = figures_.command_timeouts;
+    j["start_repeats"] = figures_.start_repeats;
     j["rejected_commands"] = figures_.rejected_commands;
     j["damping_ticks"] = figures_.damping_ticks;
     const safety::Counters& sc = safety_.counters();
@@ -454,7 +466,11 @@ class SimNode {
 
   void on_command(const msg::JointCommand& c) noexcept {
     command_box_.put(c);
-    if (settings_.realtime) return;  // the loop thread takes the newest at its tick
+    if (settings_.realtime) {  // the loop thread takes the newest at its tick
+      if (static_cast<std::int64_t>(c.header().tick()) == start_tick_.load())
+        start_answered_.store(true);
+      return;
+    }
     std::lock_guard lock(lockstep_mutex_);
     take_lockstep_commands();
   }
@@ -566,6 +582,39 @@ class SimNode {
     return !figures_.aborted;
   }
 
+  /// Real-time start-up (--start-when-answered): frame k0 again every 100 ms until a joint
+  /// command for k0 came back. False when the run was interrupted meanwhile; a timeout is not
+  /// fatal (the run starts, the safety layer holds until commands come).
+  bool wait_for_answer(std::int64_t t_start) {
+    const std::int64_t end =
+        t_start + std::int64_t{settings_.startup_timeout_ms} * 1'000'000;
+    std::int64_t next_repeat = node::now_ns() + 100'000'000;
+    int repeats = 0;
+    while (!start_answered_.load()) {
+      if (!node_.running()) return false;
+      const std::int64_t now = node::now_ns();
+      if (now >= end) {
+        dds::log(dds::LogLevel::warn,
+                 "start-up: no joint command for frame %lld within %d ms (%d repeats); starting "
+                 "anyway (the safety layer holds until commands come)",
+                 static_cast<long long>(sensors_.tick), settings_.startup_timeout_ms, repeats);
+        return true;
+      }
+      if (now >= next_repeat) {
+        publish_tick();
+        ++repeats;
+        next_repeat += 100'000'000;
+      }
+      node_.poll();
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+    }
+    figures_.start_repeats = static_cast<std::uint64_t>(repeats);
+    dds::log(dds::LogLevel::info, "start-up: the loop answered frame %lld after %.1f ms (%d repeats)",
+             static_cast<long long>(sensors_.tick),
+             static_cast<double>(node::now_ns() - t_start) * 1e-6, repeats);
+    return true;
+  }
+
   bool run_realtime(std::int64_t steps) {
     node::TickTimer timer(static_cast<std::int64_t>(sim_.dt() * 1e9));
     timer.start();
@@ -610,6 +659,8 @@ class SimNode {
   sim::Push push_;
   node::Mailbox<msg::JointCommand> command_box_;
   std::uint64_t command_seen_ = 0;
+  std::atomic<std::int64_t> start_tick_{-1};  ///< real time: frame k0 (-1 before it is sent)
+  std::atomic<bool> start_answered_{false};      ///< a command for k0 came
   std::mutex lockstep_mutex_;
   std::condition_variable lockstep_wake_;  ///< the lockstep run ended
   Lockstep lockstep_;
@@ -666,6 +717,11 @@ int run(int argc, char** argv) {
                  "before the first tick")
       ->capture_default_str()
       ->check(CLI::Range(0, 1000));
+  app.add_flag("--start-when-answered", s.start_when_answered,
+              "real time: repeat the first frame every 100 ms until a joint command for it comes "
+              "back (at most --startup-timeout-ms), then start the wall clock, so that every "
+              "link of the loop works before the first deadline (what poise run and poise "
+              "launch use)");
   app.add_option("--wait-truth-readers", s.wait_truth_readers,
                  "start-up: poise/ground_truth readers to wait for (a recorder, a test)")
       ->capture_default_str()
