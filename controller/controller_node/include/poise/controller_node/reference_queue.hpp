@@ -9,32 +9,26 @@
 //   if (due.taken) apply(ref);
 //
 // put() (DDS listener thread) copies a reference into one of `capacity` slots allocated at
-// construction. take_due(k) (loop thread) removes every reference whose tick is <= k and hands
+// construction (node::TickQueue). take_due(k) (loop thread) removes every reference whose tick is <= k and hands
 // out the one with the largest tick (ties: the one that arrived last); the others were superseded
 // before their turn. A reference that a player sends ahead of time is therefore applied exactly
 // at its tick, however the DDS delivery and the loop interleave, as long as it arrives before
 // the state of that tick is handled. One that arrives later is applied at the next state and
 // counted as late (its tick <= the tick handled before). No allocation, no exception.
 
+#include <atomic>
 #include <cstdint>
 #include <functional>
-#include <memory>
-#include <mutex>
-#include <vector>
 
 #include <poise/msg/balance_reference.h>
+
+#include "poise/node/tick_queue.hpp"
 
 namespace poise::controller_node {
 
 class ReferenceQueue {
  public:
-  explicit ReferenceQueue(std::size_t capacity)
-      : slots_(std::make_unique<msg::BalanceReference[]>(capacity)),
-        used_(capacity, 0),
-        order_(capacity, 0),
-        capacity_(capacity) {}
-  ReferenceQueue(const ReferenceQueue&) = delete;
-  ReferenceQueue& operator=(const ReferenceQueue&) = delete;
+  explicit ReferenceQueue(std::size_t capacity) : queue_(capacity) {}
 
   /// A subscriber callback that queues every sample (the queue must outlive it).
   std::function<void(const msg::BalanceReference&)> callback() {
@@ -43,21 +37,7 @@ class ReferenceQueue {
 
   /// Queues `r`. When every slot is taken the reference with the smallest tick is dropped
   /// (counted in overflows()).
-  void put(const msg::BalanceReference& r) noexcept {
-    std::lock_guard lock(mutex_);
-    std::size_t slot = capacity_;
-    for (std::size_t i = 0; i < capacity_ && slot == capacity_; ++i)
-      if (!used_[i]) slot = i;
-    if (slot == capacity_) {  // full: drop the earliest
-      slot = 0;
-      for (std::size_t i = 1; i < capacity_; ++i)
-        if (slots_[i].header().tick() < slots_[slot].header().tick()) slot = i;
-      ++overflows_;
-    }
-    slots_[slot] = r;
-    used_[slot] = 1;
-    order_[slot] = ++arrivals_;
-  }
+  void put(const msg::BalanceReference& r) noexcept { queue_.put(r.header().tick(), r); }
 
   struct Due {
     bool taken = false;         ///< `out` holds the reference that applies from this tick
@@ -74,59 +54,36 @@ class ReferenceQueue {
   Due take_due(std::uint64_t k, bool have_handled, std::uint64_t handled,
                msg::BalanceReference& out, double* previous_q = nullptr,
                std::size_t previous_q_size = 0) noexcept {
-    std::lock_guard lock(mutex_);
     Due d;
-    std::size_t best = capacity_;
-    for (std::size_t i = 0; i < capacity_; ++i) {
-      if (!used_[i]) continue;
-      const std::uint64_t t = slots_[i].header().tick();
-      if (t > k) continue;
-      ++d.removed;
+    // The tick handed out is known before the visits (node::TickQueue), so tick - 1 is too.
+    std::uint64_t applied = 0;
+    bool have_applied = false;
+    const auto taken = queue_.take_due(k, out, [&](std::uint64_t t, const msg::BalanceReference& r) {
       if (t != 0 && have_handled && t <= handled) ++d.late;
-      if (best == capacity_ || t > slots_[best].header().tick() ||
-          (t == slots_[best].header().tick() && order_[i] > order_[best]))
-        best = i;
-    }
-    if (best == capacity_) return d;
-    d.taken = true;
-    d.tick = slots_[best].header().tick();
-    out = slots_[best];
-    for (std::size_t i = 0; i < capacity_; ++i) {
-      if (!used_[i] || slots_[i].header().tick() > k) continue;
-      if (d.tick > 1 && slots_[i].header().tick() == d.tick - 1 && previous_q &&
-          slots_[i].has_upper_body_q()) {
-        d.has_previous = true;
-        for (std::size_t j = 0; j < previous_q_size && j < slots_[i].upper_body_q().size(); ++j)
-          previous_q[j] = slots_[i].upper_body_q()[j];
+      if (!have_applied) {  // the first visit: `out` is already the reference handed out
+        applied = out.header().tick();
+        have_applied = true;
       }
-      used_[i] = 0;
-    }
-    late_ += d.late;
+      if (applied > 1 && t == applied - 1 && previous_q && r.has_upper_body_q()) {
+        d.has_previous = true;
+        for (std::size_t j = 0; j < previous_q_size && j < r.upper_body_q().size(); ++j)
+          previous_q[j] = r.upper_body_q()[j];
+      }
+    });
+    d.taken = taken.taken;
+    d.tick = taken.tick;
+    d.removed = taken.removed;
+    late_.fetch_add(d.late, std::memory_order_relaxed);
     return d;
   }
 
-  std::uint64_t overflows() const noexcept {
-    std::lock_guard lock(mutex_);
-    return overflows_;
-  }
-  std::uint64_t late() const noexcept {
-    std::lock_guard lock(mutex_);
-    return late_;
-  }
-  std::uint64_t received() const noexcept {
-    std::lock_guard lock(mutex_);
-    return arrivals_;
-  }
+  std::uint64_t overflows() const noexcept { return queue_.overflows(); }
+  std::uint64_t late() const noexcept { return late_.load(std::memory_order_relaxed); }
+  std::uint64_t received() const noexcept { return queue_.received(); }
 
  private:
-  mutable std::mutex mutex_;
-  std::unique_ptr<msg::BalanceReference[]> slots_;
-  std::vector<char> used_;
-  std::vector<std::uint64_t> order_;
-  std::size_t capacity_;
-  std::uint64_t overflows_ = 0;
-  std::uint64_t late_ = 0;
-  std::uint64_t arrivals_ = 0;
+  node::TickQueue<msg::BalanceReference> queue_;
+  std::atomic<std::uint64_t> late_{0};
 };
 
 }  // namespace poise::controller_node
