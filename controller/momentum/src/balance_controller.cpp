@@ -181,6 +181,7 @@ void BalanceController::reset() noexcept {
   placed_ = {false, false};
   have_hold_seen_ = false;
   have_foot_velocity_ = false;
+  have_feedback_ = false;
   have_previous_solution_ = false;
   reuse_count_ = 0;
 }
@@ -342,9 +343,22 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
 
   // ---- eqs (10)-(11)
   // ------------------------------------------------------------------------------
+  // MomentumGains::feedback_filter_hz: y += a (x - y), a = dt / (dt + 1 / (2 pi f)); exact at
+  // the first tick after a reset.
+  const double fc = config_.momentum.feedback_filter_hz;
+  const Eigen::Vector3d vcom_error = diag_.com_velocity_target_W - data_.vcom;
+  if (fc > 0.0 && have_feedback_) {
+    const double a = config_.dt / (config_.dt + 1.0 / (2.0 * M_PI * fc));
+    vcom_error_filtered_ += a * (vcom_error - vcom_error_filtered_);
+    k_filtered_ += a * (data_.hg.head<3>() - k_filtered_);
+  } else {  // no filter (the paper's equations as written), or the first tick
+    vcom_error_filtered_ = vcom_error;
+    k_filtered_ = data_.hg.head<3>();
+  }
+  have_feedback_ = true;
   diag_.hdot_desired =
-      desired_momentum_rate(config_.momentum, mass, data_.hg.head<3>(), reference.k_W, data_.com,
-                            diag_.com_target_W, data_.vcom, diag_.com_velocity_target_W);
+      desired_momentum_rate(config_.momentum, mass, k_filtered_, reference.k_W, data_.com,
+                            diag_.com_target_W, Eigen::Vector3d::Zero(), vcom_error_filtered_);
 
   // Upper-body objective of this tick.
   qdd_u_ref_ = reference.upper_body_qdd;

@@ -85,6 +85,8 @@ void ControllerConfig::validate() const {
   positive_vec(momentum.gamma11, "momentum.gamma11");
   positive_vec(momentum.gamma21, "momentum.gamma21");
   positive_vec(momentum.gamma22, "momentum.gamma22");
+  require(std::isfinite(momentum.feedback_filter_hz) && momentum.feedback_filter_hz >= 0.0,
+          "momentum.feedback_filter_hz", "must be >= 0 (0: no filter)");
   require(contact.w_k >= 0.0 && contact.eps_f >= 0.0 && contact.eps_cop >= 0.0, "contact",
           "weights must be >= 0");
   require(foot.kp >= 0.0 && foot.kd >= 0.0, "foot", "gains must be >= 0");
@@ -125,7 +127,8 @@ ControllerConfig from_yaml(const YAML::Node& root, const std::string& file) {
   r.number(root, "resting_force_fraction", "", c.resting_force_fraction);
   r.number(root, "com_height", "", c.com_height);
   if (const auto m = root["momentum"]) {
-    r.keys(m, "momentum", {"gamma11", "gamma21", "gamma22"});
+    r.keys(m, "momentum", {"gamma11", "gamma21", "gamma22", "feedback_filter_hz"});
+    r.number(m, "feedback_filter_hz", "momentum.", c.momentum.feedback_filter_hz);
     r.vec3(m, "gamma11", "momentum.", c.momentum.gamma11);
     r.vec3(m, "gamma21", "momentum.", c.momentum.gamma21);
     r.vec3(m, "gamma22", "momentum.", c.momentum.gamma22);

@@ -155,6 +155,11 @@ class BalanceController {
   bool have_hold_seen_ = false;                   // a tick has been prepared (supports known)
   std::array<std::vector<int>, 2> leg_joints_;    // joints between the base and each foot
   bool have_foot_velocity_ = false;
+  // (10)-(11) feedback through MomentumGains::feedback_filter_hz: the filtered CoM velocity error
+  // (target - measured) and centroidal angular momentum (world axes), valid once have_feedback_.
+  Eigen::Vector3d vcom_error_filtered_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d k_filtered_ = Eigen::Vector3d::Zero();
+  bool have_feedback_ = false;
   std::array<model::Motion, 2> V_WF_previous_;  // foot velocity of the previous tick
   std::array<model::Motion, 2> A_WF_filtered_;  // low-pass filtered measured foot acceleration
   bool have_previous_solution_ = false;

@@ -27,6 +27,16 @@ struct MomentumGains {
   Eigen::Vector3d gamma11{5.0, 5.0, 5.0};     ///< angular momentum damping [1/s]
   Eigen::Vector3d gamma21{40.0, 40.0, 20.0};  ///< CoM velocity gain [1/s] (paper {40,20,40}, Y up)
   Eigen::Vector3d gamma22{8.0, 8.0, 3.0};     ///< CoM position gain [1/s^2] (paper {8,3,8}, Y up)
+  /// First-order low-pass [Hz] of what (10)-(11) feed back: the CoM velocity error (target -
+  /// measured) and the centroidal angular momentum (0: none, the paper's equations as written).
+  /// The base angular velocity on the wire is the gyro's, sample by sample; over the ~0.84 m from
+  /// the soles to the CoM its white noise is ~2.6 mm/s of CoM velocity relative to the feet, which
+  /// Gamma21 turned into ~5 N of desired linear-rate noise and the optimiser into normal-force
+  /// shifts between the feet and CoPs at the sole edges (simulator/sim/SENSORS.md). Exact at the
+  /// first tick after a reset. Off by default until measured everywhere: at 30 Hz the forward
+  /// push's post-push ticks with a CoP at a sole edge fell from 24 % to 2 %, but the step in place
+  /// then showed 10 contact-flag changes against 6 true ones (SENSORS.md).
+  double feedback_filter_hz = 0.0;
 };
 
 /// Weights of the contact problem, eqs (21) and (29) (copied into the problem sent out; the
