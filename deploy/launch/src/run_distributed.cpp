@@ -367,6 +367,8 @@ int run_distributed(int argc, char** argv) {
     }
     est_args.insert(est_args.end(), {"--initial-xy", exact(scenario.sim.initial.base_position.x()),
                                       exact(scenario.sim.initial.base_position.y())});
+    if (std::isfinite(scenario.estimator.stance_rate_hz))
+      est_args.insert(est_args.end(), {"--stance-rate-hz", exact(scenario.estimator.stance_rate_hz)});
     if (recording_run) est_args.insert(est_args.end(), {"--output-readers", output_readers});
     std::vector<std::string> contact_args = common("contact");
     if (recording_run) contact_args.insert(contact_args.end(), {"--output-readers", output_readers});

@@ -68,7 +68,13 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
 
   // estimator setting
   if (const YAML::Node e = root["estimator"]) {
-    c.allow(e, "estimator", {"type", "supports", "ground_height", "support_height"});
+    c.allow(e, "estimator",
+            {"type", "supports", "ground_height", "support_height", "stance_rate_hz"});
+    if (e["stance_rate_hz"]) {
+      sc.estimator.stance_rate_hz = c.num(e["stance_rate_hz"], "estimator.stance_rate_hz");
+      if (!(sc.estimator.stance_rate_hz >= 0.0) || !std::isfinite(sc.estimator.stance_rate_hz))
+        c.fail("estimator.stance_rate_hz", "must be a finite number >= 0 (Hz; 0: the gyro alone)");
+    }
     if (e["type"]) {
       sc.estimator.type = c.str(e["type"], "estimator.type");
       if (sc.estimator.type != "invariant-ekf" && sc.estimator.type != "leg-odometry")

@@ -1,5 +1,6 @@
 #include "poise/estimator/estimator.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -74,6 +75,12 @@ Estimator::Estimator(const model::Model& model, const model::RobotConfig& robot,
               config.contact_off_fraction >= 0.0 &&
               config.contact_off_fraction < config.contact_on_fraction,
           "contact thresholds must satisfy 0 <= contact_off_fraction < contact_on_fraction");
+  require(std::isfinite(config.stance_rate_filter_hz) && config.stance_rate_filter_hz >= 0.0,
+          "stance_rate_filter_hz must be finite and >= 0");
+  require(std::isfinite(config.stance_rate_gate) && config.stance_rate_gate > 0.0,
+          "stance_rate_gate must be finite and > 0");
+  require(std::isfinite(config.stance_rate_hold) && config.stance_rate_hold >= 0.0,
+          "stance_rate_hold must be finite and >= 0");
   require(std::isfinite(config.contact_rest_time) && config.contact_rest_time >= 0.0,
           "contact_rest_time must be finite and >= 0");
   require(config.frozen_imu_ticks >= 2, "frozen_imu_ticks must be >= 2");
@@ -314,6 +321,7 @@ void Estimator::initialize(const SensorFrame& frame) noexcept {
   for (int f = 0; f < kNumFeet; ++f)
     legs_.v_BF_B[f] = omega_B.cross(legs_.X_BF[f].p) + v_F0_B_[f];
   omega_B_ = omega_B;
+  stance_rate_valid_ = false;
   baseline_.reset(X_WB, Vector3::Zero(), legs_);
   fallback_.reset(X_WB, Vector3::Zero(), legs_);
   R_WB_gyro_ = X_WB.R;
@@ -322,6 +330,48 @@ void Estimator::initialize(const SensorFrame& frame) noexcept {
   imu_frozen_ = false;
   time_since_init_ = 0.0;
   ++diag_.resets;
+}
+
+Vector3 Estimator::fuse_stance_rate(const Vector3& omega_gyro_B, double dt) noexcept {
+  if (!(config_.stance_rate_filter_hz > 0.0)) return omega_gyro_B;
+  // The base's rate if the feet in contact do not turn, weighted by their loads (a lightly
+  // loaded foot is the one that may tip).
+  Vector3 omega_kin = Vector3::Zero();
+  double load = 0.0;
+  for (int f = 0; f < kNumFeet; ++f) {
+    if (!legs_.contact[f]) continue;
+    const double w = std::max(legs_.normal_force[f], 1e-3 * weight_);
+    omega_kin -= w * omega_F0_B_[f];
+    load += w;
+  }
+  if (!(load > 0.0)) {
+    stance_rate_valid_ = false;
+    return omega_gyro_B;
+  }
+  omega_kin /= load;
+  const Vector3 offset = omega_gyro_B - omega_kin;
+  if (!stance_rate_valid_) {
+    // First tick on the feet: start from the gyro (no jump in the published rate).
+    stance_rate_offset_ = offset;
+    stance_rate_valid_ = true;
+    stance_rate_gated_for_ = 0.0;
+    return omega_gyro_B;
+  }
+  // The fast part of the disagreement: noise, or a foot turning (the premise fails).
+  const bool disagree = (offset - stance_rate_offset_).cwiseAbs().maxCoeff() > config_.stance_rate_gate;
+  const double alpha = 1.0 - std::exp(-2.0 * M_PI * config_.stance_rate_filter_hz * dt);
+  stance_rate_offset_ += alpha * (offset - stance_rate_offset_);
+  if (disagree) {
+    stance_rate_gated_for_ = config_.stance_rate_hold;
+    ++diag_.stance_rate_gated_ticks;
+    return omega_gyro_B;
+  }
+  if (stance_rate_gated_for_ > 0.0) {
+    stance_rate_gated_for_ -= dt;
+    ++diag_.stance_rate_gated_ticks;
+    return omega_gyro_B;
+  }
+  return omega_kin + stance_rate_offset_;
 }
 
 int Estimator::loaded_stance_foot() const noexcept {
@@ -467,7 +517,7 @@ StatusFlags Estimator::update(const SensorFrame& frame, EstimatorState& out) noe
     } else {
       ekf_.propagate(frame.imu_omega_I, frame.imu_specific_force_I, dt);
     }
-    omega_B_ = X_BI_.R * (frame.imu_omega_I - ekf_.mean().b_g);
+    omega_B_ = fuse_stance_rate(X_BI_.R * (frame.imu_omega_I - ekf_.mean().b_g), dt);
     for (int f = 0; f < kNumFeet; ++f) {
       legs_.v_BF_B[f] = omega_B_.cross(legs_.X_BF[f].p) + v_F0_B_[f];
       const Vector3 s_I = X_IB_.act(legs_.X_BF[f].p);
@@ -490,6 +540,7 @@ StatusFlags Estimator::update(const SensorFrame& frame, EstimatorState& out) noe
     // Angular velocity from the stance foot that carries most load (it does not rotate).
     const int stance = loaded_stance_foot();
     omega_B_ = stance >= 0 ? Vector3(-omega_F0_B_[stance]) : Vector3::Zero();
+    stance_rate_valid_ = false;  // the IMU's return starts the fusion afresh
     for (int f = 0; f < kNumFeet; ++f)
       legs_.v_BF_B[f] = omega_B_.cross(legs_.X_BF[f].p) + v_F0_B_[f];
     fallback_.update(LegOdometry::OrientationSource::kStanceFoot, R_WB, legs_, dt);

@@ -120,6 +120,14 @@ int run(int argc, char** argv) {
                  "touching); 0: off, the flag drops below 1 % of the weight [s]")
       ->check(CLI::Range(0.0, 10.0))
       ->capture_default_str();
+  double stance_rate_hz = estimator::EstimatorConfig{}.stance_rate_filter_hz;
+  app.add_option("--stance-rate-hz", stance_rate_hz,
+                 "cut-off of the complementary filter of the gyro and the stance feet's "
+                 "kinematics for the published base angular velocity (a flat stance foot does "
+                 "not turn; below the cut-off the gyro, above it the encoders); 0: the gyro "
+                 "alone [Hz]")
+      ->check(CLI::Range(0.0, 1.0e4))
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
   node::Node node(options);
@@ -135,6 +143,7 @@ int run(int argc, char** argv) {
   config.supports = estimator::parse_support_model(supports);
   config.frozen_imu_ticks = frozen_imu_ticks;
   config.contact_rest_time = contact_rest_time;
+  config.stance_rate_filter_hz = stance_rate_hz;
   config.kind = estimator::parse_estimator_kind(kind);
   config.ground_height = ground_height;
   if (support_heights.size() == 2) config.support_height = {support_heights[0], support_heights[1]};

@@ -37,6 +37,9 @@ struct EstimatorHints {
   /// `support_height: {FOOT: H, ...}`: z of each named foot's sole point at the start [m]
   /// (feet on supports of their own); empty: not given.
   std::vector<std::pair<std::string, double>> support_height;
+  /// `stance_rate_hz: F`: the cut-off of the estimator's gyro / stance-kinematics complementary
+  /// filter (EstimatorConfig::stance_rate_filter_hz; 0: the gyro alone); NaN: the default.
+  double stance_rate_hz = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// A scenario: the simulator's world (name, duration, robot_config, sim, success, support...)

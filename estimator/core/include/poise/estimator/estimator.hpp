@@ -155,6 +155,26 @@ struct EstimatorConfig {
   /// time its swing lift-off was flagged 5-9 ms late and a 170 ms true separation not at all
   /// (contact_detector.hpp). >= 0.
   double contact_rest_time = 0.0;
+  /// The published base angular velocity: a complementary filter of the gyro and the stance
+  /// feet's kinematics [Hz]. A flat stance foot does not turn, so while feet are in contact the
+  /// base turns at -omega_F0_B (the leg's joint rates through its Jacobian, load-weighted over
+  /// the feet in contact); the gyro minus that rate (what the feet really turn, a tipping foot,
+  /// a rotating deck, plus both sensors' noise) is low-passed at this cut-off and added back.
+  /// Below the cut-off the output is the gyro's; above it, the encoders'. Why: the gyro's white
+  /// noise (3.1 mrad/s per sample for an ADIS16470-class part) times the ~0.84 m soles-to-CoM
+  /// lever is CoM velocity noise relative to the feet, which the momentum feedback turns into
+  /// normal-force noise between the feet (simulator/sim/SENSORS.md). With no foot in contact,
+  /// or 0 here: the bias-corrected gyro alone. The filter itself (propagation) always takes the
+  /// gyro. >= 0.
+  double stance_rate_filter_hz = 10.0;
+  /// A foot that turns fast (tips, rocks after an impact) breaks the flat-foot premise above the
+  /// cut-off: when the gyro and the stance kinematics disagree by more than this on an axis,
+  /// beyond their low-passed difference, the gyro alone is published until they have agreed for
+  /// stance_rate_hold seconds [rad/s]. The default is ~6 sigma of the disagreement of an
+  /// ADIS16470-class gyro (3.1 mrad/s per 1 kHz sample) with 2^20-count encoders (~1 mrad/s):
+  /// raise it for a noisier gyro. > 0.
+  double stance_rate_gate = 0.02;
+  double stance_rate_hold = 0.05;  ///< [s], >= 0
   /// Identical consecutive IMU samples (gyro, accelerometer and orientation bit for bit) after
   /// which the IMU counts as frozen.
   int frozen_imu_ticks = 20;
@@ -229,6 +249,9 @@ class Estimator {
   /// filter has corrected it since with the leg kinematics, so the base is re-placed at the
   /// start heights with the filter's attitude, and leg odometry integrates the gyro from there.
   void relevel_from_filter() noexcept;
+  /// The base angular velocity published this tick from the bias-corrected gyro (base axes) and
+  /// the stance feet (EstimatorConfig::stance_rate_filter_hz).
+  Vector3 fuse_stance_rate(const Vector3& omega_gyro_B, double dt) noexcept;
   void write_output(const SensorFrame& frame, StatusFlags flags, EstimatorState& out) noexcept;
   void hold_output(const SensorFrame& frame, StatusFlags flags, EstimatorState& out) noexcept;
   InvariantEkf::Covariance initial_covariance() const noexcept;
@@ -257,6 +280,10 @@ class Estimator {
   std::array<Vector3, kNumFeet> omega_F0_B_{Vector3::Zero(), Vector3::Zero()};  ///< J_ang qd
   std::array<Vector3, kNumFeet> v_F0_B_{Vector3::Zero(), Vector3::Zero()};      ///< J_lin qd
   Vector3 omega_B_ = Vector3::Zero();  ///< base angular velocity used this tick, base axes
+  /// fuse_stance_rate(): low-passed gyro minus stance kinematic rate; valid while feet touch.
+  Vector3 stance_rate_offset_ = Vector3::Zero();
+  bool stance_rate_valid_ = false;
+  double stance_rate_gated_for_ = 0.0;  ///< the gyro alone for this much longer [s]
   EstimatorState held_;                ///< last good output
 
   bool initialized_ = false;

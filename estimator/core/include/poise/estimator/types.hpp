@@ -114,6 +114,9 @@ struct EstimatorDiagnostics {
   std::uint64_t resets = 0;            ///< filter (re)initialisations
   /// kTranslating: foot-orientation measurements refused by the chi2 gate (the foot turned)
   std::uint64_t orientation_rejections = 0;
+  /// Ticks on feet whose published angular velocity was the gyro alone because the gyro and the
+  /// stance kinematics disagreed (a foot turning; EstimatorConfig::stance_rate_gate)
+  std::uint64_t stance_rate_gated_ticks = 0;
   /// Static text naming the newest problem ("" when none): which field was bad, etc.
   const char* last_error = "";
 };
