@@ -5,6 +5,7 @@
 // the momentum residual (Newton-Euler of the whole body); fallbacks; bad input.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
 
 #include "controller_test_util.hpp"
@@ -123,8 +124,9 @@ TEST(BalanceController, FeedbackFilterIsTheFirstOrderRecurrence) {
       EXPECT_NEAR(p.l_dot_desired[i], ldot, 1e-8 * (1 + std::abs(ldot))) << tick;
     }
     // The filter does something: random states differ, so the unfiltered answer is far off.
-    if (tick != 0 && tick != 5)
+    if (tick != 0 && tick != 5) {
       EXPECT_GT(std::abs(p.k_dot_desired[0] - cfg.momentum.gamma11[0] * (0.0 - k[0])), 1e-6);
+    }
   }
   EXPECT_THROW(
       [] {
@@ -215,6 +217,74 @@ TEST(BalanceController, AFootRestsOnItsMeasuredLoadNotOnItsContactFlag) {
   c.prepare(s, ref, p);
   EXPECT_TRUE(p.feet[0].in_contact);
   EXPECT_FALSE(c.diagnostics().resting[0]);
+}
+
+TEST(BalanceController, APlannedSupportLiftedOffTheGroundLeavesTheContactProblem) {
+  // ControllerConfig::planned_support_release: a planned support (FOOT_SUPPORT) measured off the
+  // ground -- no contact flag, no load, its foot frame risen from where it last rested -- for
+  // planned_support_release leaves the contact problem (no ground force for a foot in the air)
+  // until it touches again, and is held where it last rested. A foot that rests on the ground
+  // unflagged (no rise) stays.
+  const ControllerConfig cfg;
+  BalanceController c = make_controller(cfg);
+  RobotState s = test::standing_state(c);
+  BalanceReference ref = c.make_reference();
+  ref.feet[0].mode = ref.feet[1].mode = FootMode::kSupport;
+  contact::ContactProblem p;
+  c.prepare(s, ref, p);  // both rest: the hold poses
+  const int release_ticks = static_cast<int>(std::lround(cfg.planned_support_release / cfg.dt));
+  ASSERT_GE(release_ticks, 2);
+
+  // The right foot unflagged and unloaded, on the ground: stays a support however long.
+  RobotState resting = s;
+  resting.feet[0].in_contact = false;
+  resting.feet[0].normal_force = 0.0;
+  for (int i = 0; i < 3 * release_ticks; ++i) c.prepare(resting, ref, p);
+  EXPECT_TRUE(p.feet[0].in_contact);
+
+  // Lifted: the whole robot 1 cm up (above planned_support_release_height), the left foot still
+  // flagged and loaded. The right foot leaves after planned_support_release, not before.
+  ASSERT_LT(cfg.planned_support_release_height, 0.01);
+  RobotState lifted = resting;
+  lifted.X_WB.p.z() += 0.01;
+  for (int i = 0; i < release_ticks - 1; ++i) {
+    c.prepare(lifted, ref, p);
+    EXPECT_TRUE(p.feet[0].in_contact) << "tick " << i;
+  }
+  c.prepare(lifted, ref, p);
+  EXPECT_FALSE(p.feet[0].in_contact);
+  EXPECT_TRUE(p.feet[1].in_contact);
+  EXPECT_FALSE(c.diagnostics().support[0]);
+  // Held where it rested: pulled back down (eq (36) towards the hold pose 1 cm below).
+  EXPECT_LT(c.diagnostics().foot_acceleration_desired[0][2], -0.5);
+  // It touches again (flag): a support at once.
+  lifted.feet[0].in_contact = true;
+  c.prepare(lifted, ref, p);
+  EXPECT_TRUE(p.feet[0].in_contact);
+  // Or loaded above support_force_fraction without a flag.
+  lifted.feet[0].in_contact = false;
+  for (int i = 0; i < 2 * release_ticks; ++i) c.prepare(lifted, ref, p);
+  ASSERT_FALSE(p.feet[0].in_contact);
+  lifted.feet[0].normal_force = 1.1 * cfg.support_force_fraction * p.mass * 9.81;
+  c.prepare(lifted, ref, p);
+  EXPECT_TRUE(p.feet[0].in_contact);
+
+  // planned_support_release 0: the plan alone (never released).
+  ControllerConfig never = cfg;
+  never.planned_support_release = 0.0;
+  BalanceController c0 = make_controller(never);
+  c0.prepare(s, ref, p);
+  lifted.feet[0].normal_force = 0.0;
+  for (int i = 0; i < 3 * release_ticks; ++i) c0.prepare(lifted, ref, p);
+  EXPECT_TRUE(p.feet[0].in_contact);
+
+  // Bad values are refused naming the key.
+  ControllerConfig bad = cfg;
+  bad.planned_support_release = -0.01;
+  EXPECT_THROW(bad.validate(), ConfigError);
+  bad = cfg;
+  bad.planned_support_release_height = std::nan("");
+  EXPECT_THROW(bad.validate(), ConfigError);
 }
 
 // Central second difference of the foot frame along q(t) = q (+) (v t + qdd t^2 / 2).

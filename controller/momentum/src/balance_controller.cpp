@@ -178,6 +178,7 @@ JointCommand BalanceController::make_command() const {
 void BalanceController::reset() noexcept {
   have_references_ = false;
   have_hold_ = {false, false};
+  planned_off_time_ = {0.0, 0.0};
   placed_ = {false, false};
   have_hold_seen_ = false;
   have_foot_velocity_ = false;
@@ -254,13 +255,26 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
     bool support = false;
     switch (ref.mode) {
       case FootMode::kAuto:
+        planned_off_time_[i] = 0.0;
         support = meas.in_contact || (config_.support_force_fraction > 0.0 &&
                                       meas.normal_force > config_.support_force_fraction * weight);
         break;
-      case FootMode::kSupport:
-        support = true;
+      case FootMode::kSupport: {
+        // Planned, but a push may lift it: measured off the ground for planned_support_release,
+        // it leaves the contact problem until it touches again.
+        // Off the ground: no contact flag, no load, and the foot risen from where it last rested
+        // (a foot the weight went off rests on the ground with a load below the flag's 1 %).
+        const bool risen =
+            have_hold_seen_ && X_WF_[i].p.z() - X_WF_hold_[i].p.z() > config_.planned_support_release_height;
+        const bool touching = meas.in_contact || !risen ||
+                              meas.normal_force > config_.support_force_fraction * weight;
+        planned_off_time_[i] = touching ? 0.0 : planned_off_time_[i] + config_.dt;
+        support = !(config_.planned_support_release > 0.0) ||
+                  planned_off_time_[i] < config_.planned_support_release - 1e-9;
         break;
+      }
       case FootMode::kSwing:
+        planned_off_time_[i] = 0.0;
         support = false;
         break;
     }

@@ -111,6 +111,10 @@ void ControllerConfig::validate() const {
               resting_force_fraction < 1.0,
           "resting_force_fraction", "must be in [0, 1)");
   require(std::isfinite(com_height), "com_height", "must be finite");
+  require(std::isfinite(planned_support_release) && planned_support_release >= 0.0,
+          "planned_support_release", "must be finite and >= 0 (s; 0: never)");
+  require(std::isfinite(planned_support_release_height) && planned_support_release_height >= 0.0,
+          "planned_support_release_height", "must be finite and >= 0 (m)");
 }
 
 namespace {
@@ -121,11 +125,14 @@ ControllerConfig from_yaml(const YAML::Node& root, const std::string& file) {
   if (root.IsNull()) return c;
   r.keys(root, "",
          {"dt", "momentum", "contact", "foot", "acceleration", "feedback", "fallback",
-          "resting_extra_margin", "resting_force_fraction", "com_height"});
+          "resting_extra_margin", "resting_force_fraction", "com_height",
+          "planned_support_release", "planned_support_release_height"});
   r.number(root, "dt", "", c.dt);
   r.number(root, "resting_extra_margin", "", c.resting_extra_margin);
   r.number(root, "resting_force_fraction", "", c.resting_force_fraction);
   r.number(root, "com_height", "", c.com_height);
+  r.number(root, "planned_support_release", "", c.planned_support_release);
+  r.number(root, "planned_support_release_height", "", c.planned_support_release_height);
   if (const auto m = root["momentum"]) {
     r.keys(m, "momentum", {"gamma11", "gamma21", "gamma22", "feedback_filter_hz"});
     r.number(m, "feedback_filter_hz", "momentum.", c.momentum.feedback_filter_hz);

@@ -149,6 +149,9 @@ class BalanceController {
   bool have_references_ = false;
   Eigen::VectorXd q_ref_, qd_ref_;  // n: theta*, theta_dot*
   std::array<bool, 2> have_hold_{false, false};
+  /// Per foot: how long a planned support has been measured off the ground [s]
+  /// (ControllerConfig::planned_support_release).
+  std::array<double, 2> planned_off_time_{0.0, 0.0};
   std::array<model::SE3, 2> X_WF_hold_;  // desired pose of each foot when not resting
   std::array<bool, 2> placed_{false, false};  // the foot has rested or followed a target
   std::array<bool, 2> touch_down_{false, false};  // became a support this tick

@@ -122,6 +122,19 @@ struct ControllerConfig {
   /// that is late, e.g. while the estimator initialises; a support wrongly dropped makes the
   /// controller plan a fall). <= 0: the contact flag only.
   double support_force_fraction = 0.1;
+  /// FootMode::kSupport (a planned support): a foot measured off the ground -- its contact flag
+  /// off and its load below support_force_fraction -- for this long leaves the contact problem
+  /// until it touches again; meanwhile eq (36) holds it where it last rested, so it comes back
+  /// down there [s]. Why: a push can lift a planned support (a lateral push unloads the far
+  /// foot); kept in the contact problem, it was given a ground force it cannot get, and the
+  /// inverse dynamics' torques for that force swung the lifted leg out (16 cm on a 175 N
+  /// lateral push of the project humanoid), which then landed there. 0: never, the plan alone
+  /// decides (the paper's Fig. 6 input taken literally). >= 0.
+  double planned_support_release = 0.01;
+  /// ... and its foot frame this far above where it last rested [m] (a planned support the
+  /// weight went off -- a step in place before its swing -- rests on the ground with a load
+  /// below the contact flag's threshold: it stays in the contact problem). >= 0.
+  double planned_support_release_height = 0.003;
   /// Sec. 4.2: a support foot rests (follows its own, possibly moving, support) only when its
   /// measured normal force exceeds this fraction of the robot's weight, whatever its contact flag
   /// says: the flag means "touching" (idl/README.md "Contact flags"), and a foot that measures no
