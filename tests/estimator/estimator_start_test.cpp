@@ -45,6 +45,11 @@ TEST(EstimatorStart, ScenarioKeysAndDefaults) {
   ASSERT_TRUE(s.per_foot);
   EXPECT_DOUBLE_EQ(s.support_height[0], 0.2);  // right
   EXPECT_DOUBLE_EQ(s.support_height[1], 0.1);  // left
+
+  // The base-rate fusion's cut-off: NaN (the estimator's default) unless given.
+  EXPECT_TRUE(std::isnan(plain.estimator.stance_rate_hz));
+  EXPECT_DOUBLE_EQ(parse("estimator: {stance_rate_hz: 0}\n").estimator.stance_rate_hz, 0.0);
+  EXPECT_DOUBLE_EQ(parse("estimator: {stance_rate_hz: 12.5}\n").estimator.stance_rate_hz, 12.5);
 }
 
 TEST(EstimatorStart, BadValuesAreRefusedNamingTheKey) {
@@ -63,6 +68,10 @@ TEST(EstimatorStart, BadValuesAreRefusedNamingTheKey) {
                 .find("estimator.support_height.middle"),
             std::string::npos);
   EXPECT_NE(message("estimator: {support_height: 0.1}\n").find("estimator.support_height"),
+            std::string::npos);
+  EXPECT_NE(message("estimator: {stance_rate_hz: -1}\n").find("estimator.stance_rate_hz"),
+            std::string::npos);
+  EXPECT_NE(message("estimator: {stance_rate_hz: fast}\n").find("estimator.stance_rate_hz"),
             std::string::npos);
   EXPECT_THROW(estimator::parse_estimator_kind("kalman"), estimator::EstimatorError);
 }
