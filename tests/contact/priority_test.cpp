@@ -147,7 +147,9 @@ TEST(ContactPriority, LexicographicLinearRateIsTheBestAchievable) {
     const double qp_err = (s.l_dot_admissible - p.l_dot_desired).norm();
     EXPECT_LE(qp_err, best_err + kLinearTolerance * mg) << "qp trial " << trial;
     worst_qp = std::max(worst_qp, (qp_err - best_err) / mg);
-    if (s.status == ContactStatus::kOk) EXPECT_LE(qp_err, kLinearTolerance * mg) << trial;
+    if (s.status == ContactStatus::kOk) {
+      EXPECT_LE(qp_err, kLinearTolerance * mg) << trial;
+    }
     seq.solve(p, s);
     ASSERT_NE(s.status, ContactStatus::kSolverFailure) << "trial " << trial;
     const double seq_err = (s.l_dot_admissible - p.l_dot_desired).norm();
