@@ -308,7 +308,8 @@ int run(int argc, char** argv) {
                 "{\"state_source\": \"%s\", \"estimator\": \"%s\", \"supports\": \"%s\", "
                 "\"filter_resets\": %llu, "
                 "\"rejected_frames\": %llu, \"dropped_frames\": %llu, \"frozen_imu_ticks\": %llu, "
-                "\"orientation_rejections\": %llu, \"out_of_sequence\": %llu, \"stream_restarts\": %llu, "
+                "\"orientation_rejections\": %llu, \"stance_rate_hz\": %g, \"stance_rate_gated_ticks\": %llu, "
+                "\"out_of_sequence\": %llu, \"stream_restarts\": %llu, "
                 "\"stale_events\": %llu, \"plans_received\": %llu, \"plan_overflows\": %llu}",
                 ground_truth_state ? "ground_truth" : "estimator",
                 estimator::to_string(config.kind), estimator::to_string(config.supports), static_cast<unsigned long long>(d.resets),
@@ -316,6 +317,8 @@ int run(int argc, char** argv) {
                 static_cast<unsigned long long>(d.dropped_frames),
                 static_cast<unsigned long long>(d.frozen_imu_ticks),
                 static_cast<unsigned long long>(d.orientation_rejections),
+                config.stance_rate_filter_hz,
+                static_cast<unsigned long long>(d.stance_rate_gated_ticks),
                 static_cast<unsigned long long>(sequencer.rejected()),
                 static_cast<unsigned long long>(sequencer.restarts()),
                 static_cast<unsigned long long>(node.stale_events()),
