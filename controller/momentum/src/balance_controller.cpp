@@ -261,11 +261,11 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
         break;
       case FootMode::kSupport: {
         // Planned, but a push may lift it: measured off the ground for planned_support_release,
-        // it leaves the contact problem until it touches again.
-        // Off the ground: no contact flag, no load, and the foot risen from where it last rested
-        // (a foot the weight went off rests on the ground with a load below the flag's 1 %).
-        const bool risen =
-            have_hold_seen_ && X_WF_[i].p.z() - X_WF_hold_[i].p.z() > config_.planned_support_release_height;
+        // it leaves the contact problem until it touches again. Off the ground: no contact
+        // flag, no load, and the foot risen from where it last rested (a foot the weight went
+        // off rests on the ground with a load below the flag's 1 %).
+        const bool risen = have_hold_seen_ && X_WF_[i].p.z() - X_WF_hold_[i].p.z() >
+                                                  config_.planned_support_release_height;
         const bool touching = meas.in_contact || !risen ||
                               meas.normal_force > config_.support_force_fraction * weight;
         planned_off_time_[i] = touching ? 0.0 : planned_off_time_[i] + config_.dt;

@@ -358,7 +358,8 @@ Vector3 Estimator::fuse_stance_rate(const Vector3& omega_gyro_B, double dt) noex
     return omega_gyro_B;
   }
   // The fast part of the disagreement: noise, or a foot turning (the premise fails).
-  const bool disagree = (offset - stance_rate_offset_).cwiseAbs().maxCoeff() > config_.stance_rate_gate;
+  const bool disagree =
+      (offset - stance_rate_offset_).cwiseAbs().maxCoeff() > config_.stance_rate_gate;
   const double alpha = 1.0 - std::exp(-2.0 * M_PI * config_.stance_rate_filter_hz * dt);
   stance_rate_offset_ += alpha * (offset - stance_rate_offset_);
   if (disagree) {
