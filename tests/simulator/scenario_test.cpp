@@ -249,5 +249,53 @@ TEST(SimScenario, MonitorMeasuresComErrorAndSlipAgainstTheSupports) {
   EXPECT_EQ(mon.result().non_foot_contacts, 1);
 }
 
+TEST(SimScenario, MonitorTellsASlideFromAPivotAndFromALandingElsewhere) {
+  // Foot slide: the sole point under the CoP against where that point of the sole was when the
+  // contact began. Foot slip (the criterion): the foot frame's displacement since the start.
+  Scenario sc = parse_scenario(kInline, fs::path(POISE_SOURCE_DIR) / "tests/simulator");
+  sc.sim.world.platforms.clear();
+  ScenarioMonitor mon(sc, platforms_of_feet(sc));
+  GroundTruth g;
+  g.feet.resize(2);
+  g.non_foot_contact.assign(3, 0);
+  g.com_W = Eigen::Vector3d(0.0, 0.0, 0.8);
+  const Eigen::Vector3d toe_corner_F(0.13, -0.045, -0.08);  // a sole corner, ankle 8 cm up
+  auto stand = [&](const Eigen::Isometry3d& X_WF0, const Eigen::Vector3d& cop_F, bool contact) {
+    g.feet[0].X_WF = X_WF0;
+    g.feet[0].cop_W = X_WF0 * cop_F;
+    g.feet[0].in_contact = contact;
+    g.feet[1].X_WF = Eigen::Isometry3d(Eigen::Translation3d(0.0, 0.1, 0.08));
+    g.feet[1].cop_W = g.feet[1].X_WF * Eigen::Vector3d(0.0, 0.0, -0.08);
+    g.feet[1].in_contact = true;
+    mon.update(g);
+    g.time += 0.001;
+  };
+  const Eigen::Isometry3d X0(Eigen::Translation3d(0.0, -0.1, 0.08));
+  stand(X0, toe_corner_F, true);
+  // Pivot: the foot turns 6 deg in yaw and 2 deg of pitch about its toe corner (the CoP stays
+  // there). The ankle moves ~14 mm: slip, no slide.
+  const Eigen::Vector3d corner_W = X0 * toe_corner_F;
+  const Eigen::Isometry3d turn =
+      Eigen::Translation3d(corner_W) *
+      Eigen::AngleAxisd(6.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ()) *
+      Eigen::AngleAxisd(2.0 * M_PI / 180.0, Eigen::Vector3d::UnitY()) *
+      Eigen::Translation3d(-corner_W);
+  stand(turn * X0, toe_corner_F, true);
+  auto r = mon.result();
+  EXPECT_GT(r.foot_slip_max_m, 0.012);
+  EXPECT_LT(r.foot_slide_max_m, 1e-12);
+  // Lifted, and set down 20 mm to the side, flat: a landing elsewhere, no slide.
+  stand(Eigen::Translation3d(0.0, 0.0, 0.01) * X0, toe_corner_F, false);
+  const Eigen::Isometry3d X1 = Eigen::Translation3d(0.0, -0.02, 0.0) * X0;
+  stand(X1, Eigen::Vector3d(0.0, 0.0, -0.08), true);
+  r = mon.result();
+  EXPECT_NEAR(r.foot_slip_max_m, 0.02, 1e-12);
+  EXPECT_LT(r.foot_slide_max_m, 1e-12);
+  // Then it slides 4 mm forward, flat, with its CoP at the sole centre: slide 4 mm.
+  stand(Eigen::Translation3d(0.004, 0.0, 0.0) * X1, Eigen::Vector3d(0.0, 0.0, -0.08), true);
+  r = mon.result();
+  EXPECT_NEAR(r.foot_slide_max_m, 0.004, 1e-12);
+}
+
 }  // namespace
 }  // namespace poise::sim

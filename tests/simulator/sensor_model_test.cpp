@@ -113,11 +113,14 @@ TEST(SimSensorModel, DelayShiftsAndRateHoldsTheSamples) {
     delayed.run(1);
     slow.run(1);
     w.push_back(ref.s.imu_omega_I);
-    if (k > 3) EXPECT_EQ(delayed.s.imu_omega_I, w[static_cast<std::size_t>(k - 4)]) << k;
+    if (k > 3) {
+      EXPECT_EQ(delayed.s.imu_omega_I, w[static_cast<std::size_t>(k - 4)]) << k;
+    }
     // 250 Hz: a new sample at ticks 4, 8, ..., held in between
     const int last_sample = k - k % 4;
-    if (last_sample > 0)
+    if (last_sample > 0) {
       EXPECT_EQ(slow.s.imu_omega_I, w[static_cast<std::size_t>(last_sample - 1)]) << k;
+    }
   }
   EXPECT_GT((w.back() - w.front()).norm(), 1e-3);  // the signal did change
 }

@@ -381,6 +381,7 @@ RunResult InProcessLoop::result() const {
   r.com_error_max_m = m.com_error_max_m;
   r.com_error_final_m = m.com_error_final_m;
   r.foot_slip_max_m = m.foot_slip_max_m;
+  r.foot_slide_max_m = m.foot_slide_max_m;
   r.non_foot_contacts = m.non_foot_contacts;
   r.min_base_height_m = m.min_base_height_m;
   r.recovery_time_s = m.last_recovery_time_s;

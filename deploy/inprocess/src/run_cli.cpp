@@ -23,6 +23,7 @@ nlohmann::json to_json(const RunResult& r) {
   j["com_error_max_m"] = r.com_error_max_m;
   j["com_error_final_m"] = r.com_error_final_m;
   j["foot_slip_max_m"] = r.foot_slip_max_m;
+  j["foot_slide_max_m"] = r.foot_slide_max_m;
   j["non_foot_contacts"] = r.non_foot_contacts;
   j["tick_latency_us"] = {{"p50", r.tick_latency_us.p50_us},
                           {"p99", r.tick_latency_us.p99_us},

@@ -656,7 +656,8 @@ int run_distributed(int argc, char** argv) {
     r["survived"] = sim_r.value("survived", false);
     r["completed"] = sim_r.value("completed", false);
     for (const char* k :
-         {"com_error_max_m", "com_error_final_m", "foot_slip_max_m", "non_foot_contacts",
+         {"com_error_max_m", "com_error_final_m", "foot_slip_max_m", "foot_slide_max_m",
+          "non_foot_contacts",
           "min_base_height_m", "recovery_time_s", "trunk_pitch_max_deg", "trunk_roll_max_deg",
           "failed_criteria", "tick_latency_us", "realtime_factor", "sim_time_s", "wall_time_s",
           "command_timeouts", "damping_ticks", "watchdog_stale_events", "hold_ticks",

@@ -564,6 +564,8 @@ ScenarioMonitor::ScenarioMonitor(const World& scenario, std::vector<int> platfor
   for (const Push& p : scenario.sim.pushes)
     last_push_end_ = std::max(last_push_end_, p.start + p.duration);
   foot_in_support_0_.assign(scenario.sim.robot.feet.size(), Eigen::Vector3d::Zero());
+  contact_start_X_SF_.assign(scenario.sim.robot.feet.size(), Eigen::Isometry3d::Identity());
+  in_contact_before_.assign(scenario.sim.robot.feet.size(), 0);
   r_.last_recovery_time_s = std::numeric_limits<double>::infinity();
 }
 
@@ -593,10 +595,22 @@ void ScenarioMonitor::update(const GroundTruth& g) {
   for (int f : support_feet_) {
     const auto& ft = g.feet[static_cast<std::size_t>(f)];
     if (!ft.in_contact) continue;
-    const Eigen::Vector3d p = support_pose(f).inverse() * ft.X_WF.translation();
+    const Eigen::Isometry3d X_SW = support_pose(f).inverse();
+    const Eigen::Vector3d p = X_SW * ft.X_WF.translation();
     r_.foot_slip_max_m = std::max(
         r_.foot_slip_max_m, (p - foot_in_support_0_[static_cast<std::size_t>(f)]).head<2>().norm());
+    // Slide: the sole point under the CoP now, against where that point of the sole was when
+    // this contact began.
+    const auto fi = static_cast<std::size_t>(f);
+    const Eigen::Isometry3d X_SF = X_SW * ft.X_WF;
+    if (!in_contact_before_[fi]) contact_start_X_SF_[fi] = X_SF;
+    const Eigen::Vector3d cop_S = X_SW * ft.cop_W;
+    const Eigen::Vector3d cop_F = X_SF.inverse() * cop_S;
+    r_.foot_slide_max_m = std::max(r_.foot_slide_max_m,
+                                   (cop_S - contact_start_X_SF_[fi] * cop_F).head<2>().norm());
   }
+  for (int f : support_feet_)
+    in_contact_before_[static_cast<std::size_t>(f)] = g.feet[static_cast<std::size_t>(f)].in_contact;
   if (g.num_non_foot_contacts > 0) ++r_.non_foot_contacts;
   {
     // about the robot's own forward (robot.yaml forward_axis), not the base's x axis

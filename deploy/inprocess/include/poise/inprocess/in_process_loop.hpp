@@ -114,6 +114,7 @@ struct RunResult {
   double com_error_max_m = 0.0;  ///< ScenarioMonitor definition (horizontal, see scenario.hpp)
   double com_error_final_m = 0.0;
   double foot_slip_max_m = 0.0;
+  double foot_slide_max_m = 0.0;  ///< the sliding part of it (ScenarioMonitor)
   int non_foot_contacts = 0;  ///< ticks with a non-foot body touching something
   double min_base_height_m = 0.0;
   double recovery_time_s = 0.0;      ///< after the last push

@@ -59,12 +59,18 @@ World parse_world(const std::string& yaml_text, const std::filesystem::path& bas
 /// initial CoM offset from the centroid of the support feet, carried along with that centroid
 /// (so moving supports are not counted as error). Foot slip: largest displacement of a
 /// supporting foot relative to the support it stands on (platform or ground), while in contact.
+/// Foot slide (informational, not a criterion): the part of that which is sliding -- largest
+/// horizontal displacement of the sole point under the foot's CoP from where that point of the
+/// sole was when the current contact began. A foot that pivots about its CoP (heel up on a toe
+/// corner, turning about it) or one that was lifted and landed elsewhere counts as slip but not
+/// as slide.
 class ScenarioMonitor {
  public:
   struct Result {
     double com_error_max_m = 0.0;
     double com_error_final_m = 0.0;
     double foot_slip_max_m = 0.0;
+    double foot_slide_max_m = 0.0;  ///< see the class comment
     int non_foot_contacts = 0;  ///< ticks with at least one non-foot contact
     double min_base_height_m = std::numeric_limits<double>::infinity();
     double last_recovery_time_s = 0.0;  ///< time after the last push until the CoM error stayed
@@ -93,6 +99,9 @@ class ScenarioMonitor {
   bool initialised_ = false;
   Eigen::Vector2d com_offset_ = Eigen::Vector2d::Zero();
   std::vector<Eigen::Vector3d> foot_in_support_0_;
+  /// Per foot: its pose in its support's frame when the current contact began (foot slide).
+  std::vector<Eigen::Isometry3d> contact_start_X_SF_;
+  std::vector<std::uint8_t> in_contact_before_;
   double last_push_end_ = 0.0;
   double last_bad_time_ = 0.0;
   double time_ = 0.0;
