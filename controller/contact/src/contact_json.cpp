@@ -113,6 +113,14 @@ ContactProblem problem_from_json(const json& j, std::array<bool, kMaxFeet>* pres
       if (!parsed) fail("weights.priority", "expected \"lexicographic\" or \"weighted\"");
       p.weights.priority = *parsed;
     }
+    if (w.contains("torsion_limit")) {
+      const json& tl = w.at("torsion_limit");
+      const auto parsed =
+          tl.is_string() ? parse_torsion_limit(tl.get<std::string>()) : std::nullopt;
+      if (!parsed)
+        fail("weights.torsion_limit", "expected \"independent\" or \"friction-coupled\"");
+      p.weights.torsion = *parsed;
+    }
   }
   return p;
 }

@@ -22,4 +22,10 @@ std::optional<Priority> parse_priority(std::string_view name) {
   return std::nullopt;
 }
 
+std::optional<TorsionLimit> parse_torsion_limit(std::string_view name) {
+  if (name == "independent") return TorsionLimit::kIndependent;
+  if (name == "friction-coupled") return TorsionLimit::kFrictionCoupled;
+  return std::nullopt;
+}
+
 }  // namespace poise::contact

@@ -1,5 +1,6 @@
 #include "poise/contact/contact_problem.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace poise::contact {
@@ -101,6 +102,17 @@ const char* validate(const ContactProblem& p) {
     if (const char* msg = validate_foot(p.feet[i], i)) return msg;
   }
   return nullptr;
+}
+
+const char* to_string(TorsionLimit t) {
+  return t == TorsionLimit::kFrictionCoupled ? "friction-coupled" : "independent";
+}
+
+double torsion_limit(const FootContact& foot, const Eigen::Vector3d& f_F, TorsionLimit model) {
+  const double f_n = std::max(f_F.z(), 0.0);
+  if (model != TorsionLimit::kFrictionCoupled || !(foot.mu > 0.0)) return foot.mu_torsion * f_n;
+  const double f_t = std::hypot(f_F.x(), f_F.y());
+  return foot.mu_torsion * std::max(f_n - f_t / foot.mu, 0.0);
 }
 
 Eigen::Vector4d safe_region(const FootContact& foot) {

@@ -104,8 +104,17 @@ void QpOptimizer::solve(const ContactProblem& p, ContactSolution& solution) {
       const double d_y = std::clamp(y_[col + 4] / f_z, region[2], region[3]);
       // tau_n = m_z - (d_x f_y - d_y f_x) = m_z - c^T rho
       const Eigen::Matrix<double, 1, 4> c = d_x * B.row(1) - d_y * B.row(0);
-      A_.block<1, 4>(r + 8, col) = foot.mu_torsion * B.row(2) + c;
-      A_.block<1, 4>(r + 9, col) = foot.mu_torsion * B.row(2) - c;
+      // The friction-coupled limit mu_t (f_z - |f_t| / mu), linearised about the first pass's
+      // tangential direction u (exact along u; the clean-up below clamps to the exact limit).
+      Eigen::Matrix<double, 1, 4> limit = foot.mu_torsion * B.row(2);
+      const Eigen::Vector2d f_t = B.topRows<2>() * y_.segment<4>(col);
+      if (p.weights.torsion == TorsionLimit::kFrictionCoupled && foot.mu > 0.0 &&
+          f_t.norm() > 0.0) {
+        const Eigen::Vector2d u = f_t.normalized();
+        limit -= (foot.mu_torsion / foot.mu) * (u.x() * B.row(0) + u.y() * B.row(1));
+      }
+      A_.block<1, 4>(r + 8, col) = limit + c;
+      A_.block<1, 4>(r + 9, col) = limit - c;
     }
     y_first_ = y_;
     const SolverStatus second =
@@ -140,7 +149,7 @@ void QpOptimizer::solve(const ContactProblem& p, ContactSolution& solution) {
     const double d_x = std::clamp(d_x_raw, region[0], region[1]);
     const double d_y = std::clamp(d_y_raw, region[2], region[3]);
     const double tau_n_raw = m.z() - (d_x * f.y() - d_y * f.x());
-    const double tau_n_max = foot.mu_torsion * f.z();
+    const double tau_n_max = torsion_limit(foot, f, p.weights.torsion);
     const double tau_n = std::clamp(tau_n_raw, -tau_n_max, tau_n_max);
     adjusted_ = adjusted_ || std::abs(d_x - d_x_raw) * f.z() > tol ||
                 std::abs(d_y - d_y_raw) * f.z() > tol || std::abs(tau_n - tau_n_raw) > tol;

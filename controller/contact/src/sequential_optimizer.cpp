@@ -66,7 +66,7 @@ ContactStatus SequentialOptimizer::solve_single(const ContactProblem& p, int i,
   const Eigen::Vector3d tau_F = R.transpose() * (p.k_dot_desired - (foot.p_WF - p.com).cross(f_W));
   const double d_x = std::clamp((-tau_F.y() - h * f_F.x()) / f_n, region[0], region[1]);
   const double d_y = std::clamp((tau_F.x() - h * f_F.y()) / f_n, region[2], region[3]);
-  const double tau_n_max = foot.mu_torsion * f_n;
+  const double tau_n_max = torsion_limit(foot, f_F, p.weights.torsion);
   const double tau_n =
       std::clamp(tau_F.z() - (d_x * f_F.y() - d_y * f_F.x()), -tau_n_max, tau_n_max);
   solution.feet[i] = make_foot_wrench(foot, f_W, d_x, d_y, tau_n);
@@ -154,8 +154,9 @@ ContactStatus SequentialOptimizer::solve_double(const ContactProblem& p,
     kappa_k += h * (R.col(1) * f.x() - R.col(0) * f.y());
     const Eigen::Vector4d region = safe_region(foot);
     const double f_n = std::max(f.z(), 0.0);
-    st.eta_lower.segment<3>(3 * i) << region[0], region[2], -foot.mu_torsion * f_n;
-    st.eta_upper.segment<3>(3 * i) << region[1], region[3], foot.mu_torsion * f_n;
+    const double tau_n_max = torsion_limit(foot, f, p.weights.torsion);
+    st.eta_lower.segment<3>(3 * i) << region[0], region[2], -tau_n_max;
+    st.eta_upper.segment<3>(3 * i) << region[1], region[3], tau_n_max;
     if (f_n > threshold) {
       st.eta_desired.segment<3>(3 * i) << -h * f.x() / f_n, -h * f.y() / f_n, 0.0;
     } else {

@@ -47,6 +47,7 @@ int run(int argc, char** argv) {
   node::NodeOptions options;
   std::string method_name = "sequential";
   std::string priority_name = "lexicographic";
+  std::string torsion_name = "friction-coupled";
   CLI::App app{"Contact-force optimiser node: contact problem k in, contact solution k out."};
   node::add_node_options(app, options, "contact");
   app.add_option("--method", method_name, "sequential (paper) or qp")
@@ -57,6 +58,12 @@ int run(int argc, char** argv) {
                  "rate given it; weighted: the paper's eq. (21), w_k trading one for the other")
       ->check(CLI::IsMember({"lexicographic", "weighted"}))
       ->capture_default_str();
+  app.add_option("--torsion-limit", torsion_name,
+                 "independent: |tau_n| <= mu_torsion f_n (the paper); friction-coupled: "
+                 "|tau_n| <= mu_torsion (f_n - |f_t| / mu), the twist and the tangential force "
+                 "sharing one friction budget")
+      ->check(CLI::IsMember({"independent", "friction-coupled"}))
+      ->capture_default_str();
   app.add_option("--input-stale-ms", options.input_stale_ms,
                  "report poise/contact_problem stale (health FAULT) after this long without one")
       ->check(CLI::Range(1.0, 600000.0))
@@ -65,6 +72,7 @@ int run(int argc, char** argv) {
 
   const contact::Method method = *contact::parse_method(method_name);
   const contact::Priority priority = *contact::parse_priority(priority_name);
+  const contact::TorsionLimit torsion = *contact::parse_torsion_limit(torsion_name);
   node::Node node(options);
   if (!options.robot.empty())  // the optimiser needs nothing of the robot: --robot is only checked
     node::resolve_robot(node, node::wait_for_robot_description(node, std::chrono::seconds(30)),
@@ -101,6 +109,7 @@ int run(int argc, char** argv) {
       contact::set_safe_solution(contact::ContactStatus::kInvalidInput, solution);
     } else if (in.valid) {
       problem.weights.priority = priority;
+      problem.weights.torsion = torsion;
       const std::int64_t t_lib = node::now_ns();
       optimizer.solve(problem, solution);
       lib_ns = node::now_ns() - t_lib;

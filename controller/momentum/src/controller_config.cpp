@@ -141,7 +141,16 @@ ControllerConfig from_yaml(const YAML::Node& root, const std::string& file) {
     r.vec3(m, "gamma22", "momentum.", c.momentum.gamma22);
   }
   if (const auto m = root["contact"]) {
-    r.keys(m, "contact", {"w_k", "eps_f", "eps_cop", "priority"});
+    r.keys(m, "contact", {"w_k", "eps_f", "eps_cop", "priority", "torsion_limit"});
+    if (const YAML::Node tl = m["torsion_limit"]) {
+      const std::string name = tl.IsScalar() ? tl.as<std::string>() : std::string();
+      const auto parsed = contact::parse_torsion_limit(name);
+      if (!parsed)
+        r.fail("contact.torsion_limit",
+               "must be 'independent' or 'friction-coupled', got '" + name + "'");
+      else
+        c.contact.torsion_limit = *parsed;
+    }
     if (const YAML::Node pr = m["priority"]) {
       const std::string name = pr.IsScalar() ? pr.as<std::string>() : std::string();
       const auto parsed = contact::parse_priority(name);

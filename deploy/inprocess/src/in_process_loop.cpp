@@ -131,6 +131,7 @@ InProcessLoop::InProcessLoop(const scenario::Scenario& scenario, const LoopOptio
   solution_msg_ = std::make_unique<msg::ContactSolution>();
   command_msg_ = std::make_unique<msg::JointCommand>();
   priority_ = controller_->config().contact.priority;
+  torsion_ = controller_->config().contact.torsion_limit;
   {
     // The robot side of poise-sim: its safety layer, configured as poise-sim configures it.
     safety::Config sc =
@@ -306,6 +307,7 @@ void InProcessLoop::control() {
     contact::set_safe_solution(contact::ContactStatus::kInvalidInput, solution_);
   } else {
     solver_problem_.weights.priority = priority_;
+    solver_problem_.weights.torsion = torsion_;
     optimizer_.solve(solver_problem_, solution_);
   }
   contact_node::to_msg(solution_, problem_msg_->header(), 0.0, optimizer_.method(), *solution_msg_);

@@ -168,6 +168,8 @@ int cli_main(int argc, char** argv) {
       nlohmann::json j = to_json(r);
       j["contact_method"] = method;
       j["contact_priority"] = contact::to_string(loop.controller().config().contact.priority);
+      j["contact_torsion_limit"] =
+          contact::to_string(loop.controller().config().contact.torsion_limit);
       j["estimator_supports"] = scenario.estimator.supports;
       j["estimator"] = opt.estimator;
       out << j.dump(2) << "\n";

@@ -389,7 +389,8 @@ int run_distributed(int argc, char** argv) {
       if (!cf) throw std::runtime_error("cannot write " + ctrl_config_file.string());
     }
     contact_args.insert(contact_args.end(),
-                        {"--priority", contact::to_string(ccfg.contact.priority)});
+                        {"--priority", contact::to_string(ccfg.contact.priority),
+                         "--torsion-limit", contact::to_string(ccfg.contact.torsion_limit)});
     std::vector<std::string> ctrl_args = common("controller");
     // The planned supports of the scenario from the first tick, as the in-process loop plans them
     // (the first supports were a difference between the two modes: issue #17 item 4).
@@ -739,6 +740,7 @@ int run_distributed(int argc, char** argv) {
     r["mode"] = s.realtime ? "realtime" : "lockstep";
     r["contact_method"] = s.method;
     r["contact_priority"] = contact::to_string(ccfg.contact.priority);
+    r["contact_torsion_limit"] = contact::to_string(ccfg.contact.torsion_limit);
     r["estimator_supports"] = scenario.estimator.supports;
     r["estimator"] = s.estimator;
     if (recorder) {

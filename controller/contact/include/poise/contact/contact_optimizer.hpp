@@ -25,6 +25,8 @@ std::optional<Method> parse_method(std::string_view name);
 
 /// Parses "lexicographic" / "weighted"; std::nullopt otherwise.
 std::optional<Priority> parse_priority(std::string_view name);
+/// Parses "independent" / "friction-coupled"; std::nullopt otherwise.
+std::optional<TorsionLimit> parse_torsion_limit(std::string_view name);
 
 /// Facade selecting one method at construction. Construct once (allocates); solve() never
 /// allocates, never throws and never outputs a non-finite number.

@@ -55,6 +55,25 @@ enum class Priority : std::uint8_t {
 /// "lexicographic" or "weighted" (static strings).
 const char* to_string(Priority p);
 
+/// How a foot's normal (torsional) torque is bounded.
+enum class TorsionLimit : std::uint8_t {
+  /// |tau_n| <= mu_torsion f_n, whatever the tangential force (the paper's box, eq. (30)).
+  kIndependent = 0,
+  /// Torsion and the tangential force share one friction budget (a linear limit surface):
+  /// |tau_n| <= mu_torsion (f_n - |f_t| / mu). A foot already pushing sideways at its friction
+  /// limit can resist no twist. Why: a sole twists on the friction of its contact points, and the
+  /// friction the tangential force uses is not there for the twist. For two contact points a
+  /// distance w apart (a foot on one edge) the capacity is exactly (w / 2)(mu f_n - |f_t|); with
+  /// mu_torsion <= mu w / 2 this bound lies inside it. mu = 0: as kIndependent.
+  kFrictionCoupled = 1,
+};
+
+/// "independent" or "friction-coupled" (static strings).
+const char* to_string(TorsionLimit t);
+
+/// The largest |tau_n| a foot carrying the force f_F (in its frame F: z the normal) may resist.
+double torsion_limit(const FootContact& foot, const Eigen::Vector3d& f_F, TorsionLimit model);
+
 /// Scale of the angular and regularisation weights under Priority::kLexicographic.
 inline constexpr double kLexicographicScale = 1e-4;
 
@@ -69,6 +88,8 @@ struct ContactWeights {
   /// Linear first strictly (default) or the weighted sum of eq. (21). Not on the wire
   /// (idl/contact_problem.idl): the contact node takes it as an option (`--priority`).
   Priority priority = Priority::kLexicographic;
+  /// The normal-torque bound. Not on the wire either (poise-contact `--torsion-limit`).
+  TorsionLimit torsion = TorsionLimit::kIndependent;
   /// The weights the solvers use: w_k, eps_f, eps_tau scaled for the lexicographic priority.
   double scale() const { return priority == Priority::kLexicographic ? kLexicographicScale : 1.0; }
 };

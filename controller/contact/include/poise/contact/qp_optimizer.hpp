@@ -24,6 +24,10 @@
 // normal torque about the first pass's CoP d*, |m_z - (d*_x f_y - d*_y f_x)| <= mu_torsion f_z
 // (linear for fixed d*), which makes the clean-up much smaller at twice the cost. Default: 1 pass,
 // the plain one-QP baseline of the paper.
+// TorsionLimit::kFrictionCoupled (weights.torsion): the clean-up clamps tau_n to
+// mu_torsion (f_z - |f_t| / mu) instead; the refinement pass bounds it by that limit linearised
+// at the first pass's tangential direction u, mu_torsion (f_z - u . f_t / mu) (exact along u).
+// The first pass bounds m_z as above.
 
 #include <Eigen/Core>
 

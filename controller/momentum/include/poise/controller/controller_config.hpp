@@ -53,6 +53,11 @@ struct ContactWeights {
   /// Linear momentum first strictly (lexicographic, the paper's stated priority) or eq. (21)'s
   /// weighted sum. Not on the wire: `poise run` passes it to poise-contact as --priority.
   contact::Priority priority = contact::Priority::kLexicographic;
+  /// The feet's normal-torque bound (contact_problem.hpp TorsionLimit). Not on the wire either:
+  /// `poise run` passes it to poise-contact as --torsion-limit. friction-coupled: the twist
+  /// shares the friction the tangential force uses (why, and the measurement behind this
+  /// default: controller/contact/README.md); independent: the paper's |tau_n| <= mu_t f_n.
+  contact::TorsionLimit torsion_limit = contact::TorsionLimit::kFrictionCoupled;
 };
 
 /// Eq (36): a_d = kp log(T^-1 T_d) + kd (v_d - v) for each foot.

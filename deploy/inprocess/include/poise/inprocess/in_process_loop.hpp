@@ -223,6 +223,7 @@ class InProcessLoop {
   contact::ContactSolution solution_;       // the optimiser's
   contact::ContactSolution answer_;         // as the controller node decodes it
   contact::Priority priority_ = contact::Priority::kLexicographic;  // poise-contact --priority
+  contact::TorsionLimit torsion_ = contact::TorsionLimit::kIndependent;  // --torsion-limit
   std::unique_ptr<safety::SafetyLayer> safety_;
 
   sim::SensorFrame sensors_;
