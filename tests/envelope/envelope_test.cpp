@@ -2,6 +2,7 @@
 // (runs.csv), the distributed mode runs the same study, and bad input is refused clearly.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -109,6 +110,52 @@ TEST(Envelope, PushBoundariesAgreeWithTheRunsInProcess) {
   check_push_study(dir, 120.0);
   for (const char* pic : {"push_envelope.png", "push_envelope.svg"})
     EXPECT_GT(fs::file_size(dir / pic), 1000u) << pic;
+}
+
+// --jitter-deg J: every force of the sweep is run at the direction and at -+J; it counts as
+// survived only if all three did, and the summary counts the forces whose three runs disagreed.
+TEST(Envelope, JitterRunsEachForceThreeTimesAndNeedsAllThree) {
+  const fs::path dir = work_dir("jitter");
+  auto [code, out] =
+      run_command({bin("poise"), "envelope", "pushes", "--supports", "double", "--directions", "1",
+                   "--force-step", "120", "--force-tol", "60", "--force-max", "480", "--probes",
+                   "0", "--jitter-deg", "0.5", "-o", dir.string()},
+                  240s);
+  ASSERT_EQ(code, 0) << out;
+  std::map<double, std::vector<std::pair<double, bool>>> by_force;  // force -> (angle, survived)
+  for (const auto& r : read_csv(dir / "runs.csv"))
+    by_force[std::stod(r.at("force_N"))].push_back(
+        {std::stod(r.at("direction_deg")), r.at("survived") == "1"});
+  ASSERT_GE(by_force.size(), 2u);
+  int split = 0;
+  double last_all = 0.0, first_not_all = 1e9;
+  for (const auto& [force, runs] : by_force) {
+    ASSERT_EQ(runs.size(), 3u) << force;
+    std::vector<double> angles;
+    int survived = 0;
+    for (const auto& [a, ok] : runs) {
+      angles.push_back(a < 180.0 ? a : a - 360.0);
+      survived += ok ? 1 : 0;
+    }
+    std::sort(angles.begin(), angles.end());
+    EXPECT_NEAR(angles[0], -0.5, 1e-9);
+    EXPECT_NEAR(angles[1], 0.0, 1e-9);
+    EXPECT_NEAR(angles[2], 0.5, 1e-9);
+    if (survived != 0 && survived != 3) ++split;
+    if (survived == 3) last_all = std::max(last_all, force);
+    else first_not_all = std::min(first_not_all, force);
+  }
+  const auto env = read_csv(dir / "envelope.csv");
+  ASSERT_EQ(env.size(), 1u);
+  const double boundary = std::stod(env[0].at("boundary"));
+  EXPECT_NEAR(boundary, last_all, 1e-6) << "the boundary is the largest force all three survived";
+  EXPECT_LT(boundary, first_not_all);
+  std::ifstream md(dir / "envelope.md");
+  std::stringstream text;
+  text << md.rdbuf();
+  EXPECT_NE(text.str().find("disagreed at " + std::to_string(split) + " forces"),
+            std::string::npos)
+      << text.str();
 }
 
 TEST(Envelope, Fig11ReportsTheLongestPushSurvived) {

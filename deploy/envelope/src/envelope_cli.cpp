@@ -58,6 +58,7 @@ struct Options {
   double push_duration = 0.1;
   double force_step = 25.0, force_tol = 5.0, force_max = 500.0;
   int probes = 3;
+  double jitter_deg = 0.0;  // > 0: each push force also at direction -+ this; all must survive
   std::vector<double> fig11_forces{40, 60, 80, 100, 120, 160, 200, 250};
   double duration_max = 1.5, duration_tol = 0.01;
   double freq_step = 0.1, freq_tol = 0.02, freq_max = 2.0;
@@ -335,6 +336,13 @@ int envelope_main(int argc, char** argv) {
                  "steps above the first failure tried for non-monotone survival")
       ->check(CLI::Range(0, 20))
       ->capture_default_str();
+  app.add_option("--jitter-deg", o.jitter_deg,
+                 "pushes: run each force also at the direction -+ this angle and count it "
+                 "survived only if all three runs survive (the verdict near a boundary can flip "
+                 "with a change far smaller than any physical uncertainty: deploy/envelope/"
+                 "README.md); 0: one run per force")
+      ->check(CLI::Range(0.0, 45.0))
+      ->capture_default_str();
   app.add_option("--fig11-forces", o.fig11_forces, "forces of Fig. 11 [N]")
       ->check(CLI::Range(1.0, 1e5));
   app.add_option("--duration-max", o.duration_max, "longest push tried for Fig. 11 [s]")
@@ -398,6 +406,7 @@ int envelope_main(int argc, char** argv) {
       Boundary b;
     };
     std::vector<DirResult> dirs;
+    int jitter_split = 0;  // --jitter-deg: forces whose three runs did not agree
     if (all || o.what == "pushes") {
       for (const std::string support : {"double", "single"}) {
         if (o.supports.find(support) == std::string::npos) continue;
@@ -406,18 +415,26 @@ int envelope_main(int argc, char** argv) {
         const int n = support == "double" ? o.directions : o.single_directions;
         for (int k = 0; k < n; ++k) {
           const double deg = 360.0 * k / n;
-          auto survives = [&](double force) {
+          auto survives_at = [&](double force, double angle_deg) {
             YAML::Node sc = YAML::Clone(base);
             YAML::Node push = first_push(sc, base_path);
-            const double a = deg * kPi / 180.0;
+            const double a = angle_deg * kPi / 180.0;
             push["force"] = std::vector<double>{force * std::cos(a), force * std::sin(a), 0.0};
             push["duration"] = o.push_duration;
             char name[96];
-            std::snprintf(name, sizeof(name), "push_%s_%03.0fdeg_%06.1fN", support.c_str(), deg,
-                          force);
-            Row r{"push", support, deg, force, o.push_duration, 0.0, runner.run(sc, name)};
+            std::snprintf(name, sizeof(name), "push_%s_%05.1fdeg_%06.1fN", support.c_str(),
+                          angle_deg, force);
+            Row r{"push", support, angle_deg, force, o.push_duration, 0.0, runner.run(sc, name)};
             progress(r);
             return r.o.survived;
+          };
+          auto survives = [&](double force) {
+            if (!(o.jitter_deg > 0.0)) return survives_at(force, deg);
+            int n_survived = 0;
+            for (const double j : {0.0, -o.jitter_deg, o.jitter_deg})
+              n_survived += survives_at(force, deg + j) ? 1 : 0;
+            if (n_survived != 0 && n_survived != 3) ++jitter_split;
+            return n_survived == 3;
           };
           dirs.push_back({support, deg,
                           sweep(o.force_step, o.force_tol, o.force_max, o.probes, survives)});
@@ -619,7 +636,13 @@ int envelope_main(int argc, char** argv) {
         md << "## Pushes of " << fmt(o.push_duration, 2)
            << " s by direction\n\nScan in steps of " << fmt(o.force_step, 1)
            << " N, bisection to " << fmt(o.force_tol, 1) << " N, " << o.probes
-           << " probes above the first failure. *Monotone*: every step up to it survived. "
+           << " probes above the first failure"
+           << (o.jitter_deg > 0.0
+                   ? ", each force run at the direction and at -+" + fmt(o.jitter_deg, 2) +
+                         " deg, survived only if all three survived (the three disagreed at " +
+                         std::to_string(jitter_split) + " forces)"
+                   : std::string())
+           << ". *Monotone*: every step up to it survived. "
               "*Boundary*: the bisected edge. *Non-monotone*: forces above the first failure "
               "that survived.\n\n"
            << "| support | direction (deg, 0 = forward, 90 = left) | monotone (N) | boundary (N) "
