@@ -172,40 +172,56 @@ TEST(StanceRate, BadSettingsAreRefusedNamingTheField) {
 }
 
 /// Closed loop in process, industrial sensors (forward push of the paper, 8 s): RMS per axis of
-/// the published base rate against the truth over the ticks after 3 s (2 s after the push).
-double closed_loop_rate_error(double filter_hz, bool* survived) {
+/// the published base rate against the truth over the ticks from `from_tick` on.
+struct RateError {
+  double after_3s = 0.0, after_4s = 0.0;
+};
+RateError closed_loop_rate_error(double filter_hz, bool* survived) {
   scenario::Scenario sc = scenario::load_scenario(std::string(POISE_SOURCE_DIR) +
                                                   "/deploy/scenarios/forward_push_double_support.yaml");
   sc.estimator.stance_rate_hz = filter_hz;
   inprocess::LoopOptions opt;
   opt.duration = 8.0;
   inprocess::InProcessLoop loop(sc, opt);
-  double sq = 0.0;
-  int n = 0;
+  double sq3 = 0.0, sq4 = 0.0;
+  int n3 = 0, n4 = 0;
   for (int k = 0; k < 8000; ++k) {
     const sim::GroundTruth truth = loop.truth();
     loop.step();
     if (k < 3000) continue;
-    sq += (loop.state().omega_WB - truth.omega_WB).squaredNorm();
-    n += 3;
+    const double e = (loop.state().omega_WB - truth.omega_WB).squaredNorm();
+    sq3 += e;
+    n3 += 3;
+    if (k < 4000) continue;
+    sq4 += e;
+    n4 += 3;
   }
   *survived = loop.result().survived;
-  return std::sqrt(sq / n);
+  return {std::sqrt(sq3 / n3), std::sqrt(sq4 / n4)};
 }
 
 TEST(StanceRate, ClosedLoopTheFusedRateIsCloserToTheTruthThanTheGyro) {
   bool survived_gyro = false, survived_fused = false;
-  const double gyro = closed_loop_rate_error(0.0, &survived_gyro);
-  const double fused = closed_loop_rate_error(EstimatorConfig{}.stance_rate_filter_hz, &survived_fused);
-  std::printf("forward push, industrial sensors, after 3 s: base rate RMS error gyro alone "
-              "%.2f mrad/s, fused %.2f mrad/s\n",
-              1e3 * gyro, 1e3 * fused);
+  const RateError gyro = closed_loop_rate_error(0.0, &survived_gyro);
+  const RateError fused =
+      closed_loop_rate_error(EstimatorConfig{}.stance_rate_filter_hz, &survived_fused);
+  std::printf("forward push, industrial sensors: base rate RMS error after 3 s gyro alone "
+              "%.2f mrad/s, fused %.2f mrad/s; after 4 s %.2f and %.2f mrad/s\n",
+              1e3 * gyro.after_3s, 1e3 * fused.after_3s, 1e3 * gyro.after_4s,
+              1e3 * fused.after_4s);
   EXPECT_TRUE(survived_gyro);
   EXPECT_TRUE(survived_fused);
   // The gyro's own per-sample noise (3.1 mrad/s) is what the gyro alone publishes.
-  EXPECT_NEAR(gyro, 3.12e-3, 0.5e-3);
-  // Measured 3.19 vs 0.93 mrad/s (lockstep, the same loop): at most half.
-  EXPECT_LT(fused, 0.5 * gyro);
+  EXPECT_NEAR(gyro.after_3s, 3.12e-3, 0.5e-3);
+  EXPECT_NEAR(gyro.after_4s, 3.12e-3, 0.5e-3);
+  // Closer to the truth from 2 s after the push on. With the contact optimiser's
+  // friction-coupled torsion limit (the default since 2026-12-03) the feet of this run twist
+  // between 3.0 and 3.5 s (the fused rate 13 mrad/s off there, mostly in yaw, under the
+  // 20 mrad/s gate of stance_rate_gate):
+  // 2.63 against 3.22 mrad/s from 3 s. With the independent limit it was 0.97 against 3.24.
+  EXPECT_LT(fused.after_3s, gyro.after_3s);
+  // Once the feet are still again (from 4 s), at most half the gyro's error.
+  EXPECT_LT(fused.after_4s, 0.5 * gyro.after_4s);
 }
 
 }  // namespace
