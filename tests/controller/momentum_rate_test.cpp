@@ -54,6 +54,9 @@ TEST(ControllerConfig, ShippedFileLoadsWithTheDefaults) {
   EXPECT_EQ(c.foot.support_acceleration_tau, d.foot.support_acceleration_tau);
   EXPECT_EQ(c.feedback.max_position_error, d.feedback.max_position_error);
   EXPECT_EQ(c.resting_force_fraction, d.resting_force_fraction);
+  EXPECT_EQ(c.contact.priority, d.contact.priority);
+  EXPECT_EQ(c.contact.torsion_limit, d.contact.torsion_limit);
+  EXPECT_EQ(d.contact.torsion_limit, contact::TorsionLimit::kFrictionCoupled);
 }
 
 std::string write_temp(const std::string& name, const std::string& text) {
@@ -82,6 +85,8 @@ TEST(ControllerConfig, BadFilesNameTheProblem) {
   expect_error("dt: -1\n", "dt");
   expect_error("resting_force_fraction: -0.01\n", "resting_force_fraction");
   expect_error("resting_force_fraction: 1.5\n", "resting_force_fraction");
+  expect_error("contact: {torsion_limit: coupled}\n", "contact.torsion_limit");
+  expect_error("contact: {torsion_limit: [independent]}\n", "contact.torsion_limit");
   try {
     load_controller_config("/nonexistent/controller.yaml");
     ADD_FAILURE();
@@ -92,6 +97,9 @@ TEST(ControllerConfig, BadFilesNameTheProblem) {
   EXPECT_EQ(load_controller_config(p).acceleration.w_b, 0.9);
   const std::string q = write_temp("controller_config_rest.yaml", "resting_force_fraction: 0.05\n");
   EXPECT_EQ(load_controller_config(q).resting_force_fraction, 0.05);
+  const std::string t = write_temp("controller_config_torsion.yaml",
+                                   "contact: {torsion_limit: independent}\n");
+  EXPECT_EQ(load_controller_config(t).contact.torsion_limit, contact::TorsionLimit::kIndependent);
 }
 
 }  // namespace

@@ -293,7 +293,8 @@ TEST(Launch, TheScenarioConfiguresTheControllerAndTheVerdictNamesWhatFailed) {
     return f.string();
   };
   const std::string good =
-      scenario("weighted", "  contact: {priority: weighted}\n  momentum: {gamma22: [9, 9, 3]}\n");
+      scenario("weighted", "  contact: {priority: weighted, torsion_limit: independent}\n"
+                           "  momentum: {gamma22: [9, 9, 3]}\n");
   const std::string bad = scenario("bad_key", "  contact: {priority: weighted, w_x: 1}\n");
 
   // In process.
@@ -303,6 +304,7 @@ TEST(Launch, TheScenarioConfiguresTheControllerAndTheVerdictNamesWhatFailed) {
   EXPECT_NE(in_out.find("FAILED on com_error_final"), std::string::npos) << in_out;
   const Json in = Json::parse(std::ifstream(dir / "in.json"));
   EXPECT_EQ(in["contact_priority"], "weighted") << in.dump(2);
+  EXPECT_EQ(in["contact_torsion_limit"], "independent") << in.dump(2);
 
   // Distributed, lockstep.
   auto [d_code, d_out] = run_command({bin("poise"), "run", good, "-q", "-o", (dir / "d.json").string(),
@@ -312,8 +314,11 @@ TEST(Launch, TheScenarioConfiguresTheControllerAndTheVerdictNamesWhatFailed) {
       << d_out;
   const Json d = Json::parse(std::ifstream(dir / "d.json"));
   EXPECT_EQ(d["contact_priority"], "weighted") << d.dump(2);
+  EXPECT_EQ(d["contact_torsion_limit"], "independent") << d.dump(2);
   const Json contact = Json::parse(std::ifstream(dir / "d.logs" / "contact.summary.json"));
   EXPECT_NE(contact.dump().find("\"priority\":\"weighted\""), std::string::npos) << contact.dump();
+  EXPECT_NE(contact.dump().find("\"torsion_limit\":\"independent\""), std::string::npos)
+      << contact.dump();
   std::ifstream written(dir / "d.logs" / "controller.yaml");
   std::stringstream text;
   text << written.rdbuf();
@@ -323,7 +328,8 @@ TEST(Launch, TheScenarioConfiguresTheControllerAndTheVerdictNamesWhatFailed) {
   for (const char* key : {"survived", "com_error_max_m", "com_error_final_m", "foot_slip_max_m",
                           "non_foot_contacts", "min_base_height_m", "recovery_time_s",
                           "trunk_pitch_max_deg", "trunk_roll_max_deg", "failed_criteria",
-                          "failure", "contact_method", "contact_priority"}) {
+                          "failure", "contact_method", "contact_priority",
+                          "contact_torsion_limit"}) {
     EXPECT_TRUE(in.contains(key)) << key << "\n" << in.dump(2);
     EXPECT_TRUE(d.contains(key)) << key << "\n" << d.dump(2);
   }

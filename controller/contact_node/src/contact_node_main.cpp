@@ -10,6 +10,8 @@
 //   priority    --priority lexicographic (linear momentum first, strictly) | weighted (eq. (21)
 //               as written); not in the problem message, so `poise run` passes the controller
 //               configuration's contact.priority here
+//   torsion     --torsion-limit friction-coupled (|tau_n| <= mu_t (f_n - |f_t| / mu)) |
+//               independent (the paper's |tau_n| <= mu_t f_n); likewise from contact.torsion_limit
 //   bad input   a problem with a non-finite number, a bad length or an inconsistent geometry is
 //               answered with status CONTACT_INVALID_INPUT and the library's safe answer (every
 //               wrench zero), and counted (diagnostics errors / rejected_samples). A sample too
@@ -147,11 +149,12 @@ int run(int argc, char** argv) {
   node.expect_one_writer(std::string(dds::TopicTraits<msg::ContactProblem>::topic_name));
   node.serve(state_mutex);
   std::lock_guard lock(state_mutex);
-  char extra[160];
+  char extra[224];
   std::snprintf(extra, sizeof(extra),
-                "{\"method\": \"%s\", \"priority\": \"%s\", \"unreadable_problems\": %llu}",
+                "{\"method\": \"%s\", \"priority\": \"%s\", \"torsion_limit\": \"%s\", "
+                "\"unreadable_problems\": %llu}",
                 contact::to_string(method), contact::to_string(priority),
-                static_cast<unsigned long long>(bad_cdr));
+                contact::to_string(torsion), static_cast<unsigned long long>(bad_cdr));
   node.write_summary(extra);
   return 0;
 }
