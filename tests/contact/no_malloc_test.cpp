@@ -53,6 +53,8 @@ TEST(NoMalloc, OptimisersAndSolversDoNotAllocateInSolve) {
   std::mt19937 rng(21);
   SequentialOptimizer seq;
   QpOptimizer qp;
+  QpOptimizer qp2;  // the refinement pass (torsion rows linearised, coupled limit below)
+  qp2.set_torsion_passes(2);
   ContactOptimizer facade(Method::kQp);
   SequentialOptimizer seq_dense;  // the dense-stage variant and, with tiny eps, the fallback path
   seq_dense.set_use_normal_equations(false);
@@ -64,6 +66,8 @@ TEST(NoMalloc, OptimisersAndSolversDoNotAllocateInSolve) {
   }
   problems[5].com.x() = std::numeric_limits<double>::quiet_NaN();           // invalid input path
   problems[6].feet[0].in_contact = problems[6].feet[1].in_contact = false;  // no contact
+  for (int i = 0; i < 60; i += 2)  // half of them with the friction-coupled torsion limit
+    problems[i].weights.torsion = TorsionLimit::kFrictionCoupled;
   for (int i = 9; i < 60; i += 10) {  // ill-conditioned stages: normal equations fall back to dense
     problems[i].weights.eps_f = problems[i].weights.eps_cop = 1e-12;
   }
@@ -74,6 +78,7 @@ TEST(NoMalloc, OptimisersAndSolversDoNotAllocateInSolve) {
       seq.solve(p, s);
       seq_dense.solve(p, s);
       qp.solve(p, s);
+      qp2.solve(p, s);
       facade.solve(p, s);
       (void)validate(p);
     }
