@@ -388,6 +388,38 @@ TEST(Launch, ADeskHostNeedsNoRobotFiles) {
   EXPECT_EQ(all_code, 2) << all;
 }
 
+// Lockstep: the nodes wait as long for their input as the simulator waits for a command (a
+// loaded machine stalls the loop for 100+ ms; a 50 ms wall-clock staleness called that a fault in
+// a CI run). Real time keeps the nodes' 50 ms default; a file's own option wins.
+TEST(Launch, LockstepNodesWaitForTheirInputAsLongAsTheSimulator) {
+  const fs::path dir = work_dir("lockstep_stale");
+  auto check = [&](const std::string& mode, const std::string& estimator_options) {
+    std::ofstream(dir / "deployment.yaml")
+        << "domain: 44\nmode: " << mode << "\nscenario: " << POISE_SOURCE_DIR
+        << "/deploy/scenarios/standing.yaml\n"
+           "hosts:\n  robot: {address: 10.0.0.1}\n  desk: {address: 10.0.0.2}\n"
+           "components:\n  sim: {host: robot}\n  estimator: {host: desk"
+        << estimator_options << "}\n  contact: {host: desk}\n  controller: {host: desk}\n";
+    auto [code, out] = run_command(
+        {bin("poise"), "launch", (dir / "deployment.yaml").string(), "--check", "--host", "desk"},
+        30s);
+    EXPECT_EQ(code, 0) << out;
+    std::size_t n = 0;
+    for (std::size_t at = out.find("--input-stale-ms 2000"); at != std::string::npos;
+         at = out.find("--input-stale-ms 2000", at + 1))
+      ++n;
+    return std::make_pair(n, out);
+  };
+  auto [lockstep, lockstep_out] = check("lockstep", "");
+  EXPECT_EQ(lockstep, 2u) << "estimator and controller\n" << lockstep_out;
+  auto [realtime, realtime_out] = check("realtime", "");
+  EXPECT_EQ(realtime, 0u) << realtime_out;
+  EXPECT_EQ(realtime_out.find("--input-stale-ms"), std::string::npos) << realtime_out;
+  auto [own, own_out] = check("lockstep", ", options: [--input-stale-ms, '300']");
+  EXPECT_EQ(own, 1u) << "the controller only\n" << own_out;
+  EXPECT_NE(own_out.find("--input-stale-ms 300"), std::string::npos) << own_out;
+}
+
 // A component that dies is restarted by its policy, and the run goes on to the verdict: kill -9
 // of the contact optimiser (restart: on-failure) in a lockstep run on one machine.
 TEST(Launch, AKilledComponentIsRestartedByItsPolicy) {

@@ -297,6 +297,14 @@ void expect_clean_run(const LaunchRun& r) {
   EXPECT_EQ(r.result["deadline_misses"].get<int>(), 0) << r.result.dump(2);
   EXPECT_EQ(r.result["rejected_samples"].get<int>(), 0) << r.result.dump(2);
   EXPECT_EQ(r.result["non_foot_contacts"].get<int>(), 0) << r.result.dump(2);
+  // Lockstep: the controller calls its input stale after the simulator's command timeout (2 s
+  // default), not after the real-time 50 ms a loaded machine's stall exceeds.
+  if (r.controller.is_object()) {
+    ASSERT_TRUE(r.controller["inputs"].is_array()) << r.controller.dump(2);
+    ASSERT_EQ(r.controller["inputs"].size(), 1u) << r.controller.dump(2);
+    EXPECT_EQ(r.controller["inputs"][0]["topic"], "poise/state");
+    EXPECT_DOUBLE_EQ(r.controller["inputs"][0]["stale_ms"].get<double>(), 2000.0);
+  }
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -310,6 +310,16 @@ void Node::write_summary(const std::string& extra_json) {
     }
     j["non_finite_refused"] = non_finite_;
     {
+      // What the node called stale and how often (a launcher sets these per mode).
+      nlohmann::json inputs = nlohmann::json::array();
+      for (int i = 0; i < num_inputs_; ++i) {
+        const Input& in = inputs_[static_cast<std::size_t>(i)];
+        inputs.push_back({{"topic", in.topic}, {"stale_ms", static_cast<double>(in.stale_ns) * 1e-6}});
+      }
+      j["inputs"] = inputs;
+      j["stale_events"] = stale_events_;
+    }
+    {
       nlohmann::json rt;
       rt["priority"] = options_.rt.priority;
       rt["cpus"] = options_.rt.cpus;

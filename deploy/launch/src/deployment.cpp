@@ -469,6 +469,15 @@ std::vector<std::string> command_line(const Deployment& d, const Component& c,
           d.planned_support == "right")
         a.insert(a.end(), {"--planned-support", d.planned_support});
     }
+    // Lockstep: the loop waits for its slowest process, and a loaded machine stalls it for
+    // 100+ ms now and then; the 50 ms wall-clock staleness default would call that a fault.
+    // The nodes wait as long as poise-sim waits for a command (its --command-timeout-ms
+    // default), unless the file's options say otherwise.
+    if (!d.realtime && (c.kind == "estimator" || c.kind == "controller") &&
+        std::none_of(c.options.begin(), c.options.end(), [](const std::string& o) {
+          return o.rfind("--input-stale-ms", 0) == 0;
+        }))
+      a.insert(a.end(), {"--input-stale-ms", "2000"});
   }
   a.insert(a.end(), c.options.begin(), c.options.end());
   return a;

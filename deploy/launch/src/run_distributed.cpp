@@ -199,7 +199,9 @@ int run_distributed(int argc, char** argv) {
   app.add_option("--contact-deadline-us", s.contact_deadline_us,
                  "controller's wait for a contact solution (default 400 real time, 1e6 lockstep)");
   app.add_option("--command-timeout-ms", s.command_timeout_ms,
-                 "lockstep: simulator's wait for a joint command")
+                 "lockstep: simulator's wait for a joint command; the estimator's and the "
+                 "controller's --input-stale-ms too")
+      ->check(CLI::Range(1, 600000))
       ->capture_default_str();
   app.add_option("--settle-ticks", s.settle_ticks,
                  "start-up: simulator steps with the joints held by the safety layer before the "
@@ -370,6 +372,15 @@ int run_distributed(int argc, char** argv) {
     if (std::isfinite(scenario.estimator.stance_rate_hz))
       est_args.insert(est_args.end(), {"--stance-rate-hz", exact(scenario.estimator.stance_rate_hz)});
     if (recording_run) est_args.insert(est_args.end(), {"--output-readers", output_readers});
+    // Lockstep: a tick takes as long as the slowest process needs, and a loaded machine stalls
+    // the loop for 100+ ms now and then (171 ms in a CI run); the nodes' 50 ms wall-clock
+    // staleness default would call that a fault. The simulator waits --command-timeout-ms for a
+    // command before it damps, so the nodes wait that long for their input too.
+    const std::vector<std::string> lockstep_stale =
+        s.realtime ? std::vector<std::string>{}
+                   : std::vector<std::string>{"--input-stale-ms",
+                                              std::to_string(s.command_timeout_ms)};
+    est_args.insert(est_args.end(), lockstep_stale.begin(), lockstep_stale.end());
     std::vector<std::string> contact_args = common("contact");
     if (recording_run) contact_args.insert(contact_args.end(), {"--output-readers", output_readers});
     contact_args.insert(contact_args.end(), {"--method", s.method});
@@ -409,6 +420,7 @@ int run_distributed(int argc, char** argv) {
     if (!ctrl_config_file.empty())
       ctrl_args.insert(ctrl_args.end(), {"--config", ctrl_config_file.string()});
     ctrl_args.insert(ctrl_args.end(), {"--contact-deadline-us", std::to_string(deadline_us)});
+    ctrl_args.insert(ctrl_args.end(), lockstep_stale.begin(), lockstep_stale.end());
     if (recording_run) ctrl_args.insert(ctrl_args.end(), {"--output-readers", output_readers});
 
     if (!s.quiet)
