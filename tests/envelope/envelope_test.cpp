@@ -181,6 +181,56 @@ TEST(Envelope, Fig11ReportsTheLongestPushSurvived) {
   EXPECT_GT(fs::file_size(dir / "fig11.png"), 1000u);
 }
 
+// A platform run of the envelope is the scenario's own run at that frequency: the base scenario's
+// settings (here platforms_in_phase's contact.method qp) hold in process as in `poise run`.
+// Until this test the in-process envelope ran the sequential optimiser on these supports
+// (0.05 Hz on ground truth: CoM error 28 mm and trunk pitch 30 deg against 2.5 mm and 4.5 deg).
+TEST(Envelope, APlatformRunIsTheScenariosOwnRun) {
+  const fs::path dir = work_dir("platform_run");
+  const std::string base = std::string(POISE_SOURCE_DIR) + "/deploy/scenarios/platforms_in_phase.yaml";
+  auto [code, out] = run_command({bin("poise"), "envelope", "platforms", "--platforms", base,
+                                  "--ground-truth-state", "--freq-step", "0.4", "--freq-max", "0.4",
+                                  "--freq-tol", "0.4", "--probes", "0", "--periods", "1", "-o", dir.string()},
+                                 240s);
+  ASSERT_EQ(code, 0) << out;
+  const auto runs = read_csv(dir / "runs.csv");
+  ASSERT_EQ(runs.size(), 1u);
+  EXPECT_DOUBLE_EQ(std::stod(runs[0].at("frequency_Hz")), 0.4);
+  // The same run by hand: the base scenario at 0.4 Hz for the ramp (2 + 4 s) plus one period.
+  std::ifstream in(base);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string yaml = text.str();
+  for (std::size_t at = yaml.find("frequency: 0.12"); at != std::string::npos;
+       at = yaml.find("frequency: 0.12", at))
+    yaml.replace(at, 15, "frequency: 0.4");
+  const std::size_t d = yaml.find("duration: 14.0");
+  ASSERT_NE(d, std::string::npos);
+  yaml.replace(d, 14, "duration: 8.5");
+  const std::size_t r = yaml.find("../robots/");
+  ASSERT_NE(r, std::string::npos);
+  yaml.replace(r, 3, std::string(POISE_SOURCE_DIR) + "/deploy/");
+  std::ofstream(dir / "by_hand.yaml") << yaml;
+  auto [run_code, run_out] =
+      run_command({bin("poise"), "run", (dir / "by_hand.yaml").string(), "--in-process",
+                   "--ground-truth-state", "--quiet", "-o", (dir / "by_hand.json").string()},
+                  120s);
+  ASSERT_TRUE(run_code == 0 || run_code == 1) << run_out;
+  std::ifstream j(dir / "by_hand.json");
+  std::stringstream js;
+  js << j.rdbuf();
+  const std::string json = js.str();
+  EXPECT_NE(json.find("\"contact_method\": \"qp\""), std::string::npos) << json;
+  const auto number = [&](const std::string& key) {
+    const std::size_t k = json.find("\"" + key + "\":");
+    EXPECT_NE(k, std::string::npos) << key << " in " << json;
+    return k == std::string::npos ? -1.0 : std::stod(json.substr(k + key.size() + 3));
+  };
+  EXPECT_EQ(runs[0].at("survived"), run_code == 0 ? "1" : "0") << run_out;
+  EXPECT_NEAR(std::stod(runs[0].at("com_error_max_m")), number("com_error_max_m"), 1e-6);
+  EXPECT_NEAR(std::stod(runs[0].at("trunk_pitch_max_deg")), number("trunk_pitch_max_deg"), 1e-4);
+}
+
 TEST(Envelope, DistributedLockstepRunsTheSameStudy) {
   const fs::path dir = work_dir("lockstep");
   auto [code, out] =

@@ -52,10 +52,20 @@ struct InProcessLoop::EstimatorParts {
 struct InProcessLoop::EstimatorParts {};
 #endif
 
+contact::Method contact_method_of(const scenario::Scenario& scenario, const LoopOptions& options) {
+  if (options.contact_method) return *options.contact_method;
+  if (scenario.contact_method.empty()) return contact::Method::kSequential;
+  const auto m = contact::parse_method(scenario.contact_method);
+  if (!m)
+    throw std::runtime_error("scenario '" + scenario.name + "': unknown contact.method '" +
+                             scenario.contact_method + "'");
+  return *m;
+}
+
 InProcessLoop::InProcessLoop(const scenario::Scenario& scenario, const LoopOptions& options)
     : scenario_(scenario),
       options_(options),
-      optimizer_(options.contact_method),
+      optimizer_(contact_method_of(scenario, options)),
       monitor_(scenario, sim::platforms_of_feet(scenario)) {
   if (scenario_.robot_config.empty())
     throw std::runtime_error("scenario '" + scenario_.name +

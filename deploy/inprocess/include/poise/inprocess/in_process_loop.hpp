@@ -80,7 +80,8 @@ bool estimator_available();
 
 struct LoopOptions {
   StateSource state_source = StateSource::kEstimator;
-  contact::Method contact_method = contact::Method::kSequential;
+  /// Unset: the scenario's contact.method, else sequential (as `poise run` in both modes).
+  std::optional<contact::Method> contact_method;
   /// Controller tuning; unset: controller_config_file if given, else the scenario's `controller:`
   /// section, else the defaults.
   std::optional<controller::ControllerConfig> controller;
@@ -133,6 +134,10 @@ struct RunResult {
   std::uint64_t qp_failures = 0;        ///< eq (33) not solved as posed
   std::uint64_t rejected_commands = 0;  ///< commands the simulator refused
 };
+
+/// The contact method a loop with these options runs: LoopOptions::contact_method if set, else
+/// the scenario's contact.method, else sequential. Throws std::runtime_error on an unknown name.
+contact::Method contact_method_of(const scenario::Scenario& scenario, const LoopOptions& options);
 
 class InProcessLoop {
  public:
