@@ -90,6 +90,99 @@ TEST(BalanceController, ContactProblemMatchesKinematicsAndEquations10And11) {
   }
 }
 
+// MomentumGains::support_acceleration_hz: the whole robot standing still relative to its feet
+// while its supports accelerate (every body translated by p0 + v0 t + a t^2 / 2 + j t^3 / 6, joints
+// fixed). Checked against the trajectory itself: the supports' acceleration estimate is a (+ the
+// three-stage filter's lag 3 / w times j), the CoM target is the sole mid-point leaning
+// h / (g + a_z) a horizontally -- where the inverted pendulum's zero-moment point c - h a / g of
+// that acceleration lies under the sole mid-point -- its velocity target is the feet's velocity
+// plus that lean's rate h j / g, and (11) carries m a on top of the feedback. Off: none of it;
+// with a reference's CoM target: none of it either.
+TEST(BalanceController, AcceleratingSupportsLeanTheCoMTargetAndFeedTheirAccelerationForward) {
+  std::mt19937 rng(11);
+  for (int trial = 0; trial < 6; ++trial) {
+    const Eigen::Vector3d acc(test::uniform(rng, -3, 3), test::uniform(rng, -3, 3),
+                              test::uniform(rng, -1, 1));
+    const Eigen::Vector3d jerk =
+        trial % 2 ? Eigen::Vector3d(test::uniform(rng, -2, 2), test::uniform(rng, -2, 2), 0.0)
+                  : Eigen::Vector3d::Zero();
+    const Eigen::Vector3d v0 = test::random_vec3(rng, 0.5);
+    const double hz = test::uniform(rng, 1.0, 5.0);
+    ControllerConfig cfg;
+    cfg.momentum.support_acceleration_hz = hz;
+    BalanceController c = make_controller(cfg);
+    ControllerConfig off_cfg;
+    BalanceController off = make_controller(off_cfg);
+    const RobotState s0 = test::standing_state(c);
+    const int ticks = static_cast<int>(std::ceil(3.0 / hz / cfg.dt)) + 200;  // settled
+    contact::ContactProblem p, p_off;
+    RobotState s = s0;
+    for (int k = 0; k <= ticks; ++k) {
+      const double t = k * cfg.dt;
+      const Eigen::Vector3d shift = v0 * t + 0.5 * acc * t * t + jerk * t * t * t / 6.0;
+      const Eigen::Vector3d vel = v0 + acc * t + 0.5 * jerk * t * t;
+      s = s0;
+      s.X_WB.p += shift;
+      s.v_WB = vel;
+      for (auto& f : s.feet) {
+        f.X_WF.p += shift;
+        f.cop_W += shift;
+      }
+      c.prepare(s, c.make_reference(), p);
+      off.prepare(s, off.make_reference(), p_off);
+    }
+    const double t = ticks * cfg.dt;
+    const Eigen::Vector3d a_now = acc + jerk * t;
+    const Eigen::Vector3d vel_now = v0 + acc * t + 0.5 * jerk * t * t;
+    const double w = 2.0 * M_PI * hz;
+    const auto& d = c.diagnostics();
+    const auto& d_off = off.diagnostics();
+    // The estimate: a ramp through three first-order stages lags 3 / w (exact in the limit).
+    const Eigen::Vector3d a_est = a_now - jerk * (3.0 / w);
+    EXPECT_LT((d.support_acceleration_W - a_est).norm(), 2e-3 * (1.0 + a_est.norm())) << trial;
+    // Without the option: the paper's target (the sole mid-point, the feet's velocity).
+    EXPECT_LT(d_off.support_acceleration_W.norm(), 1e-12);
+    EXPECT_LT((d_off.com_velocity_target_W - vel_now).norm(), 1e-6);
+    const double g = 9.81;
+    const Eigen::Vector3d base_target = d_off.com_target_W;
+    const double h = base_target.z() - 0.5 * (s.feet[0].cop_W.z() + s.feet[1].cop_W.z());
+    const double k_lean = h / (g + d.support_acceleration_W.z());
+    Eigen::Vector3d lean = k_lean * d.support_acceleration_W;
+    lean.z() = 0.0;
+    EXPECT_LT((d.com_target_W - (base_target + lean)).norm(), 1e-9) << trial;
+    // The zero-moment point of the leant target under that acceleration is the sole mid-point.
+    const Eigen::Vector2d zmp = d.com_target_W.head<2>() - k_lean * d.support_acceleration_W.head<2>();
+    EXPECT_LT((zmp - base_target.head<2>()).norm(), 1e-9);
+    // Velocity target: the feet's, plus the lean's rate (h / g) j once settled.
+    Eigen::Vector3d lean_rate = k_lean * jerk;
+    lean_rate.z() = 0.0;
+    EXPECT_LT((d.com_velocity_target_W - (vel_now + lean_rate)).norm(),
+              1e-3 * (1.0 + lean_rate.norm()))
+        << trial;
+    // (11) by hand, plus m a.
+    for (int i = 0; i < 3; ++i) {
+      const double ldot = p.mass * (cfg.momentum.gamma21[i] *
+                                        (d.com_velocity_target_W[i] - d.com_velocity_W[i]) +
+                                    cfg.momentum.gamma22[i] * (d.com_target_W[i] - d.com_W[i]) +
+                                    d.support_acceleration_W[i]);
+      EXPECT_NEAR(p.l_dot_desired[i], ldot, 1e-8 * (1 + std::abs(ldot))) << trial;
+    }
+    // A reference's CoM target is taken as it is.
+    BalanceReference ref = c.make_reference();
+    ref.has_com_target = true;
+    ref.com_W = d.com_W + Eigen::Vector3d(0.01, 0.0, 0.0);
+    ref.com_velocity_W = vel_now;
+    c.prepare(s, ref, p);
+    EXPECT_LT(c.diagnostics().support_acceleration_W.norm(), 1e-12);
+    EXPECT_LT((c.diagnostics().com_target_W - ref.com_W).norm(), 1e-12);
+  }
+  ControllerConfig bad;
+  bad.momentum.support_acceleration_hz = 600.0;  // above half the 1 kHz rate
+  EXPECT_THROW(bad.validate(), ConfigError);
+  bad.momentum.support_acceleration_hz = -1.0;
+  EXPECT_THROW(bad.validate(), ConfigError);
+}
+
 // MomentumGains::feedback_filter_hz: (10)-(11) feed back the first-order low-pass of the CoM
 // velocity error (target - measured) and of the angular momentum, y += a (x - y) with
 // a = dt / (dt + 1 / (2 pi f)), exact at the first tick and again after reset(). Checked against

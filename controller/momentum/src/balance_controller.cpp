@@ -185,6 +185,7 @@ void BalanceController::reset() noexcept {
   have_feedback_ = false;
   have_previous_solution_ = false;
   reuse_count_ = 0;
+  for (auto& s : support_acc_stage_) s.setZero();
 }
 
 void BalanceController::prepare(const RobotState& state, const BalanceReference& reference,
@@ -229,6 +230,7 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
   int num_support = 0;
   Eigen::Vector3d sole_mean = Eigen::Vector3d::Zero();
   Eigen::Vector3d foot_vel_mean = Eigen::Vector3d::Zero();
+  Eigen::Vector3d foot_acc_sum = Eigen::Vector3d::Zero();  // support feet, differenced
   for (int i = 0; i < kFeet; ++i) {
     const auto& foot = robot_.feet[i];
     const auto& meas = state.feet[i];
@@ -250,6 +252,15 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
     } else {
       A_WF_filtered_[i].setZero();
     }
+    // Clamped per axis at 3 g: a support that accelerates more is out of reach anyway, and a
+    // contact transient (a foot settling, an impact) is not a support's motion.
+    const double acc_max = 3.0 * model_.gravity.norm();
+    const Eigen::Vector3d foot_acc =
+        have_foot_velocity_
+            ? Eigen::Vector3d(((V_WF_[i].head<3>() - V_WF_previous_[i].head<3>()) / config_.dt)
+                                  .cwiseMax(-acc_max)
+                                  .cwiseMin(acc_max))
+            : Eigen::Vector3d::Zero();
     V_WF_previous_[i] = V_WF_[i];
 
     bool support = false;
@@ -328,6 +339,7 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
       ++num_support;
       sole_mean += sole_center_W(X_WF_[i], foot.sole);
       foot_vel_mean += V_WF_[i].head<3>();
+      foot_acc_sum += foot_acc;
     }
 
     auto& pf = problem_.feet[i];
@@ -338,7 +350,22 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
   have_foot_velocity_ = true;
   have_hold_seen_ = true;
 
+  // The supports' acceleration (MomentumGains::support_acceleration_hz): three first-order
+  // stages, whose last is a_s and whose difference gives its rate without differencing noise;
+  // it decays to zero without a support.
+  if (config_.momentum.support_acceleration_hz > 0.0) {
+    const double w = 2.0 * M_PI * config_.momentum.support_acceleration_hz;
+    const double a = config_.dt / (config_.dt + 1.0 / w);
+    auto& st = support_acc_stage_;
+    const Eigen::Vector3d raw =
+        num_support > 0 ? Eigen::Vector3d(foot_acc_sum / num_support) : Eigen::Vector3d::Zero();
+    st[0] += a * (raw - st[0]);
+    st[1] += a * (st[0] - st[1]);
+    st[2] += a * (st[1] - st[2]);
+  }
+
   // ---- desired CoM (reference, or Sec. 4.2: above the mid-point of the supports) ---------------
+  diag_.support_acceleration_W.setZero();
   if (reference.has_com_target) {
     diag_.com_target_W = reference.com_W;
     diag_.com_velocity_target_W = reference.com_velocity_W;
@@ -353,6 +380,18 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
     const double count = num_support > 0 ? num_support : kFeet;
     diag_.com_target_W = sole_mean / count + Eigen::Vector3d(0.0, 0.0, com_height_);
     diag_.com_velocity_target_W = foot_vel_mean / count;
+    // Accelerating supports (MomentumGains::support_acceleration_hz): the target leans into
+    // their acceleration, d = k a_s, and its velocity target gets d's rate.
+    if (config_.momentum.support_acceleration_hz > 0.0) {
+      const auto& st = support_acc_stage_;
+      const double w = 2.0 * M_PI * config_.momentum.support_acceleration_hz;
+      const double g_eff =
+          std::max(0.1 * model_.gravity.norm(), model_.gravity.norm() + st[2].z());
+      const double k = com_height_ / g_eff;
+      diag_.com_target_W.head<2>() += k * st[2].head<2>();
+      diag_.com_velocity_target_W.head<2>() += k * w * (st[1] - st[2]).head<2>();
+      diag_.support_acceleration_W = st[2];
+    }
   }
 
   // ---- eqs (10)-(11)
@@ -373,6 +412,7 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
   diag_.hdot_desired =
       desired_momentum_rate(config_.momentum, mass, k_filtered_, reference.k_W, data_.com,
                             diag_.com_target_W, Eigen::Vector3d::Zero(), vcom_error_filtered_);
+  diag_.hdot_desired.tail<3>() += mass * diag_.support_acceleration_W;
 
   // Upper-body objective of this tick.
   qdd_u_ref_ = reference.upper_body_qdd;

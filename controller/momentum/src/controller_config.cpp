@@ -87,6 +87,10 @@ void ControllerConfig::validate() const {
   positive_vec(momentum.gamma22, "momentum.gamma22");
   require(std::isfinite(momentum.feedback_filter_hz) && momentum.feedback_filter_hz >= 0.0,
           "momentum.feedback_filter_hz", "must be >= 0 (0: no filter)");
+  require(std::isfinite(momentum.support_acceleration_hz) &&
+              momentum.support_acceleration_hz >= 0.0 &&
+              momentum.support_acceleration_hz < 0.5 / dt,
+          "momentum.support_acceleration_hz", "must be >= 0 and below half the control rate (0: off)");
   require(contact.w_k >= 0.0 && contact.eps_f >= 0.0 && contact.eps_cop >= 0.0, "contact",
           "weights must be >= 0");
   require(foot.kp >= 0.0 && foot.kd >= 0.0, "foot", "gains must be >= 0");
@@ -134,8 +138,10 @@ ControllerConfig from_yaml(const YAML::Node& root, const std::string& file) {
   r.number(root, "planned_support_release", "", c.planned_support_release);
   r.number(root, "planned_support_release_height", "", c.planned_support_release_height);
   if (const auto m = root["momentum"]) {
-    r.keys(m, "momentum", {"gamma11", "gamma21", "gamma22", "feedback_filter_hz"});
+    r.keys(m, "momentum",
+           {"gamma11", "gamma21", "gamma22", "feedback_filter_hz", "support_acceleration_hz"});
     r.number(m, "feedback_filter_hz", "momentum.", c.momentum.feedback_filter_hz);
+    r.number(m, "support_acceleration_hz", "momentum.", c.momentum.support_acceleration_hz);
     r.vec3(m, "gamma11", "momentum.", c.momentum.gamma11);
     r.vec3(m, "gamma21", "momentum.", c.momentum.gamma21);
     r.vec3(m, "gamma22", "momentum.", c.momentum.gamma22);

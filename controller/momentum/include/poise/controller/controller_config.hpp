@@ -37,6 +37,18 @@ struct MomentumGains {
   /// push's post-push ticks with a CoP at a sole edge fell from 24 % to 2 %, but the step in place
   /// then showed 10 contact-flag changes against 6 true ones (SENSORS.md).
   double feedback_filter_hz = 0.0;
+  /// Accelerating supports (not in the paper: Sec. 4.2 gives the CoM target the supports'
+  /// velocity, and nothing of their acceleration). > 0: a_s, the mean over the support feet of
+  /// their measured linear acceleration (velocity differenced over the tick, clamped to 3 g, then
+  /// three first-order low-pass stages at this cut-off [Hz]), is
+  /// - fed forward into (11): l_dot_d += m a_s, the CoM target moving with the supports;
+  /// - leant into: the CoM target moves (h / (g + a_s,z)) a_s horizontally (h: com_height), and
+  ///   its velocity target by the rate of that, where an inverted pendulum riding the supports
+  ///   keeps its CoP under the sole centres; without it the CoPs go to the sole edges while the
+  ///   supports decelerate and the feet tip.
+  /// Only with the Sec. 4.2 target (not a reference's CoM target). 0: off (the paper's (11)).
+  /// Measured: controller/momentum/README.md "Accelerating supports".
+  double support_acceleration_hz = 0.0;
 };
 
 /// Weights of the contact problem, eqs (21) and (29) (copied into the problem sent out; the
