@@ -176,6 +176,28 @@ TEST(BalanceController, AcceleratingSupportsLeanTheCoMTargetAndFeedTheirAccelera
     EXPECT_LT(c.diagnostics().support_acceleration_W.norm(), 1e-12);
     EXPECT_LT((c.diagnostics().com_target_W - ref.com_W).norm(), 1e-12);
   }
+  // A restart (reset) starts from zero; a jump of the measured velocity (an estimator re-placing
+  // the robot: 10 m/s in one tick, 1e4 m/s^2 if differenced) is clamped to 3 g for that tick, so
+  // the estimate stays small (unclamped it would peak at several m/s^2).
+  {
+    ControllerConfig cfg;
+    cfg.momentum.support_acceleration_hz = 1.0;
+    BalanceController c = make_controller(cfg);
+    const RobotState s0 = test::standing_state(c);
+    contact::ContactProblem p;
+    c.prepare(s0, c.make_reference(), p);
+    c.reset();
+    c.prepare(s0, c.make_reference(), p);
+    EXPECT_LT(c.diagnostics().support_acceleration_W.norm(), 1e-12);
+    RobotState jumped = s0;
+    jumped.v_WB = Eigen::Vector3d(10.0, 0.0, 0.0);
+    double peak = 0.0;
+    for (int k = 0; k < 2000; ++k) {
+      c.prepare(jumped, c.make_reference(), p);
+      peak = std::max(peak, c.diagnostics().support_acceleration_W.norm());
+    }
+    EXPECT_LT(peak, 0.05) << "a velocity jump taken for a support's motion";
+  }
   ControllerConfig bad;
   bad.momentum.support_acceleration_hz = 600.0;  // above half the 1 kHz rate
   EXPECT_THROW(bad.validate(), ConfigError);

@@ -393,20 +393,23 @@ TEST(Launch, ADeskHostNeedsNoRobotFiles) {
 // a CI run). Real time keeps the nodes' 50 ms default; a file's own option wins.
 TEST(Launch, LockstepNodesWaitForTheirInputAsLongAsTheSimulator) {
   const fs::path dir = work_dir("lockstep_stale");
-  auto check = [&](const std::string& mode, const std::string& estimator_options) {
+  auto check = [&](const std::string& mode, const std::string& estimator_options,
+                   const std::string& sim_options = "",
+                   const std::string& expected = "--input-stale-ms 2000") {
     std::ofstream(dir / "deployment.yaml")
         << "domain: 44\nmode: " << mode << "\nscenario: " << POISE_SOURCE_DIR
         << "/deploy/scenarios/standing.yaml\n"
            "hosts:\n  robot: {address: 10.0.0.1}\n  desk: {address: 10.0.0.2}\n"
-           "components:\n  sim: {host: robot}\n  estimator: {host: desk"
+           "components:\n  sim: {host: robot"
+        << sim_options << "}\n  estimator: {host: desk"
         << estimator_options << "}\n  contact: {host: desk}\n  controller: {host: desk}\n";
     auto [code, out] = run_command(
         {bin("poise"), "launch", (dir / "deployment.yaml").string(), "--check", "--host", "desk"},
         30s);
     EXPECT_EQ(code, 0) << out;
     std::size_t n = 0;
-    for (std::size_t at = out.find("--input-stale-ms 2000"); at != std::string::npos;
-         at = out.find("--input-stale-ms 2000", at + 1))
+    for (std::size_t at = out.find(expected); at != std::string::npos;
+         at = out.find(expected, at + 1))
       ++n;
     return std::make_pair(n, out);
   };
@@ -418,6 +421,10 @@ TEST(Launch, LockstepNodesWaitForTheirInputAsLongAsTheSimulator) {
   auto [own, own_out] = check("lockstep", ", options: [--input-stale-ms, '300']");
   EXPECT_EQ(own, 1u) << "the controller only\n" << own_out;
   EXPECT_NE(own_out.find("--input-stale-ms 300"), std::string::npos) << own_out;
+  // The simulator told to wait 5 s for a command: the nodes wait as long.
+  auto [longer, longer_out] = check("lockstep", "", ", options: [--command-timeout-ms, '5000']",
+                                    "--input-stale-ms 5000");
+  EXPECT_EQ(longer, 2u) << longer_out;
 }
 
 // A component that dies is restarted by its policy, and the run goes on to the verdict: kill -9

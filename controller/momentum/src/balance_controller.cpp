@@ -353,9 +353,9 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
   // The supports' acceleration (MomentumGains::support_acceleration_hz): three first-order
   // stages, whose last is a_s and whose difference gives its rate without differencing noise;
   // it decays to zero without a support.
-  if (config_.momentum.support_acceleration_hz > 0.0) {
-    const double w = 2.0 * M_PI * config_.momentum.support_acceleration_hz;
-    const double a = config_.dt / (config_.dt + 1.0 / w);
+  const double support_w = 2.0 * M_PI * config_.momentum.support_acceleration_hz;  // [rad/s]
+  if (support_w > 0.0) {
+    const double a = config_.dt / (config_.dt + 1.0 / support_w);
     auto& st = support_acc_stage_;
     const Eigen::Vector3d raw =
         num_support > 0 ? Eigen::Vector3d(foot_acc_sum / num_support) : Eigen::Vector3d::Zero();
@@ -382,14 +382,13 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
     diag_.com_velocity_target_W = foot_vel_mean / count;
     // Accelerating supports (MomentumGains::support_acceleration_hz): the target leans into
     // their acceleration, d = k a_s, and its velocity target gets d's rate.
-    if (config_.momentum.support_acceleration_hz > 0.0) {
+    if (support_w > 0.0) {
       const auto& st = support_acc_stage_;
-      const double w = 2.0 * M_PI * config_.momentum.support_acceleration_hz;
       const double g_eff =
           std::max(0.1 * model_.gravity.norm(), model_.gravity.norm() + st[2].z());
       const double k = com_height_ / g_eff;
       diag_.com_target_W.head<2>() += k * st[2].head<2>();
-      diag_.com_velocity_target_W.head<2>() += k * w * (st[1] - st[2]).head<2>();
+      diag_.com_velocity_target_W.head<2>() += k * support_w * (st[1] - st[2]).head<2>();
       diag_.support_acceleration_W = st[2];
     }
   }

@@ -128,9 +128,8 @@ int cli_main(int argc, char** argv) {
                    "state (debug)\n";
       opt.state_source = StateSource::kGroundTruth;
     }
-    if (method.empty())
-      method = scenario.contact_method.empty() ? "sequential" : scenario.contact_method;
-    opt.contact_method = *contact::parse_method(method);
+    if (!method.empty()) opt.contact_method = *contact::parse_method(method);
+    method = contact::to_string(contact_method_of(scenario, opt));
     opt.controller_config_file = controller_config;
     opt.duration = duration;
     opt.settle_ticks = settle_ticks;

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -424,6 +425,29 @@ std::string dds_config_xml(const Deployment& d, const Host& host, const std::str
   return x.str();
 }
 
+namespace {
+
+/// The value of `name` in a component's options ("--name V" or "--name=V"), if given.
+std::optional<std::string> option_value(const std::vector<std::string>& options,
+                                        const std::string& name) {
+  for (std::size_t i = 0; i < options.size(); ++i) {
+    if (options[i] == name) return i + 1 < options.size() ? options[i + 1] : std::string();
+    if (options[i].rfind(name + "=", 0) == 0) return options[i].substr(name.size() + 1);
+  }
+  return std::nullopt;
+}
+
+/// How long the deployment's simulator waits for a joint command in lockstep [ms, as text].
+std::string sim_command_timeout_ms(const Deployment& d) {
+  for (const Component& s : d.components)
+    if (s.kind == "sim")
+      if (const auto v = option_value(s.options, "--command-timeout-ms"); v && !v->empty())
+        return *v;
+  return "2000";  // poise-sim's default
+}
+
+}  // namespace
+
 std::vector<std::string> command_line(const Deployment& d, const Component& c,
                                       const fs::path& bin_dir, const fs::path& dds_config) {
   std::vector<std::string> a;
@@ -471,13 +495,12 @@ std::vector<std::string> command_line(const Deployment& d, const Component& c,
     }
     // Lockstep: the loop waits for its slowest process, and a loaded machine stalls it for
     // 100+ ms now and then; the 50 ms wall-clock staleness default would call that a fault.
-    // The nodes wait as long as poise-sim waits for a command (its --command-timeout-ms
-    // default), unless the file's options say otherwise.
+    // The nodes wait as long as poise-sim waits for a command (the sim component's
+    // --command-timeout-ms, else poise-sim's 2000 ms default), unless the file's options say
+    // otherwise.
     if (!d.realtime && (c.kind == "estimator" || c.kind == "controller") &&
-        std::none_of(c.options.begin(), c.options.end(), [](const std::string& o) {
-          return o.rfind("--input-stale-ms", 0) == 0;
-        }))
-      a.insert(a.end(), {"--input-stale-ms", "2000"});
+        !option_value(c.options, "--input-stale-ms"))
+      a.insert(a.end(), {"--input-stale-ms", sim_command_timeout_ms(d)});
   }
   a.insert(a.end(), c.options.begin(), c.options.end());
   return a;

@@ -165,9 +165,8 @@ class BalanceController {
   bool have_feedback_ = false;
   std::array<model::Motion, 2> V_WF_previous_;  // foot velocity of the previous tick
   std::array<model::Motion, 2> A_WF_filtered_;  // low-pass filtered measured foot acceleration
-  // MomentumGains::support_acceleration_hz: the supports' acceleration, two low-pass stages.
   // MomentumGains::support_acceleration_hz: three first-order stages; the last is a_s, and the
-  // stages give its first two derivatives without differencing noise.
+  // difference of the last two gives its rate without differencing noise.
   std::array<Eigen::Vector3d, 3> support_acc_stage_{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(),
                                                     Eigen::Vector3d::Zero()};
   bool have_previous_solution_ = false;

@@ -27,9 +27,9 @@ struct TickDiagnostics {
   Eigen::Vector3d com_velocity_W = Eigen::Vector3d::Zero();  ///< rdot_G (model)
   Eigen::Vector3d com_target_W = Eigen::Vector3d::Zero();    ///< r_G,d
   Eigen::Vector3d com_velocity_target_W = Eigen::Vector3d::Zero();
-  /// The CoM target's acceleration fed forward into (11): the supports' filtered acceleration plus
-  /// the lean's (MomentumGains::support_acceleration_hz; zero when off or with a reference's CoM
-  /// target) [m/s^2].
+  /// The supports' filtered acceleration a_s fed forward into (11)
+  /// (MomentumGains::support_acceleration_hz; zero when off or with a reference's CoM target)
+  /// [m/s^2].
   Eigen::Vector3d support_acceleration_W = Eigen::Vector3d::Zero();
   model::Vector6 h_W = model::Vector6::Zero();              ///< centroidal momentum [k; l] (model)
   model::Vector6 hdot_desired = model::Vector6::Zero();     ///< [k_dot_d; l_dot_d], eqs (10)-(11)
