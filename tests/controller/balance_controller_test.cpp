@@ -626,6 +626,82 @@ TEST(BalanceController, ReferencesIntegrateAccelerationsAndStayNearTheState) {
   EXPECT_GT(c.diagnostics().reference_clamps, 0);
 }
 
+// FeedbackConfig::support_leg_leak_hz: while both feet bear load, a leg's references decay
+// towards the measured joints before qdd_a is integrated; the arms always integrate; with one
+// foot unloaded, or the option off, nothing changes (bit for bit the paper's integration).
+TEST(BalanceController, BothLoadedLegsReferencesLeakTowardsTheMeasuredJoints) {
+  std::mt19937 rng(1717);
+  std::uniform_real_distribution<double> hz(5.0, 500.0), off(-0.02, 0.02);
+  for (int trial = 0; trial < 4; ++trial) {
+    SCOPED_TRACE(trial);
+    ControllerConfig cfg;
+    cfg.feedback.support_leg_leak_hz = hz(rng);
+    const double keep = std::exp(-2.0 * M_PI * cfg.feedback.support_leg_leak_hz * 1e-3);
+    BalanceController leaky = make_controller(cfg);
+    BalanceController plain = make_controller();
+    RobotState s = test::standing_state(leaky);
+    const bool one_unloaded = trial == 3;  // the right foot touches with 5 % of the weight
+    if (one_unloaded) s.feet[1].normal_force = 0.05 * 50.8 * 9.81;
+    BalanceReference ref = leaky.make_reference();
+    ref.has_upper_body_q = true;
+    const int elbow = leaky.model().joint_index("l_elbow");
+    ref.upper_body_q[elbow] -= 0.3;  // the arm moves: its references integrate qdd
+    std::vector<int> legs;
+    for (const char* j : {"l_hip_pitch", "l_knee", "r_hip_roll", "r_ankle_pitch"})
+      legs.push_back(leaky.model().joint_index(j));
+    contact::ContactProblem p;
+    contact::ContactSolution sol;
+    contact::SequentialOptimizer opt;
+    JointCommand cmd = leaky.make_command(), cmd_plain = plain.make_command();
+    Eigen::VectorXd q_ref_prev, qd_ref_prev;
+    double leg_error_max = 0.0;
+    for (int k = 0; k < 60; ++k) {
+      // The legs' measured joints wander (a drifting loop closure): q and qd off the plan.
+      for (int j : legs) {
+        s.q[j] += off(rng) * 0.1;
+        s.qd[j] = off(rng);
+      }
+      leaky.prepare(s, ref, p);
+      opt.solve(p, sol);
+      leaky.finish(sol, cmd);
+      plain.prepare(s, ref, p);
+      opt.solve(p, sol);
+      plain.finish(sol, cmd_plain);
+      const Eigen::VectorXd qdd = leaky.generalized_acceleration().tail(leaky.num_joints());
+      if (k > 0 && leaky.diagnostics().reference_clamps == 0) {
+        for (int j : legs) {
+          const double kk = one_unloaded ? 1.0 : keep;
+          const double vr = s.qd[j] + kk * (qd_ref_prev[j] - s.qd[j]) + 1e-3 * qdd[j];
+          EXPECT_NEAR(cmd.qd_ref[j], vr, 1e-12) << j;
+          EXPECT_NEAR(cmd.q_ref[j], s.q[j] + kk * (q_ref_prev[j] - s.q[j]) + 1e-3 * vr, 1e-12)
+              << j;
+        }
+        EXPECT_NEAR(cmd.qd_ref[elbow], qd_ref_prev[elbow] + 1e-3 * qdd[elbow], 1e-12);
+        EXPECT_NEAR(cmd.q_ref[elbow], q_ref_prev[elbow] + 1e-3 * cmd.qd_ref[elbow], 1e-12);
+      }
+      for (int j : legs)
+        leg_error_max = std::max(leg_error_max, std::abs(cmd.qd_ref[j] - s.qd[j]));
+      q_ref_prev = cmd.q_ref;
+      qd_ref_prev = cmd.qd_ref;
+    }
+    if (one_unloaded) {
+      // Both controllers integrate: the same commands to the bit.
+      EXPECT_EQ(cmd.q_ref, cmd_plain.q_ref);
+      EXPECT_EQ(cmd.qd_ref, cmd_plain.qd_ref);
+      EXPECT_EQ(cmd.tau_ff, cmd_plain.tau_ff);
+    } else {
+      // The plain references carry the wandering of 60 ticks; the leaky ones a few ticks' worth.
+      EXPECT_GT((cmd.q_ref - cmd_plain.q_ref).cwiseAbs().maxCoeff(), 1e-4);
+      EXPECT_LT(leg_error_max, 0.5) << "never at the velocity clamp";
+    }
+  }
+  ControllerConfig bad;
+  bad.feedback.support_leg_leak_hz = -1.0;
+  EXPECT_THROW(make_controller(bad), std::exception);
+  bad.feedback.support_leg_leak_hz = std::nan("");
+  EXPECT_THROW(make_controller(bad), std::exception);
+}
+
 TEST(BalanceController, BadInputGivesDampingAndBadConfigThrows) {
   BalanceController c = make_controller();
   RobotState s = test::standing_state(c);

@@ -72,6 +72,7 @@ BalanceController::BalanceController(const model::Model& model, const model::Rob
   q_max_.resize(n);
   effort_.resize(n);
   kp_.resize(n);
+  reference_keep_ = Eigen::VectorXd::Ones(n);
   kd_.resize(n);
   is_upper_.setZero(n);
   for (int j = 0; j < n; ++j) {
@@ -311,6 +312,7 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
     touch_down_[i] = support && !diag_.support[i] && have_hold_seen_;
     diag_.support[i] = support;
     diag_.resting[i] = resting;
+    loaded_support_[i] = support && meas.normal_force > config_.support_force_fraction * weight;
 
     model::SE3 X_d = X_WF_hold_[i];
     model::Motion V_d = model::Motion::Zero();
@@ -583,15 +585,29 @@ void BalanceController::finish_with(const contact::ContactSolution& solution, Co
       qd_ref_[j] = 0.0;  // the ground stops the foot: not the leg's velocity at the impact
     }
   }
+  // FeedbackConfig::support_leg_leak_hz: a support leg's references decay towards the measured
+  // joints before they are integrated (1 = pure integration, the paper's).
+  reference_keep_.setOnes();
+  if (fb.support_leg_leak_hz > 0.0 && loaded_support_[0] && loaded_support_[1]) {
+    // Only while both feet bear load: then the legs and the ground close a loop. A leg whose
+    // foot a push lifted keeps its integrated references (its joint PD holds the leg's shape).
+    const double keep = std::exp(-2.0 * M_PI * fb.support_leg_leak_hz * dt);
+    for (int i = 0; i < kFeet; ++i) {
+      for (int j : leg_joints_[i]) reference_keep_[j] = keep;
+    }
+  }
   for (int j = 0; j < n; ++j) {
     const double q = q_[7 + j];
     const double qd = qd_joint_[j];
-    double vr = qd_ref_[j] + qdd_[6 + j] * dt;
+    const double keep = reference_keep_[j];
+    // keep == 1: the paper's integration, written as before (bit for bit).
+    double vr = keep < 1.0 ? qd + keep * (qd_ref_[j] - qd) + qdd_[6 + j] * dt
+                           : qd_ref_[j] + qdd_[6 + j] * dt;
     if (std::abs(vr - qd) > fb.max_velocity_error) {
       vr = qd + std::clamp(vr - qd, -fb.max_velocity_error, fb.max_velocity_error);
       ++clamps;
     }
-    double pr = q_ref_[j] + vr * dt;
+    double pr = keep < 1.0 ? q + keep * (q_ref_[j] - q) + vr * dt : q_ref_[j] + vr * dt;
     if (std::abs(pr - q) > fb.max_position_error) {
       pr = q + std::clamp(pr - q, -fb.max_position_error, fb.max_position_error);
       ++clamps;

@@ -109,6 +109,8 @@ void ControllerConfig::validate() const {
   require(feedback.gain_scale >= 0.0, "feedback.gain_scale", "must be >= 0");
   require(feedback.max_position_error >= 0.0 && feedback.max_velocity_error >= 0.0,
           "feedback.max_*_error", "must be >= 0");
+  require(std::isfinite(feedback.support_leg_leak_hz) && feedback.support_leg_leak_hz >= 0.0,
+          "feedback.support_leg_leak_hz", "must be >= 0 (0 = pure integration)");
   require(fallback.max_reuse_ticks >= 0, "fallback.max_reuse_ticks", "must be >= 0");
   require(std::isfinite(resting_extra_margin), "resting_extra_margin", "must be finite");
   require(std::isfinite(resting_force_fraction) && resting_force_fraction >= 0.0 &&
@@ -188,10 +190,12 @@ ControllerConfig from_yaml(const YAML::Node& root, const std::string& file) {
     r.number(m, "max_joint_acceleration", "acceleration.", a.max_joint_acceleration);
   }
   if (const auto m = root["feedback"]) {
-    r.keys(m, "feedback", {"gain_scale", "max_position_error", "max_velocity_error"});
+    r.keys(m, "feedback",
+           {"gain_scale", "max_position_error", "max_velocity_error", "support_leg_leak_hz"});
     r.number(m, "gain_scale", "feedback.", c.feedback.gain_scale);
     r.number(m, "max_position_error", "feedback.", c.feedback.max_position_error);
     r.number(m, "max_velocity_error", "feedback.", c.feedback.max_velocity_error);
+    r.number(m, "support_leg_leak_hz", "feedback.", c.feedback.support_leg_leak_hz);
   }
   if (const auto m = root["fallback"]) {
     r.keys(m, "fallback", {"max_reuse_ticks"});

@@ -292,7 +292,8 @@ int envelope_main(int argc, char** argv) {
   o.double_base = source_file("deploy/scenarios/forward_push_double_support.yaml");
   o.single_base = source_file("deploy/scenarios/lateral_push_single_support.yaml");
   o.platform_bases = {source_file("deploy/scenarios/platforms_in_phase.yaml"),
-                      source_file("deploy/scenarios/platforms_out_of_phase.yaml")};
+                      source_file("deploy/scenarios/platforms_out_of_phase.yaml"),
+                      source_file("deploy/scenarios/platforms_out_of_phase_20cm.yaml")};
   CLI::App app{
       "Balance envelope: push forces survived in N directions (double and single support), the "
       "paper's Fig. 11 (longest push survived per force) and the highest platform frequency, by "

@@ -114,6 +114,14 @@ struct FeedbackConfig {
   double gain_scale = 1.0;           ///< multiplies the robot config's kp and kd
   double max_position_error = 0.05;  ///< |theta* - theta| is clamped to this [rad]
   double max_velocity_error = 0.5;   ///< |theta_dot* - theta_dot| is clamped to this [rad/s]
+  /// [Hz] While both feet are supports with a measured load, the references of the legs'
+  /// joints decay towards the measured joint state at this rate (theta* - theta and theta_dot* - theta_dot multiplied by exp(-2 pi f dt) each
+  /// tick before qdd_a is integrated). Both feet on the ground close a kinematic loop through
+  /// the floating base: references integrated open loop drift off it (any difference between
+  /// the planned and the real motion of the base or the supports), and the joint PD then
+  /// squeezes the legs against each other with internal forces the contact problem never
+  /// planned. 0 = the paper's pure integration; the other joints always integrate.
+  double support_leg_leak_hz = 0.0;
 };
 
 /// What to do when the contact solution of a tick is late or unusable.
