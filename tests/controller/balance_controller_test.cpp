@@ -595,7 +595,9 @@ TEST(ContactFallback, GravityDistributionIsStaticEquilibrium) {
 }
 
 TEST(BalanceController, ReferencesIntegrateAccelerationsAndStayNearTheState) {
-  BalanceController c = make_controller();
+  ControllerConfig paper;  // the paper's integration (the legs' leak: the test below)
+  paper.feedback.support_leg_leak_hz = 0.0;
+  BalanceController c = make_controller(paper);
   RobotState s = test::standing_state(c);
   BalanceReference ref = c.make_reference();
   contact::ContactProblem p;
@@ -638,7 +640,9 @@ TEST(BalanceController, BothLoadedLegsReferencesLeakTowardsTheMeasuredJoints) {
     cfg.feedback.support_leg_leak_hz = hz(rng);
     const double keep = std::exp(-2.0 * M_PI * cfg.feedback.support_leg_leak_hz * 1e-3);
     BalanceController leaky = make_controller(cfg);
-    BalanceController plain = make_controller();
+    ControllerConfig paper;
+    paper.feedback.support_leg_leak_hz = 0.0;
+    BalanceController plain = make_controller(paper);
     RobotState s = test::standing_state(leaky);
     const bool one_unloaded = trial == 3;  // the right foot touches with 5 % of the weight
     if (one_unloaded) s.feet[1].normal_force = 0.05 * 50.8 * 9.81;

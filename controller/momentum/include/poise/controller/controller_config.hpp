@@ -114,13 +114,18 @@ struct FeedbackConfig {
   double gain_scale = 1.0;           ///< multiplies the robot config's kp and kd
   double max_position_error = 0.05;  ///< |theta* - theta| is clamped to this [rad]
   double max_velocity_error = 0.5;   ///< |theta_dot* - theta_dot| is clamped to this [rad/s]
-  /// [Hz] While both feet are supports with a measured load, the references of the legs'
-  /// joints decay towards the measured joint state at this rate (theta* - theta and theta_dot* - theta_dot multiplied by exp(-2 pi f dt) each
-  /// tick before qdd_a is integrated). Both feet on the ground close a kinematic loop through
+  /// [Hz] While both feet are supports carrying support_force_fraction of the weight each,
+  /// the references of the legs' joints decay towards the measured joint state at this rate
+  /// (theta* - theta and theta_dot* - theta_dot multiplied by exp(-2 pi f dt) each tick
+  /// before qdd_a is integrated). Both feet on the ground close a kinematic loop through
   /// the floating base: references integrated open loop drift off it (any difference between
   /// the planned and the real motion of the base or the supports), and the joint PD then
   /// squeezes the legs against each other with internal forces the contact problem never
-  /// planned. 0 = the paper's pure integration; the other joints always integrate.
+  /// planned (after a push: 35 N / 23 N of it at each foot, and 40-100 N of normal force
+  /// moved between the feet, for as long as the robot stands). 0 = the paper's pure
+  /// integration (the default: 3 Hz removes that squeeze after a push but regresses the
+  /// contact-change scenarios); the other joints always integrate. The out-of-phase platform
+  /// scenarios set 300 (controller/momentum/README.md).
   double support_leg_leak_hz = 0.0;
 };
 
