@@ -28,14 +28,19 @@ void operator delete(void* p, std::size_t) noexcept {
 namespace poise::controller {
 namespace {
 
-// Parameter: foot.support_acceleration_tau (0: off, the default; > 0: the foot acceleration
-// filter and its feed-forward run too).
+// Parameter: foot.support_acceleration_tau (0: off, the default; > 0: the moving-support
+// options of the platform scenarios run too: the foot acceleration filter and its feed-forward,
+// the CoM target's lean, the legs' reference leak).
 class NoMallocTick : public ::testing::TestWithParam<double> {};
 
 TEST_P(NoMallocTick, ControllerTickPhasesAndFallbacks) {
   const auto& h = test::humanoid();
   ControllerConfig config;
   config.foot.support_acceleration_tau = GetParam();
+  if (GetParam() > 0.0) {
+    config.momentum.support_acceleration_hz = 1.0;
+    config.feedback.support_leg_leak_hz = 300.0;
+  }
   BalanceController c(h.model, h.robot, config);
   std::mt19937 rng(7);
   std::vector<RobotState> states;

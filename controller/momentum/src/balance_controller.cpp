@@ -72,7 +72,6 @@ BalanceController::BalanceController(const model::Model& model, const model::Rob
   q_max_.resize(n);
   effort_.resize(n);
   kp_.resize(n);
-  reference_keep_ = Eigen::VectorXd::Ones(n);
   kd_.resize(n);
   is_upper_.setZero(n);
   for (int j = 0; j < n; ++j) {
@@ -93,6 +92,14 @@ BalanceController::BalanceController(const model::Model& model, const model::Rob
     const int body = model_.frames[robot_.feet[side].frame_id].body;
     for (int v : model_.support[body])
       if (v >= 6) leg_joints_[side].push_back(v - 6);
+  }
+  // FeedbackConfig::support_leg_leak_hz: the per-tick factor of a leg joint's reference error
+  // while both feet are loaded (1 = the paper's integration; every other joint keeps 1).
+  leg_keep_ = Eigen::VectorXd::Ones(n);
+  if (config_.feedback.support_leg_leak_hz > 0.0) {
+    const double keep = std::exp(-2.0 * M_PI * config_.feedback.support_leg_leak_hz * config_.dt);
+    for (const auto& leg : leg_joints_)
+      for (int j : leg) leg_keep_[j] = keep;
   }
 
   // Desired CoM height above the soles in the nominal posture (Sec. 4.2 target when no CoM target).
@@ -232,6 +239,7 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
   Eigen::Vector3d sole_mean = Eigen::Vector3d::Zero();
   Eigen::Vector3d foot_vel_mean = Eigen::Vector3d::Zero();
   Eigen::Vector3d foot_acc_sum = Eigen::Vector3d::Zero();  // support feet, differenced
+  std::array<bool, kFeet> bears_load{false, false};  // support carrying support_force_fraction
   for (int i = 0; i < kFeet; ++i) {
     const auto& foot = robot_.feet[i];
     const auto& meas = state.feet[i];
@@ -312,7 +320,7 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
     touch_down_[i] = support && !diag_.support[i] && have_hold_seen_;
     diag_.support[i] = support;
     diag_.resting[i] = resting;
-    loaded_support_[i] = support && meas.normal_force > config_.support_force_fraction * weight;
+    bears_load[i] = support && meas.normal_force > config_.support_force_fraction * weight;
 
     model::SE3 X_d = X_WF_hold_[i];
     model::Motion V_d = model::Motion::Zero();
@@ -351,6 +359,8 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
   }
   have_foot_velocity_ = true;
   have_hold_seen_ = true;
+  // The legs and the ground close a loop (FeedbackConfig::support_leg_leak_hz).
+  both_feet_loaded_ = bears_load[0] && bears_load[1];
 
   // The supports' acceleration (MomentumGains::support_acceleration_hz): three first-order
   // stages, whose last is a_s and whose difference gives its rate without differencing noise;
@@ -585,21 +595,13 @@ void BalanceController::finish_with(const contact::ContactSolution& solution, Co
       qd_ref_[j] = 0.0;  // the ground stops the foot: not the leg's velocity at the impact
     }
   }
-  // FeedbackConfig::support_leg_leak_hz: a support leg's references decay towards the measured
-  // joints before they are integrated (1 = pure integration, the paper's).
-  reference_keep_.setOnes();
-  if (fb.support_leg_leak_hz > 0.0 && loaded_support_[0] && loaded_support_[1]) {
-    // Only while both feet bear load: then the legs and the ground close a loop. A leg whose
-    // foot a push lifted keeps its integrated references (its joint PD holds the leg's shape).
-    const double keep = std::exp(-2.0 * M_PI * fb.support_leg_leak_hz * dt);
-    for (int i = 0; i < kFeet; ++i) {
-      for (int j : leg_joints_[i]) reference_keep_[j] = keep;
-    }
-  }
   for (int j = 0; j < n; ++j) {
     const double q = q_[7 + j];
     const double qd = qd_joint_[j];
-    const double keep = reference_keep_[j];
+    // FeedbackConfig::support_leg_leak_hz: only while both feet bear load do the legs' references
+    // decay towards the measured joints; a leg whose foot a push lifted keeps its integrated
+    // references (its joint PD holds the leg's shape).
+    const double keep = both_feet_loaded_ ? leg_keep_[j] : 1.0;
     // keep == 1: the paper's integration, written as before (bit for bit).
     double vr = keep < 1.0 ? qd + keep * (qd_ref_[j] - qd) + qdd_[6 + j] * dt
                            : qd_ref_[j] + qdd_[6 + j] * dt;

@@ -154,11 +154,11 @@ class BalanceController {
   std::array<double, 2> planned_off_time_{0.0, 0.0};
   std::array<model::SE3, 2> X_WF_hold_;  // desired pose of each foot when not resting
   std::array<bool, 2> placed_{false, false};  // the foot has rested or followed a target
-  std::array<bool, 2> loaded_support_{false, false};  // support with a measured load, this tick
+  bool both_feet_loaded_ = false;  // this tick: both supports carry support_force_fraction
   std::array<bool, 2> touch_down_{false, false};  // became a support this tick
   bool have_hold_seen_ = false;                   // a tick has been prepared (supports known)
   std::array<std::vector<int>, 2> leg_joints_;    // joints between the base and each foot
-  Eigen::VectorXd reference_keep_;                 // dim n, per-tick decay of theta* - theta
+  Eigen::VectorXd leg_keep_;  // dim n: exp(-2 pi support_leg_leak_hz dt) on the legs, else 1
   bool have_foot_velocity_ = false;
   // (10)-(11) feedback through MomentumGains::feedback_filter_hz: the filtered CoM velocity error
   // (target - measured) and centroidal angular momentum (world axes), valid once have_feedback_.

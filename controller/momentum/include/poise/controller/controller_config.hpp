@@ -121,8 +121,8 @@ struct FeedbackConfig {
   /// the floating base: references integrated open loop drift off it (any difference between
   /// the planned and the real motion of the base or the supports), and the joint PD then
   /// squeezes the legs against each other with internal forces the contact problem never
-  /// planned (after a push: 35 N / 23 N of it at each foot, and 40-100 N of normal force
-  /// moved between the feet, for as long as the robot stands). 0 = the paper's pure
+  /// planned (after a 175 N sideways push: 35 N / 23 N of it at each foot, and 70 N of
+  /// normal force moved between the feet, for as long as the robot stands). 0 = the paper's pure
   /// integration (the default: 3 Hz removes that squeeze after a push but regresses the
   /// contact-change scenarios); the other joints always integrate. The out-of-phase platform
   /// scenarios set 300 (controller/momentum/README.md).
