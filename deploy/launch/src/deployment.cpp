@@ -13,6 +13,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "poise/scenario/scenario.hpp"
+#include "poise/sim/sim_config.hpp"
 
 namespace poise::launch {
 namespace fs = std::filesystem;
@@ -443,7 +444,7 @@ std::string sim_command_timeout_ms(const Deployment& d) {
     if (s.kind == "sim")
       if (const auto v = option_value(s.options, "--command-timeout-ms"); v && !v->empty())
         return *v;
-  return "2000";  // poise-sim's default
+  return std::to_string(sim::kDefaultCommandTimeoutMs);  // poise-sim's default
 }
 
 }  // namespace

@@ -26,6 +26,7 @@
 #include "poise/controller/controller_config.hpp"
 #include "poise/model/robot_config.hpp"
 #include "poise/scenario/scenario.hpp"
+#include "poise/sim/sim_config.hpp"
 
 namespace poise::launch {
 namespace {
@@ -66,7 +67,7 @@ struct Settings {
   std::string estimator;  ///< "" = the scenario's estimator.type, else invariant-ekf
   std::string controller_config;  ///< "" = the scenario's controller: section, else defaults
   double contact_deadline_us = -1.0;
-  int command_timeout_ms = 2000;
+  int command_timeout_ms = sim::kDefaultCommandTimeoutMs;
   int settle_ticks = -1;      ///< simulator start-up hold steps (-1: the simulator's default)
   double watchdog_ms = -1.0;  ///< safety layer watchdog (-1: default)
   double hold_s = -1.0;       ///< safety layer hold before damping (-1: default)

@@ -72,7 +72,7 @@ struct Settings {
   std::string scenario;
   bool realtime = false;
   double duration = -1.0;
-  int command_timeout_ms = 2000;
+  int command_timeout_ms = sim::kDefaultCommandTimeoutMs;
   int startup_timeout_ms = 30000;
   int max_consecutive_timeouts = 3;
   double watchdog_ms = 5.0;

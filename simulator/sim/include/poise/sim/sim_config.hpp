@@ -10,6 +10,11 @@
 
 namespace poise::sim {
 
+/// Lockstep: how long poise-sim waits for the joint command of a tick by default [ms]
+/// (--command-timeout-ms). The launchers give the estimator and the controller the same
+/// staleness bound in lockstep (deploy/launch).
+inline constexpr int kDefaultCommandTimeoutMs = 2000;
+
 /// Rectangular foot sole, in the foot frame F (x forward, z up). The sole plane is z = -height
 /// (paper Fig. 5: h is the height of the foot frame above the sole).
 struct SoleConfig {
