@@ -132,6 +132,38 @@ TEST(SafetyLayer, StaleCommandsHoldTheLastTargetsThenDampThenResume) {
   EXPECT_EQ(s.mode(), Mode::kActive);
 }
 
+// hold_s = 0 means no hold: the tick the watchdog fires already damps (before, that tick was a
+// one-tick HOLD, and a robot whose commands were each just stale never damped at all: the test
+// of `poise run --hold-s 0` then depended on the machine's timing).
+TEST(SafetyLayer, ZeroHoldDampsOnTheTickTheWatchdogFires) {
+  const int n = 4;
+  Config c = small_config(n);
+  c.hold_s = 0.0;
+  SafetyLayer s(c);
+  std::mt19937 rng(5);
+  const Eigen::VectorXd q = Eigen::VectorXd::Zero(n);
+  s.start(q, 0);
+  // Commands each arriving 6 ms after the last (watchdog 5 ms): every update just before a
+  // command is stale, and must damp; the command then resumes ACTIVE.
+  std::int64_t t = 0;
+  for (std::uint64_t k = 1; k <= 20; ++k) {
+    ASSERT_TRUE(s.on_command(random_command(n, k, rng), static_cast<std::int64_t>(k), t));
+    s.update(t, q);
+    ASSERT_EQ(s.mode(), Mode::kActive) << k;
+    t += 6 * kMs;
+    const Command& d = s.update(t - kMs / 2, q);
+    ASSERT_EQ(s.mode(), Mode::kDamp) << k;
+    EXPECT_TRUE(d.kp.isZero());
+    EXPECT_EQ(d.kd, s.config().damping_kd);
+  }
+  EXPECT_EQ(s.counters().damp_events, 20u);
+  EXPECT_EQ(s.counters().ticks_hold, 0u);
+  // Within the watchdog nothing changes.
+  ASSERT_TRUE(s.on_command(random_command(n, 99, rng), 99, t));
+  s.update(t + 5 * kMs, q);
+  EXPECT_EQ(s.mode(), Mode::kActive);
+}
+
 TEST(SafetyLayer, HoldAfterADampingCommandKeepsThePostureNow) {
   const int n = 3;
   SafetyLayer s(small_config(n));

@@ -225,7 +225,9 @@ const Command& SafetyLayer::update(std::int64_t now_ns,
                   static_cast<double>(now_ns - last_command_ns_) * 1e-6, config_.hold_s);
     set_mode(Mode::kHold, now_ns);
   }
-  if (mode_ == Mode::kHold && now_ns - hold_since_ns_ > hold_ns) {
+  // hold_s 0: no hold at all, DAMP on the tick the watchdog fires (otherwise a stale tick would
+  // be a one-tick HOLD and only a second stale tick in a row would damp).
+  if (mode_ == Mode::kHold && (hold_ns == 0 || now_ns - hold_since_ns_ > hold_ns)) {
     ++counters_.damp_events;
     std::snprintf(last_error_, sizeof(last_error_),
                   "DAMP: held %.1f s without a joint command: damping", config_.hold_s);

@@ -709,7 +709,7 @@ int run(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::Range(0.1, 60000.0));
   app.add_option("--hold-s", s.hold_s,
-                 "safety layer: hold the last joint targets this long, then damp")
+                 "safety layer: hold the last joint targets this long, then damp (0: damp at once)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 3600.0));
   app.add_flag("--progress", s.progress, "print a progress line every simulated second");

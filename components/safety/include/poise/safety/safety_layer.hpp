@@ -78,7 +78,7 @@ struct Config {
   Eigen::VectorXd effort;                ///< effort limits (dim n; +inf: none)
   Eigen::VectorXd q_min, q_max;          ///< position limits (dim n; +-inf: none)
   double watchdog_s = 0.005;             ///< ACTIVE -> HOLD after this long without a command
-  double hold_s = 5.0;                   ///< HOLD -> DAMP after this long
+  double hold_s = 5.0;                   ///< HOLD -> DAMP after this long (0: DAMP at once)
   bool hold_feedforward = true;          ///< HOLD keeps the last command's tau_ff
   bool resume_from_damp = true;          ///< a fresh command ends DAMP
   std::int64_t max_command_age_ticks = 20;  ///< oldest command accepted [ticks behind the robot]
