@@ -597,6 +597,7 @@ TEST(ContactFallback, GravityDistributionIsStaticEquilibrium) {
 TEST(BalanceController, ReferencesIntegrateAccelerationsAndStayNearTheState) {
   ControllerConfig paper;  // the paper's integration (the legs' leak: the test below)
   paper.feedback.support_leg_leak_hz = 0.0;
+  paper.feedback.internal_force_leak_hz = 0.0;
   BalanceController c = make_controller(paper);
   RobotState s = test::standing_state(c);
   BalanceReference ref = c.make_reference();
@@ -638,10 +639,12 @@ TEST(BalanceController, BothLoadedLegsReferencesLeakTowardsTheMeasuredJoints) {
     SCOPED_TRACE(trial);
     ControllerConfig cfg;
     cfg.feedback.support_leg_leak_hz = hz(rng);
+    cfg.feedback.internal_force_leak_hz = 0.0;  // this rule alone (the split: the test below)
     const double keep = std::exp(-2.0 * M_PI * cfg.feedback.support_leg_leak_hz * 1e-3);
     BalanceController leaky = make_controller(cfg);
     ControllerConfig paper;
     paper.feedback.support_leg_leak_hz = 0.0;
+    paper.feedback.internal_force_leak_hz = 0.0;
     BalanceController plain = make_controller(paper);
     RobotState s = test::standing_state(leaky);
     const bool one_unloaded = trial == 3;  // the right foot touches with 5 % of the weight
@@ -709,6 +712,126 @@ TEST(BalanceController, BothLoadedLegsReferencesLeakTowardsTheMeasuredJoints) {
       ADD_FAILURE() << "support_leg_leak_hz = " << bad_hz << " accepted";
     } catch (const ConfigError& e) {
       EXPECT_NE(std::string(e.what()).find("feedback.support_leg_leak_hz"), std::string::npos)
+          << e.what();
+    }
+  }
+}
+
+// FeedbackConfig::internal_force_leak_hz: while both feet bear load, the legs' reference errors
+// lose only their internal part: the part whose PD torque kp e is balanced by the two feet's
+// wrenches alone (J_q^T lambda with J_b^T lambda = 0: a squeeze, no motion). The split is
+// checked against its two defining properties with an SVD least-squares solve (not the
+// controller's KKT system): the internal torque is J_q^T lambda with J_b^T lambda = 0, and the
+// rest of the error keeps both feet on the base's loop (J_b db + J_q de = 0 for some db). Then
+// the update rule by hand; one foot unloaded or the option off: the paper's integration, bit
+// for bit.
+TEST(BalanceController, InternalForceLeakRemovesOnlyTheLegsSqueeze) {
+  std::mt19937 rng(2020);
+  std::uniform_real_distribution<double> hz(2.0, 300.0), off(-0.02, 0.02);
+  for (int trial = 0; trial < 4; ++trial) {
+    SCOPED_TRACE(trial);
+    ControllerConfig cfg;
+    cfg.feedback.internal_force_leak_hz = hz(rng);
+    const double drop = 1.0 - std::exp(-2.0 * M_PI * cfg.feedback.internal_force_leak_hz * 1e-3);
+    BalanceController leaky = make_controller(cfg);
+    ControllerConfig paper;
+    paper.feedback.internal_force_leak_hz = 0.0;
+    BalanceController plain = make_controller(paper);
+    RobotState s = test::standing_state(leaky);
+    const bool one_unloaded = trial == 3;
+    if (one_unloaded) s.feet[1].normal_force = 0.05 * 50.8 * 9.81;
+    BalanceReference ref = leaky.make_reference();
+    ref.has_upper_body_q = true;
+    const int elbow = leaky.model().joint_index("l_elbow");
+    ref.upper_body_q[elbow] -= 0.3;
+    const int n = leaky.num_joints();
+    std::vector<int> legs;
+    for (const char* side : {"l_", "r_"})
+      for (const char* j : {"hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll"})
+        legs.push_back(leaky.model().joint_index(std::string(side) + j));
+    contact::ContactProblem p;
+    contact::ContactSolution sol;
+    contact::SequentialOptimizer opt;
+    JointCommand cmd = leaky.make_command(), cmd_plain = plain.make_command();
+    Eigen::VectorXd q_ref_prev, qd_ref_prev;
+    double internal_max = 0.0, rest_max = 0.0;
+    auto step = [&](double ref_prev, double meas, double rate, double max_err) {
+      return meas + std::clamp(ref_prev - meas + rate * 1e-3, -max_err, max_err);
+    };
+    for (int k = 0; k < 60; ++k) {
+      for (int j : legs) {  // the legs' measured joints wander off the references
+        s.q[j] += off(rng) * 0.1;
+        s.qd[j] = off(rng);
+      }
+      leaky.prepare(s, ref, p);
+      opt.solve(p, sol);
+      leaky.finish(sol, cmd);
+      plain.prepare(s, ref, p);
+      opt.solve(p, sol);
+      plain.finish(sol, cmd_plain);
+      const Eigen::VectorXd qdd = leaky.generalized_acceleration().tail(n);
+      const Eigen::VectorXd& iq = leaky.internal_position_error();
+      const Eigen::VectorXd& iv = leaky.internal_velocity_error();
+      if (k == 0 || one_unloaded) {
+        EXPECT_TRUE(iq.isZero()) << "no references yet, or not both feet loaded";
+        EXPECT_TRUE(iv.isZero());
+      } else {
+        const Eigen::MatrixXd& C = leaky.foot_jacobians();
+        const Eigen::MatrixXd Cb = C.leftCols(6), Cq = C.rightCols(n);
+        struct Split {
+          Eigen::VectorXd error, internal, gain;
+        };
+        ASSERT_GT(cmd.kp.minCoeff(), 0.0);
+        ASSERT_GT(cmd.kd.minCoeff(), 0.0);
+        for (const Split& sp :
+             {Split{q_ref_prev - s.q, iq, cmd.kp}, Split{qd_ref_prev - s.qd, iv, cmd.kd}}) {
+          // The internal torque is J_q^T lambda, with J_b^T lambda = 0.
+          const Eigen::VectorXd t = sp.gain.cwiseProduct(sp.internal);
+          const Eigen::VectorXd lambda =
+              Cq.transpose().jacobiSvd(Eigen::ComputeThinU | Eigen::ComputeThinV).solve(t);
+          EXPECT_LT((Cq.transpose() * lambda - t).norm(), 1e-7 * (1.0 + t.norm()));
+          EXPECT_LT((Cb.transpose() * lambda).norm(), 1e-7 * (1.0 + t.norm()));
+          // The rest keeps the loop: some base motion db closes it.
+          const Eigen::VectorXd rest = sp.error - sp.internal;
+          const Eigen::VectorXd feet = Cq * rest;
+          const Eigen::VectorXd db =
+              Cb.jacobiSvd(Eigen::ComputeThinU | Eigen::ComputeThinV).solve(-feet);
+          EXPECT_LT((Cb * db + feet).norm(), 1e-7 * (1.0 + feet.norm()));
+          // The arms are no part of the loop.
+          EXPECT_EQ(sp.internal[elbow], 0.0);
+          internal_max = std::max(internal_max, sp.internal.cwiseAbs().maxCoeff());
+          rest_max = std::max(rest_max, rest.cwiseAbs().maxCoeff());
+        }
+        // The rule: the internal part scaled by drop is taken off, then the paper's update.
+        for (int j = 0; j < n; ++j) {
+          const double vr = step(qd_ref_prev[j] - drop * iv[j], s.qd[j], qdd[j], 0.5);
+          EXPECT_NEAR(cmd.qd_ref[j], vr, 1e-12) << j;
+          EXPECT_NEAR(cmd.q_ref[j], step(q_ref_prev[j] - drop * iq[j], s.q[j], vr, 0.05), 1e-12)
+              << j;
+        }
+      }
+      q_ref_prev = cmd.q_ref;
+      qd_ref_prev = cmd.qd_ref;
+    }
+    if (one_unloaded) {
+      EXPECT_EQ(cmd.q_ref, cmd_plain.q_ref);
+      EXPECT_EQ(cmd.qd_ref, cmd_plain.qd_ref);
+      EXPECT_EQ(cmd.tau_ff, cmd_plain.tau_ff);
+    } else {
+      // Both parts are really there (the split is not trivially all or nothing).
+      EXPECT_GT(internal_max, 1e-4);
+      EXPECT_GT(rest_max, 1e-4);
+      EXPECT_GT((cmd.q_ref - cmd_plain.q_ref).cwiseAbs().maxCoeff(), 1e-5);
+    }
+  }
+  for (const double bad_hz : {-2.0, std::nan("")}) {
+    ControllerConfig bad;
+    bad.feedback.internal_force_leak_hz = bad_hz;
+    try {
+      bad.validate();
+      ADD_FAILURE() << "internal_force_leak_hz = " << bad_hz << " accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("feedback.internal_force_leak_hz"), std::string::npos)
           << e.what();
     }
   }

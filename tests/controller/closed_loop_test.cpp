@@ -456,6 +456,76 @@ TEST(ClosedLoop, RidesOutOfPhasePlatformsAt1HzOnlyWhenTheLegsReferencesDoNotSque
   }
 }
 
+/// After a push in double support: the mean gap, over the window from 0.5 s after the push to
+/// the end, between each foot's true ground force (Bullet) and the force the controller used
+/// (TickDiagnostics::foot_wrench_W), tangential and normal [N].
+struct ForceGap {
+  double tangential = 0.0, normal = 0.0;  // the larger of the two feet's mean gaps
+  bool survived = false;
+};
+
+ForceGap push_force_gap(const Eigen::Vector3d& force, const controller::ControllerConfig& config,
+                        const char* name) {
+  scenario::Scenario s = scenario("forward_push_double_support");
+  s.sim.pushes[0].force_W = force;
+  const double after = s.sim.pushes[0].start + s.sim.pushes[0].duration + 0.5;
+  s.duration = after + 2.0;
+  LoopOptions opt = ground_truth();
+  opt.controller = config;
+  InProcessLoop loop(s, opt);
+  const auto& sim_feet = loop.scenario().sim.robot.feet;
+  const auto& robot = loop.controller().robot();
+  std::array<int, 2> sim_of_side{};
+  for (int side = 0; side < 2; ++side)
+    for (std::size_t f = 0; f < sim_feet.size(); ++f)
+      if (sim_feet[f].frame == robot.feet[side].frame) sim_of_side[side] = static_cast<int>(f);
+  std::array<Eigen::Vector3d, 2> gap_sum{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  long n = 0;
+  const auto steps = static_cast<long>(std::llround(loop.duration() / 1e-3));
+  for (long k = 0; k < steps; ++k) {
+    loop.step();
+    if (loop.time() < after) continue;
+    const auto& d = loop.controller().diagnostics();
+    for (int side = 0; side < 2; ++side)
+      gap_sum[side] +=
+          loop.truth().feet[sim_of_side[side]].force_W - d.foot_wrench_W[side].head<3>();
+    ++n;
+  }
+  ForceGap g;
+  for (int side = 0; side < 2; ++side) {
+    const Eigen::Vector3d mean = gap_sum[side] / static_cast<double>(std::max(n, 1L));
+    g.tangential = std::max(g.tangential, mean.head<2>().norm());
+    g.normal = std::max(g.normal, std::abs(mean.z()));
+  }
+  g.survived = loop.result().survived;
+  std::printf("[%s] mean true - used foot force from 0.5 s after the push: tangential %.1f N, "
+              "normal %.1f N; survived %d\n",
+              name, g.tangential, g.normal, g.survived);
+  return g;
+}
+
+// Issue #17 item 2, why the feet end up at opposite sole edges and slide after a push: the legs'
+// joint references, integrated open loop (eqs (34)-(35)), leave the loop the two feet close
+// through the ground, and the joint PD then squeezes the feet with forces the contact problem
+// never planned, for as long as the robot stands (measured on the estimator: 35 N and 23 N
+// tangential, 70 N of normal force moved between the feet). FeedbackConfig::
+// internal_force_leak_hz removes only that squeeze: the feet then carry the planned forces.
+TEST(ClosedLoop, AfterASidewaysPushTheFeetCarryThePlannedForcesNotASqueeze) {
+  controller::ControllerConfig with;
+  with.feedback.internal_force_leak_hz = 30.0;
+  controller::ControllerConfig without = with;
+  without.feedback.internal_force_leak_hz = 0.0;
+  const Eigen::Vector3d push(0.0, -175.0, 0.0);
+  const ForceGap leak = push_force_gap(push, with, "175 N rightward, internal-force leak 30 Hz");
+  const ForceGap squeeze = push_force_gap(push, without, "175 N rightward, paper's integration");
+  EXPECT_LT(leak.tangential, 8.0);
+  EXPECT_LT(leak.normal, 15.0);
+  EXPECT_GT(squeeze.tangential, 2.0 * leak.tangential + 10.0);
+  EXPECT_GT(squeeze.normal, leak.normal + 10.0);
+  // (Survival is not the point here: on ground truth this push slides a foot 15 mm during the
+  // push itself, with or without the leak; on the estimator both survive.)
+}
+
 class ClosedLoopPush : public ::testing::TestWithParam<StateSource> {};
 
 TEST_P(ClosedLoopPush, SurvivesForwardPushInDoubleSupport) {

@@ -101,6 +101,24 @@ BalanceController::BalanceController(const model::Model& model, const model::Rob
     for (const auto& leg : leg_joints_)
       for (int j : leg) leg_keep_[j] = keep;
   }
+  // FeedbackConfig::internal_force_leak_hz: the metrics 1/kp and 1/kd (a joint without a gain
+  // makes no PD torque: it keeps its reference) and the fixed-size workspace of the split.
+  if (config_.feedback.internal_force_leak_hz > 0.0)
+    internal_drop_ =
+        1.0 - std::exp(-2.0 * M_PI * config_.feedback.internal_force_leak_hz * config_.dt);
+  inv_kp_ = Eigen::VectorXd::Zero(n);
+  inv_kd_ = Eigen::VectorXd::Zero(n);
+  for (int j = 0; j < n; ++j) {
+    if (kp_[j] > 0.0) inv_kp_[j] = 1.0 / kp_[j];
+    if (kd_[j] > 0.0) inv_kd_[j] = 1.0 / kd_[j];
+  }
+  internal_q_ = Eigen::VectorXd::Zero(n);
+  internal_qd_ = Eigen::VectorXd::Zero(n);
+  error_scratch_ = Eigen::VectorXd::Zero(n);
+  weighted_cq_.setZero(12, n);
+  kkt_.setZero();
+  kkt_rhs_.setZero();
+  kkt_sol_.setZero();
 
   // Desired CoM height above the soles in the nominal posture (Sec. 4.2 target when no CoM target).
   if (config_.com_height > 0.0) {
@@ -595,9 +613,24 @@ void BalanceController::finish_with(const contact::ContactSolution& solution, Co
       qd_ref_[j] = 0.0;  // the ground stops the foot: not the leg's velocity at the impact
     }
   }
+  // FeedbackConfig::internal_force_leak_hz: the internal parts of the reference errors, from
+  // this tick's foot Jacobians (before this tick's integration; zero when off or not both
+  // feet bear load, or when the split is not solvable).
+  internal_q_.setZero();
+  internal_qd_.setZero();
+  if (internal_drop_ > 0.0 && both_feet_loaded_) {
+    error_scratch_ = q_ref_ - q_.tail(n);
+    if (!internal_part(error_scratch_, inv_kp_, internal_q_)) internal_q_.setZero();
+    error_scratch_ = qd_ref_ - qd_joint_;
+    if (!internal_part(error_scratch_, inv_kd_, internal_qd_)) internal_qd_.setZero();
+  }
   for (int j = 0; j < n; ++j) {
     const double q = q_[7 + j];
     const double qd = qd_joint_[j];
+    // The internal part removed at internal_drop_ per tick (zero when off): the rest of the
+    // error, and the integration below, are the paper's.
+    q_ref_[j] -= internal_drop_ * internal_q_[j];
+    qd_ref_[j] -= internal_drop_ * internal_qd_[j];
     // FeedbackConfig::support_leg_leak_hz: only while both feet bear load do the legs' references
     // decay towards the measured joints; a leg whose foot a push lifted keeps its integrated
     // references (its joint PD holds the leg's shape).
@@ -629,6 +662,37 @@ void BalanceController::finish_with(const contact::ContactSolution& solution, Co
   command.kp = kp_;
   command.kd = kd_;
   ++diag_.ticks;
+}
+
+// Splits the joint error e (dim n) for the metric w = 1/gain: the torque t = diag(1/w) e is
+// J_q^T lambda + the rest, where J_q^T lambda with J_b^T lambda = 0 is balanced by foot wrenches
+// alone (a pure internal force: it squeezes the feet and moves nothing), and e minus its internal
+// part w * J_q^T lambda is a motion of the legs that keeps both feet on the base's loop
+// (J_b db + J_q de = 0 for some base motion db). Minimising (de - e)^T W^-1 (de - e) under that
+// loop constraint gives the KKT system
+//   [ J_q W J_q^T  J_b ] [ lambda ]   [ J_q e ]
+//   [ J_b^T        0   ] [ -db    ] = [   0   ]
+// (12 + 6 unknowns: fixed size, no allocation). J: the stacked foot Jacobians C_ of this tick.
+bool BalanceController::internal_part(const Eigen::VectorXd& e, const Eigen::VectorXd& w,
+                                      Eigen::VectorXd& out) {
+  const int n = static_cast<int>(e.size());
+  const auto Cq = C_.rightCols(n);
+  weighted_cq_.noalias() = Cq * w.asDiagonal();
+  kkt_.topLeftCorner<12, 12>().noalias() = weighted_cq_ * Cq.transpose();
+  // A straight knee makes J_q W J_q^T singular: a small relative regulariser keeps the split
+  // defined (the internal part then leaves the singular direction alone).
+  const double reg = 1e-9 * (kkt_.topLeftCorner<12, 12>().trace() / 12.0 + 1e-12);
+  kkt_.topLeftCorner<12, 12>().diagonal().array() += reg;
+  kkt_.topRightCorner<12, 6>() = C_.leftCols<6>();
+  kkt_.bottomLeftCorner<6, 12>() = C_.leftCols<6>().transpose();
+  kkt_.bottomRightCorner<6, 6>().setZero();
+  kkt_rhs_.head<12>().noalias() = Cq * e;
+  kkt_rhs_.tail<6>().setZero();
+  kkt_lu_.compute(kkt_);
+  kkt_sol_.noalias() = kkt_lu_.solve(kkt_rhs_);
+  if (!kkt_sol_.allFinite()) return false;
+  out.noalias() = weighted_cq_.transpose() * kkt_sol_.head<12>();
+  return out.allFinite();
 }
 
 }  // namespace poise::controller

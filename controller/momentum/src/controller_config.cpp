@@ -111,6 +111,8 @@ void ControllerConfig::validate() const {
           "feedback.max_*_error", "must be >= 0");
   require(std::isfinite(feedback.support_leg_leak_hz) && feedback.support_leg_leak_hz >= 0.0,
           "feedback.support_leg_leak_hz", "must be >= 0 (0 = pure integration)");
+  require(std::isfinite(feedback.internal_force_leak_hz) && feedback.internal_force_leak_hz >= 0.0,
+          "feedback.internal_force_leak_hz", "must be >= 0 (0 = off)");
   require(fallback.max_reuse_ticks >= 0, "fallback.max_reuse_ticks", "must be >= 0");
   require(std::isfinite(resting_extra_margin), "resting_extra_margin", "must be finite");
   require(std::isfinite(resting_force_fraction) && resting_force_fraction >= 0.0 &&
@@ -191,11 +193,13 @@ ControllerConfig from_yaml(const YAML::Node& root, const std::string& file) {
   }
   if (const auto m = root["feedback"]) {
     r.keys(m, "feedback",
-           {"gain_scale", "max_position_error", "max_velocity_error", "support_leg_leak_hz"});
+           {"gain_scale", "max_position_error", "max_velocity_error", "support_leg_leak_hz",
+            "internal_force_leak_hz"});
     r.number(m, "gain_scale", "feedback.", c.feedback.gain_scale);
     r.number(m, "max_position_error", "feedback.", c.feedback.max_position_error);
     r.number(m, "max_velocity_error", "feedback.", c.feedback.max_velocity_error);
     r.number(m, "support_leg_leak_hz", "feedback.", c.feedback.support_leg_leak_hz);
+    r.number(m, "internal_force_leak_hz", "feedback.", c.feedback.internal_force_leak_hz);
   }
   if (const auto m = root["fallback"]) {
     r.keys(m, "fallback", {"max_reuse_ticks"});

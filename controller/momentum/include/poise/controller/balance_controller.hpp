@@ -18,6 +18,7 @@
 // EIGEN_RUNTIME_NO_MALLOC). Joint vectors are in the MODEL joint order; the node remaps.
 
 #include <Eigen/Core>
+#include <Eigen/LU>
 #include <array>
 #include <vector>
 
@@ -159,6 +160,24 @@ class BalanceController {
   bool have_hold_seen_ = false;                   // a tick has been prepared (supports known)
   std::array<std::vector<int>, 2> leg_joints_;    // joints between the base and each foot
   Eigen::VectorXd leg_keep_;  // dim n: exp(-2 pi support_leg_leak_hz dt) on the legs, else 1
+  // FeedbackConfig::internal_force_leak_hz: 1 - exp(-2 pi f dt) (0 = off), and its workspace
+  double internal_drop_ = 0.0;
+  Eigen::VectorXd inv_kp_, inv_kd_;        // dim n: 1/gain where the gain is > 0, else 0
+  Eigen::VectorXd internal_q_, internal_qd_;  // dim n: this tick's internal parts of the errors
+  Eigen::VectorXd error_scratch_;          // dim n
+  Eigen::Matrix<double, 12, Eigen::Dynamic> weighted_cq_;  // 12 x n
+  Eigen::Matrix<double, 18, 18> kkt_;
+  Eigen::Matrix<double, 18, 1> kkt_rhs_, kkt_sol_;
+  Eigen::PartialPivLU<Eigen::Matrix<double, 18, 18>> kkt_lu_;
+  /// The part of the joint error e (dim n, joints) whose torque diag(1/w) e is a pure internal
+  /// force of the two feet, for the metric w (inv_kp_ or inv_kd_); false if not solvable.
+  bool internal_part(const Eigen::VectorXd& e, const Eigen::VectorXd& w, Eigen::VectorXd& out);
+public:
+  /// This tick's internal parts of the legs' position and velocity reference errors (before
+  /// the leak; zero when the leak is off or not both feet bear load). For tests.
+  const Eigen::VectorXd& internal_position_error() const { return internal_q_; }
+  const Eigen::VectorXd& internal_velocity_error() const { return internal_qd_; }
+private:
   bool have_foot_velocity_ = false;
   // (10)-(11) feedback through MomentumGains::feedback_filter_hz: the filtered CoM velocity error
   // (target - measured) and centroidal angular momentum (world axes), valid once have_feedback_.
