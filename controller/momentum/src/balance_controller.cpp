@@ -115,10 +115,10 @@ BalanceController::BalanceController(const model::Model& model, const model::Rob
   internal_q_ = Eigen::VectorXd::Zero(n);
   internal_qd_ = Eigen::VectorXd::Zero(n);
   error_scratch_ = Eigen::VectorXd::Zero(n);
-  weighted_cq_.setZero(12, n);
-  kkt_.setZero();
-  kkt_rhs_.setZero();
-  kkt_sol_.setZero();
+  internal_basis_.setZero(n, 6);
+  weighted_basis_.setZero(n, 6);
+  base_map_.setZero();
+  internal_rhs_.setZero();
 
   // Desired CoM height above the soles in the nominal posture (Sec. 4.2 target when no CoM target).
   if (config_.com_height > 0.0) {
@@ -618,7 +618,7 @@ void BalanceController::finish_with(const contact::ContactSolution& solution, Co
   // feet bear load, or when the split is not solvable).
   internal_q_.setZero();
   internal_qd_.setZero();
-  if (internal_drop_ > 0.0 && both_feet_loaded_) {
+  if (internal_drop_ > 0.0 && both_feet_loaded_ && internal_split_basis()) {
     error_scratch_ = q_ref_ - q_.tail(n);
     if (!internal_part(error_scratch_, inv_kp_, internal_q_)) internal_q_.setZero();
     error_scratch_ = qd_ref_ - qd_joint_;
@@ -664,34 +664,38 @@ void BalanceController::finish_with(const contact::ContactSolution& solution, Co
   ++diag_.ticks;
 }
 
-// Splits the joint error e (dim n) for the metric w = 1/gain: the torque t = diag(1/w) e is
-// J_q^T lambda + the rest, where J_q^T lambda with J_b^T lambda = 0 is balanced by foot wrenches
-// alone (a pure internal force: it squeezes the feet and moves nothing), and e minus its internal
-// part w * J_q^T lambda is a motion of the legs that keeps both feet on the base's loop
-// (J_b db + J_q de = 0 for some base motion db). Minimising (de - e)^T W^-1 (de - e) under that
-// loop constraint gives the KKT system
-//   [ J_q W J_q^T  J_b ] [ lambda ]   [ J_q e ]
-//   [ J_b^T        0   ] [ -db    ] = [   0   ]
-// (12 + 6 unknowns: fixed size, no allocation). J: the stacked foot Jacobians C_ of this tick.
+// The legs' internal-force split (FeedbackConfig::internal_force_leak_hz). A torque t (dim n) is
+// a pure internal force of the two feet when t = J_q^T lambda for foot wrenches lambda (12) that
+// balance on the base, J_b^T lambda = 0 (J = C_, stacked [foot 0; foot 1], J_b its 6 base columns,
+// J_q its joint columns). With B0, B1 the two feet's 6x6 base blocks (invertible: a foot's twist
+// from the floating base's), J_b^T lambda = 0 is lambda_0 = -B0^-T B1^T lambda_1, so the internal
+// torques are the range of the n x 6 basis  A = J_q1^T - J_q0^T B0^-T B1^T.
+bool BalanceController::internal_split_basis() {
+  const int n = static_cast<int>(internal_basis_.rows());
+  base_lu_.compute(C_.block<6, 6>(0, 0).transpose());
+  base_map_.noalias() = base_lu_.solve(C_.block<6, 6>(6, 0).transpose());  // B0^-T B1^T
+  internal_basis_ = C_.block(6, 6, 6, n).transpose();
+  internal_basis_.noalias() -= C_.block(0, 6, 6, n).transpose() * base_map_;
+  return internal_basis_.allFinite();
+}
+
+// The W^-1-orthogonal projection of the joint error e onto the internal directions W range(A),
+// W = diag(w) = diag(1/gain): e_int = W A z with (A^T W A) z = A^T e. Then the torque of e_int,
+// diag(1/w) e_int = A z, is internal, and the rest e - e_int satisfies A^T (e - e_int) = 0, i.e.
+// J_q (e - e_int) lies in the range of J_b: a motion of the legs that a base motion closes (both
+// feet stay where they are). Singular legs (a straight knee) make A^T W A singular: a small
+// relative regulariser keeps z bounded.
 bool BalanceController::internal_part(const Eigen::VectorXd& e, const Eigen::VectorXd& w,
                                       Eigen::VectorXd& out) {
-  const int n = static_cast<int>(e.size());
-  const auto Cq = C_.rightCols(n);
-  weighted_cq_.noalias() = Cq * w.asDiagonal();
-  kkt_.topLeftCorner<12, 12>().noalias() = weighted_cq_ * Cq.transpose();
-  // A straight knee makes J_q W J_q^T singular: a small relative regulariser keeps the split
-  // defined (the internal part then leaves the singular direction alone).
-  const double reg = 1e-9 * (kkt_.topLeftCorner<12, 12>().trace() / 12.0 + 1e-12);
-  kkt_.topLeftCorner<12, 12>().diagonal().array() += reg;
-  kkt_.topRightCorner<12, 6>() = C_.leftCols<6>();
-  kkt_.bottomLeftCorner<6, 12>() = C_.leftCols<6>().transpose();
-  kkt_.bottomRightCorner<6, 6>().setZero();
-  kkt_rhs_.head<12>().noalias() = Cq * e;
-  kkt_rhs_.tail<6>().setZero();
-  kkt_lu_.compute(kkt_);
-  kkt_sol_.noalias() = kkt_lu_.solve(kkt_rhs_);
-  if (!kkt_sol_.allFinite()) return false;
-  out.noalias() = weighted_cq_.transpose() * kkt_sol_.head<12>();
+  weighted_basis_.noalias() = w.asDiagonal() * internal_basis_;
+  Eigen::Matrix<double, 6, 6> S;
+  S.noalias() = internal_basis_.transpose() * weighted_basis_;
+  S.diagonal().array() += 1e-12 * (S.trace() / 6.0) + 1e-300;
+  internal_ldlt_.compute(S);
+  internal_rhs_.noalias() = internal_basis_.transpose() * e;
+  internal_rhs_ = internal_ldlt_.solve(internal_rhs_);
+  if (!internal_rhs_.allFinite()) return false;
+  out.noalias() = weighted_basis_ * internal_rhs_;
   return out.allFinite();
 }
 

@@ -18,6 +18,7 @@
 // EIGEN_RUNTIME_NO_MALLOC). Joint vectors are in the MODEL joint order; the node remaps.
 
 #include <Eigen/Core>
+#include <Eigen/Cholesky>
 #include <Eigen/LU>
 #include <array>
 #include <vector>
@@ -165,10 +166,15 @@ class BalanceController {
   Eigen::VectorXd inv_kp_, inv_kd_;        // dim n: 1/gain where the gain is > 0, else 0
   Eigen::VectorXd internal_q_, internal_qd_;  // dim n: this tick's internal parts of the errors
   Eigen::VectorXd error_scratch_;          // dim n
-  Eigen::Matrix<double, 12, Eigen::Dynamic> weighted_cq_;  // 12 x n
-  Eigen::Matrix<double, 18, 18> kkt_;
-  Eigen::Matrix<double, 18, 1> kkt_rhs_, kkt_sol_;
-  Eigen::PartialPivLU<Eigen::Matrix<double, 18, 18>> kkt_lu_;
+  // The internal torques of this tick are the range of internal_basis_ (n x 6): J_q^T lambda
+  // over the lambda with J_b^T lambda = 0 (internal_split_basis()).
+  Eigen::Matrix<double, Eigen::Dynamic, 6> internal_basis_, weighted_basis_;
+  Eigen::Matrix<double, 6, 6> base_map_;  // J_b of foot 0, then its inverse times J_b of foot 1
+  Eigen::PartialPivLU<Eigen::Matrix<double, 6, 6>> base_lu_;
+  Eigen::LDLT<Eigen::Matrix<double, 6, 6>> internal_ldlt_;
+  Eigen::Matrix<double, 6, 1> internal_rhs_;
+  /// internal_basis_ from this tick's foot Jacobians C_; false if not finite.
+  bool internal_split_basis();
   /// The part of the joint error e (dim n, joints) whose torque diag(1/w) e is a pure internal
   /// force of the two feet, for the metric w (inv_kp_ or inv_kd_); false if not solvable.
   bool internal_part(const Eigen::VectorXd& e, const Eigen::VectorXd& w, Eigen::VectorXd& out);
