@@ -511,15 +511,16 @@ ForceGap push_force_gap(const Eigen::Vector3d& force, const controller::Controll
 // tangential, 70 N of normal force moved between the feet). FeedbackConfig::
 // internal_force_leak_hz removes only that squeeze: the feet then carry the planned forces.
 TEST(ClosedLoop, AfterASidewaysPushTheFeetCarryThePlannedForcesNotASqueeze) {
-  controller::ControllerConfig with;
-  with.feedback.internal_force_leak_hz = 30.0;
+  const controller::ControllerConfig with;  // the default
+  ASSERT_GT(with.feedback.internal_force_leak_hz, 0.0);
   controller::ControllerConfig without = with;
   without.feedback.internal_force_leak_hz = 0.0;
   const Eigen::Vector3d push(0.0, -175.0, 0.0);
-  const ForceGap leak = push_force_gap(push, with, "175 N rightward, internal-force leak 30 Hz");
+  const ForceGap leak = push_force_gap(push, with, "175 N rightward, internal-force leak (default)");
   const ForceGap squeeze = push_force_gap(push, without, "175 N rightward, paper's integration");
+  // (Measured: 2.9 N / 13.0 N at the default 3 Hz, 1.7 N / 1.2 N at 30 Hz; 25.5 N / 33.3 N without.)
   EXPECT_LT(leak.tangential, 8.0);
-  EXPECT_LT(leak.normal, 15.0);
+  EXPECT_LT(leak.normal, 20.0);
   EXPECT_GT(squeeze.tangential, 2.0 * leak.tangential + 10.0);
   EXPECT_GT(squeeze.normal, leak.normal + 10.0);
   // (Survival is not the point here: on ground truth this push slides a foot 15 mm during the
