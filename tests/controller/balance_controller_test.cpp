@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <random>
 
 #include "controller_test_util.hpp"
@@ -629,12 +630,55 @@ TEST(BalanceController, ReferencesIntegrateAccelerationsAndStayNearTheState) {
   EXPECT_GT(c.diagnostics().reference_clamps, 0);
 }
 
+/// The same references and torques, to the bit.
+void expect_same_commands(const JointCommand& a, const JointCommand& b) {
+  EXPECT_EQ(a.q_ref, b.q_ref);
+  EXPECT_EQ(a.qd_ref, b.qd_ref);
+  EXPECT_EQ(a.tau_ff, b.tau_ff);
+}
+
+/// A negative and a NaN value, put in by `set`, are refused by validate() with `key` named.
+void expect_refused_naming(const std::string& key,
+                           const std::function<void(ControllerConfig&, double)>& set) {
+  for (const double bad_value : {-1.0, std::nan("")}) {
+    ControllerConfig bad;
+    set(bad, bad_value);
+    try {
+      bad.validate();
+      ADD_FAILURE() << key << " = " << bad_value << " accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
+    }
+  }
+}
+
+/// A tick of the reference-rule tests below: the legs' measured joints wander off the plan (a
+/// drifting loop closure: q and qd), then both controllers tick on that same state.
+void wander_and_tick(RobotState& s, const std::vector<int>& legs, std::mt19937& rng,
+                     const BalanceReference& ref, contact::SequentialOptimizer& opt,
+                     BalanceController& a, JointCommand& cmd_a, BalanceController& b,
+                     JointCommand& cmd_b) {
+  std::uniform_real_distribution<double> off(-0.02, 0.02);
+  for (int j : legs) {
+    s.q[j] += off(rng) * 0.1;
+    s.qd[j] = off(rng);
+  }
+  contact::ContactProblem p;
+  contact::ContactSolution sol;
+  a.prepare(s, ref, p);
+  opt.solve(p, sol);
+  a.finish(sol, cmd_a);
+  b.prepare(s, ref, p);
+  opt.solve(p, sol);
+  b.finish(sol, cmd_b);
+}
+
 // FeedbackConfig::support_leg_leak_hz: while both feet bear load, a leg's references decay
 // towards the measured joints before qdd_a is integrated; the arms always integrate; with one
 // foot unloaded, or the option off, nothing changes (bit for bit the paper's integration).
 TEST(BalanceController, BothLoadedLegsReferencesLeakTowardsTheMeasuredJoints) {
   std::mt19937 rng(1717);
-  std::uniform_real_distribution<double> hz(5.0, 500.0), off(-0.02, 0.02);
+  std::uniform_real_distribution<double> hz(5.0, 500.0);
   for (int trial = 0; trial < 4; ++trial) {
     SCOPED_TRACE(trial);
     ControllerConfig cfg;
@@ -656,8 +700,6 @@ TEST(BalanceController, BothLoadedLegsReferencesLeakTowardsTheMeasuredJoints) {
     std::vector<int> legs;
     for (const char* j : {"l_hip_pitch", "l_knee", "r_hip_roll", "r_ankle_pitch"})
       legs.push_back(leaky.model().joint_index(j));
-    contact::ContactProblem p;
-    contact::ContactSolution sol;
     contact::SequentialOptimizer opt;
     JointCommand cmd = leaky.make_command(), cmd_plain = plain.make_command();
     Eigen::VectorXd q_ref_prev, qd_ref_prev;
@@ -667,17 +709,7 @@ TEST(BalanceController, BothLoadedLegsReferencesLeakTowardsTheMeasuredJoints) {
       return meas + std::clamp(keep_j * (ref_prev - meas) + rate * 1e-3, -max_err, max_err);
     };
     for (int k = 0; k < 60; ++k) {
-      // The legs' measured joints wander (a drifting loop closure): q and qd off the plan.
-      for (int j : legs) {
-        s.q[j] += off(rng) * 0.1;
-        s.qd[j] = off(rng);
-      }
-      leaky.prepare(s, ref, p);
-      opt.solve(p, sol);
-      leaky.finish(sol, cmd);
-      plain.prepare(s, ref, p);
-      opt.solve(p, sol);
-      plain.finish(sol, cmd_plain);
+      wander_and_tick(s, legs, rng, ref, opt, leaky, cmd, plain, cmd_plain);
       const Eigen::VectorXd qdd = leaky.generalized_acceleration().tail(leaky.num_joints());
       if (k > 0) {
         std::vector<std::pair<int, double>> checks{{elbow, 1.0}};  // the arm: pure integration
@@ -694,27 +726,15 @@ TEST(BalanceController, BothLoadedLegsReferencesLeakTowardsTheMeasuredJoints) {
       qd_ref_prev = cmd.qd_ref;
     }
     if (one_unloaded) {
-      // Both controllers integrate: the same commands to the bit.
-      EXPECT_EQ(cmd.q_ref, cmd_plain.q_ref);
-      EXPECT_EQ(cmd.qd_ref, cmd_plain.qd_ref);
-      EXPECT_EQ(cmd.tau_ff, cmd_plain.tau_ff);
+      expect_same_commands(cmd, cmd_plain);  // both integrate: the same commands to the bit
     } else {
       // The plain references carry the wandering of 60 ticks; the leaky ones a few ticks' worth.
       EXPECT_GT((cmd.q_ref - cmd_plain.q_ref).cwiseAbs().maxCoeff(), 1e-4);
       EXPECT_LT(leg_error_max, 0.5) << "never at the velocity clamp";
     }
   }
-  for (const double bad_hz : {-1.0, std::nan("")}) {
-    ControllerConfig bad;
-    bad.feedback.support_leg_leak_hz = bad_hz;
-    try {
-      bad.validate();
-      ADD_FAILURE() << "support_leg_leak_hz = " << bad_hz << " accepted";
-    } catch (const ConfigError& e) {
-      EXPECT_NE(std::string(e.what()).find("feedback.support_leg_leak_hz"), std::string::npos)
-          << e.what();
-    }
-  }
+  expect_refused_naming("feedback.support_leg_leak_hz",
+                        [](ControllerConfig& c, double v) { c.feedback.support_leg_leak_hz = v; });
 }
 
 // FeedbackConfig::internal_force_leak_hz: while both feet bear load, the legs' reference errors
@@ -727,7 +747,7 @@ TEST(BalanceController, BothLoadedLegsReferencesLeakTowardsTheMeasuredJoints) {
 // for bit.
 TEST(BalanceController, InternalForceLeakRemovesOnlyTheLegsSqueeze) {
   std::mt19937 rng(2020);
-  std::uniform_real_distribution<double> hz(2.0, 300.0), off(-0.02, 0.02);
+  std::uniform_real_distribution<double> hz(2.0, 300.0);
   for (int trial = 0; trial < 4; ++trial) {
     SCOPED_TRACE(trial);
     ControllerConfig cfg;
@@ -749,8 +769,6 @@ TEST(BalanceController, InternalForceLeakRemovesOnlyTheLegsSqueeze) {
     for (const char* side : {"l_", "r_"})
       for (const char* j : {"hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll"})
         legs.push_back(leaky.model().joint_index(std::string(side) + j));
-    contact::ContactProblem p;
-    contact::ContactSolution sol;
     contact::SequentialOptimizer opt;
     JointCommand cmd = leaky.make_command(), cmd_plain = plain.make_command();
     Eigen::VectorXd q_ref_prev, qd_ref_prev;
@@ -759,16 +777,7 @@ TEST(BalanceController, InternalForceLeakRemovesOnlyTheLegsSqueeze) {
       return meas + std::clamp(ref_prev - meas + rate * 1e-3, -max_err, max_err);
     };
     for (int k = 0; k < 60; ++k) {
-      for (int j : legs) {  // the legs' measured joints wander off the references
-        s.q[j] += off(rng) * 0.1;
-        s.qd[j] = off(rng);
-      }
-      leaky.prepare(s, ref, p);
-      opt.solve(p, sol);
-      leaky.finish(sol, cmd);
-      plain.prepare(s, ref, p);
-      opt.solve(p, sol);
-      plain.finish(sol, cmd_plain);
+      wander_and_tick(s, legs, rng, ref, opt, leaky, cmd, plain, cmd_plain);
       const Eigen::VectorXd qdd = leaky.generalized_acceleration().tail(n);
       const Eigen::VectorXd& iq = leaky.internal_position_error();
       const Eigen::VectorXd& iv = leaky.internal_velocity_error();
@@ -814,9 +823,7 @@ TEST(BalanceController, InternalForceLeakRemovesOnlyTheLegsSqueeze) {
       qd_ref_prev = cmd.qd_ref;
     }
     if (one_unloaded) {
-      EXPECT_EQ(cmd.q_ref, cmd_plain.q_ref);
-      EXPECT_EQ(cmd.qd_ref, cmd_plain.qd_ref);
-      EXPECT_EQ(cmd.tau_ff, cmd_plain.tau_ff);
+      expect_same_commands(cmd, cmd_plain);
     } else {
       // Both parts are really there (the split is not trivially all or nothing).
       EXPECT_GT(internal_max, 1e-4);
@@ -824,17 +831,8 @@ TEST(BalanceController, InternalForceLeakRemovesOnlyTheLegsSqueeze) {
       EXPECT_GT((cmd.q_ref - cmd_plain.q_ref).cwiseAbs().maxCoeff(), 1e-5);
     }
   }
-  for (const double bad_hz : {-2.0, std::nan("")}) {
-    ControllerConfig bad;
-    bad.feedback.internal_force_leak_hz = bad_hz;
-    try {
-      bad.validate();
-      ADD_FAILURE() << "internal_force_leak_hz = " << bad_hz << " accepted";
-    } catch (const ConfigError& e) {
-      EXPECT_NE(std::string(e.what()).find("feedback.internal_force_leak_hz"), std::string::npos)
-          << e.what();
-    }
-  }
+  expect_refused_naming("feedback.internal_force_leak_hz",
+                        [](ControllerConfig& c, double v) { c.feedback.internal_force_leak_hz = v; });
 }
 
 TEST(BalanceController, BadInputGivesDampingAndBadConfigThrows) {

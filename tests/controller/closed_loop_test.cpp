@@ -51,6 +51,17 @@ struct Watch {
   double max_trunk_roll_change = 0.0;
 };
 
+/// The simulator's index of each controller foot (robot_description order: right, left).
+std::array<int, 2> sim_foot_of_side(const InProcessLoop& loop) {
+  const auto& sim_feet = loop.scenario().sim.robot.feet;
+  const auto& robot = loop.controller().robot();
+  std::array<int, 2> sim_of_side{};
+  for (int side = 0; side < 2; ++side)
+    for (std::size_t f = 0; f < sim_feet.size(); ++f)
+      if (sim_feet[f].frame == robot.feet[side].frame) sim_of_side[side] = static_cast<int>(f);
+  return sim_of_side;
+}
+
 Watch run_and_watch(InProcessLoop& loop, double t_settle, const std::array<bool, 2>& support,
                     const std::function<void(InProcessLoop&)>& each_tick = {}) {
   Watch w;
@@ -58,12 +69,7 @@ Watch run_and_watch(InProcessLoop& loop, double t_settle, const std::array<bool,
   for (int i = 0; i < 2; ++i)
     foot0[i] = loop.truth().feet[i].X_WF.translation();
   const Eigen::Matrix3d R0 = loop.truth().X_WB.linear();
-  const auto& sim_feet = loop.scenario().sim.robot.feet;
-  const auto& robot = loop.controller().robot();
-  std::array<int, 2> sim_of_side{};
-  for (int side = 0; side < 2; ++side)
-    for (std::size_t f = 0; f < sim_feet.size(); ++f)
-      if (sim_feet[f].frame == robot.feet[side].frame) sim_of_side[side] = static_cast<int>(f);
+  const std::array<int, 2> sim_of_side = sim_foot_of_side(loop);
   const auto steps = static_cast<long>(std::llround(loop.duration() / 1e-3));
   for (long k = 0; k < steps; ++k) {
     if (each_tick) each_tick(loop);
@@ -473,12 +479,7 @@ ForceGap push_force_gap(const Eigen::Vector3d& force, const controller::Controll
   LoopOptions opt = ground_truth();
   opt.controller = config;
   InProcessLoop loop(s, opt);
-  const auto& sim_feet = loop.scenario().sim.robot.feet;
-  const auto& robot = loop.controller().robot();
-  std::array<int, 2> sim_of_side{};
-  for (int side = 0; side < 2; ++side)
-    for (std::size_t f = 0; f < sim_feet.size(); ++f)
-      if (sim_feet[f].frame == robot.feet[side].frame) sim_of_side[side] = static_cast<int>(f);
+  const std::array<int, 2> sim_of_side = sim_foot_of_side(loop);
   std::array<Eigen::Vector3d, 2> gap_sum{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
   long n = 0;
   const auto steps = static_cast<long>(std::llround(loop.duration() / 1e-3));
