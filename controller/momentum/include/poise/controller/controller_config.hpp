@@ -137,7 +137,7 @@ struct FeedbackConfig {
   /// It composes with support_leg_leak_hz. 0 = the paper's integration. Default 3 Hz: after
   /// a 175 N sideways push the feet's true forces then match the used ones within a few N
   /// (25 N tangential without), and the double-support push envelope (+-0.5 deg jitter) is
-  /// monotone in all 8 directions and higher in 6 of them (controller/momentum/README.md
+  /// monotone in all 8 directions and higher in 7 of them (controller/momentum/README.md
   /// "Joint references in a closed loop").
   double internal_force_leak_hz = 3.0;
 };
