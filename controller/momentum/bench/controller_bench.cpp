@@ -71,7 +71,8 @@ struct Setup {
         s.feet[i].cop_W = X.act(Eigen::Vector3d(0.03, 0.0, -f.sole.height));
         // Loaded as when standing (half the weight each, +-30 %): the both-feet-loaded paths
         // (the legs' internal-force split) run on the double-support ticks.
-        s.feet[i].normal_force = s.feet[i].in_contact ? 0.5 * 50.8 * 9.81 * (1.0 + 0.3 * U(rng)) : 0.0;
+        s.feet[i].normal_force =
+            s.feet[i].in_contact ? 0.5 * 50.8 * 9.81 * (1.0 + 0.3 * U(rng)) : 0.0;
       }
       contact::ContactSolution sol;
       ctrl.prepare(s, ref, problem);
@@ -298,8 +299,8 @@ void print_paired_figures(int ticks) {
       "  tick WITH optimiser (A + opt + B) %5.2f / %6.2f\n"
       "  with / without                   %6.3f\n",
       ticks, median(a), percentile(a, 0.99), median(solve), percentile(solve, 0.99), median(b),
-      percentile(b, 0.99), median(b_paper), percentile(b_paper, 0.99), m_without, percentile(without, 0.99), m_with, percentile(with, 0.99),
-      m_with / m_without);
+      percentile(b, 0.99), median(b_paper), percentile(b_paper, 0.99), m_without,
+      percentile(without, 0.99), m_with, percentile(with, 0.99), m_with / m_without);
   std::fflush(stdout);
 }
 

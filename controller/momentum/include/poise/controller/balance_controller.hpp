@@ -85,6 +85,11 @@ class BalanceController {
   void reset() noexcept;
 
   const TickDiagnostics& diagnostics() const { return diag_; }
+  /// This tick's internal parts of the legs' position and velocity reference errors
+  /// (FeedbackConfig::internal_force_leak_hz; taken before the leak; zero when the leak is off,
+  /// not both feet bear load, or the split was not solvable). For tests.
+  const Eigen::VectorXd& internal_position_error() const { return internal_q_; }
+  const Eigen::VectorXd& internal_velocity_error() const { return internal_qd_; }
   /// The contact problem of the last prepare() (also what tick() sent to the optimiser).
   const contact::ContactProblem& problem() const { return problem_; }
   /// Joint accelerations qdd (dim nv) of the last eq (33) solve.
@@ -178,12 +183,6 @@ class BalanceController {
   /// The part of the joint error e (dim n, joints) whose torque diag(1/w) e is a pure internal
   /// force of the two feet, for the metric w (inv_kp_ or inv_kd_); false if not solvable.
   bool internal_part(const Eigen::VectorXd& e, const Eigen::VectorXd& w, Eigen::VectorXd& out);
-public:
-  /// This tick's internal parts of the legs' position and velocity reference errors (before
-  /// the leak; zero when the leak is off or not both feet bear load). For tests.
-  const Eigen::VectorXd& internal_position_error() const { return internal_q_; }
-  const Eigen::VectorXd& internal_velocity_error() const { return internal_qd_; }
-private:
   bool have_foot_velocity_ = false;
   // (10)-(11) feedback through MomentumGains::feedback_filter_hz: the filtered CoM velocity error
   // (target - measured) and centroidal angular momentum (world axes), valid once have_feedback_.
