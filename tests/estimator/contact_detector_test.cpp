@@ -177,6 +177,94 @@ TEST(ContactDetector, AFootRestingLightlyKeepsItsContactWhenTheRuleIsOn) {
   EXPECT_FALSE(e.update(wrench_with_fz(1.0), k));
 }
 
+TEST(ContactDetector, ALightTouchIsFlaggedFromItsStepAboveTheReadingInTheAir) {
+  // The project humanoid's thresholds (W = 504 N: on 15 %, off 1 %, touch 2 %) and the default
+  // F/T (noise 0.5 N, normal offset 1.5 N, never learnt: the foot is never 3 cm up). The
+  // reading is drawn here, seeded; the detector sees only it and the sole height.
+  const double sigma = 0.5, offset = 1.5;
+  ContactThresholds t{75.6, 5.04};
+  t.touch_force = 10.08;
+  t.light_noise = sigma;
+  std::mt19937 rng(11);
+  std::normal_distribution<double> noise(0.0, sigma);
+  const auto reading = [&](double load) { return wrench_with_fz(load + offset + noise(rng)); };
+  ContactDetector c(t);
+  FootKinematics k;
+  k.sole_z = 0.0;
+  ASSERT_TRUE(c.update(reading(250.0), k));
+  // The weight moves off the foot; it leaves the ground 0.2 mm and hovers there.
+  for (int i = 0; i < 10; ++i)
+    c.update(reading(250.0 * (1.0 - 0.1 * (i + 1))), k);
+  k.sole_z = 2e-4;
+  for (int i = 0; i < 3; ++i)
+    c.update(reading(0.0), k);
+  ASSERT_FALSE(c.in_contact());
+  // Noise alone, 20 s with the sole down where it stood: never a touch.
+  int false_touches = 0;
+  for (int i = 0; i < 20000; ++i)
+    false_touches += c.update(reading(0.0), k) ? 1 : 0;
+  EXPECT_EQ(false_touches, 0);
+  // It touches down again with 2 N (0.4 % of W, four sigma): flagged within 5 ticks, below
+  // every load threshold.
+  k.sole_z = 0.0;
+  int ticks = 0;
+  while (!c.update(reading(2.0), k) && ticks < 100)
+    ++ticks;
+  EXPECT_LE(ticks, 4);
+  EXPECT_TRUE(c.light());
+  // It rests there with 2 N for 2 s: no chatter.
+  int dropped = 0;
+  for (int i = 0; i < 2000; ++i)
+    dropped += c.update(reading(2.0), k) ? 0 : 1;
+  EXPECT_EQ(dropped, 0);
+  // The load leaves (the sole stays: a separation without motion): released within 10 ticks.
+  ticks = 0;
+  while (c.update(reading(0.0), k) && ticks < 100)
+    ++ticks;
+  EXPECT_LE(ticks, 9);
+  EXPECT_FALSE(c.light());
+  // A load in the dead band between one and two sigma (0.75 N) changes the flag at most once
+  // in 5 s.
+  int changes = 0;
+  bool prev = c.in_contact();
+  for (int i = 0; i < 5000; ++i) {
+    const bool now = c.update(reading(0.75), k);
+    changes += now != prev ? 1 : 0;
+    prev = now;
+  }
+  EXPECT_LE(changes, 1);
+  for (int i = 0; i < 200; ++i)
+    c.update(reading(0.0), k);
+  ASSERT_FALSE(c.in_contact());
+  // A light touch that grows past touch_force becomes an ordinary contact, which the 1 % rule
+  // then ends.
+  while (!c.update(reading(3.0), k)) {
+  }
+  EXPECT_TRUE(c.light());
+  c.update(reading(30.0), k);
+  EXPECT_FALSE(c.light());
+  c.update(reading(3.0), k);
+  EXPECT_FALSE(c.update(reading(3.0), k));
+
+  // With the sole 5 mm up (the light rule needs it within lift_height of where it stood) or with
+  // the rule off, the same 2 N step is never a touch.
+  for (int variant = 0; variant < 2; ++variant) {
+    ContactThresholds tv = t;
+    if (variant == 1) tv.light_noise = 0.0;
+    ContactDetector d(tv);
+    FootKinematics kv;
+    kv.sole_z = 0.0;
+    d.update(reading(250.0), kv);
+    kv.sole_z = variant == 0 ? 0.005 : 0.0;
+    for (int i = 0; i < 200; ++i)
+      d.update(reading(0.0), kv);
+    int touches = 0;
+    for (int i = 0; i < 500; ++i)
+      touches += d.update(reading(2.0), kv) ? 1 : 0;
+    EXPECT_EQ(touches, 0) << (variant == 0 ? "sole 5 mm up" : "rule off");
+  }
+}
+
 TEST(ContactDetector, RejectsBadThresholds) {
   EXPECT_THROW(ContactDetector(ContactThresholds{10.0, 10.0}), std::invalid_argument);
   EXPECT_THROW(ContactDetector(ContactThresholds{10.0, -1.0}), std::invalid_argument);
@@ -198,6 +286,12 @@ TEST(ContactDetector, RejectsBadThresholds) {
   EXPECT_THROW(ContactDetector{t}, std::invalid_argument);
   t = ContactThresholds{100.0, 10.0};
   t.swing_lift_height = -1e-5;
+  EXPECT_THROW(ContactDetector{t}, std::invalid_argument);
+  t = ContactThresholds{100.0, 10.0};
+  t.light_noise = -0.5;
+  EXPECT_THROW(ContactDetector{t}, std::invalid_argument);
+  t = ContactThresholds{100.0, 10.0};
+  t.light_baseline_time = 0.0;
   EXPECT_THROW(ContactDetector{t}, std::invalid_argument);
 }
 

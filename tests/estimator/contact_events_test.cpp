@@ -47,7 +47,8 @@ struct Matched {
 /// POISE_CONTACT_EVENTS_CSV=DIR: one row per tick and foot into DIR/<scenario>.csv (tick, side,
 /// true contact, estimated contact, measured normal force, true normal force, true sole centre
 /// height, planned foot mode), to look at what the flags follow.
-std::FILE* open_csv(const std::string& file) {
+std::FILE* open_csv(std::string file) {
+  if (const char* seed = std::getenv("POISE_CONTACT_EVENTS_SEED")) file += std::string("_") + seed;
   const char* dir = std::getenv("POISE_CONTACT_EVENTS_CSV");
   if (dir == nullptr || *dir == 0) return nullptr;
   std::FILE* out = std::fopen((std::string(dir) + "/" + file + ".csv").c_str(), "w");
@@ -87,17 +88,57 @@ struct Result {
   int est_transitions = 0;
   bool survived = false;
   std::vector<Matched> all;  ///< every true event of both feet
+  /// Every event of both feet in the flags' documented meaning (FootLog::truth_loaded).
+  std::vector<Matched> loaded;
+  int loaded_unmatched = 0;
   long swing_start = -1;     ///< first tick at which the reference planned a swing (-1: never)
 };
+
+/// Matches the debounced events of one foot's true signal (raw contact, or the flags' documented
+/// meaning) with the estimate's changes; appends one Matched per true event and returns how many.
+int match(const std::vector<std::uint8_t>& truth, const std::vector<std::uint8_t>& est, int side,
+          const char* kind, double ms, std::vector<Matched>& out) {
+  const auto te = events(truth, 10);
+  const auto ee = events(est, 1);
+  // Every raw change of the truth (bounces included): a foot that taps the ground before it
+  // settles makes several true touch-downs, and the estimate may follow each of them.
+  const auto raw = events(truth, 1);
+  for (const Event& t : te) {
+    long best = 1000000;
+    for (const Event& e : ee)
+      if (e.touch_down == t.touch_down && std::abs(e.tick - t.tick) < std::abs(best))
+        best = e.tick - t.tick;
+    if (std::abs(best) > 100) {
+      out.push_back(Matched{t.tick, t.touch_down, false, 0.0});
+      std::printf("  unmatched %s %s of foot %d at tick %ld\n", kind,
+                  t.touch_down ? "touch-down" : "lift-off", side, t.tick);
+      continue;
+    }
+    // The delay of that estimated change against the true change of the same kind nearest to
+    // it within the settling (the debounced event and up to 2 x 10 ticks of bounces before it).
+    const long est_tick = t.tick + best;
+    long delay = best;
+    for (const Event& e : raw)
+      if (e.touch_down == t.touch_down && e.tick <= t.tick && e.tick >= t.tick - 20 &&
+          std::abs(est_tick - e.tick) < std::abs(delay))
+        delay = est_tick - e.tick;
+    out.push_back(Matched{t.tick, t.touch_down, true, static_cast<double>(delay) * ms});
+    std::printf("  %-6s %-10s of foot %d at tick %5ld: %+.0f ms\n", kind,
+                t.touch_down ? "touch-down" : "lift-off", side, t.tick,
+                static_cast<double>(delay) * ms);
+  }
+  return static_cast<int>(te.size());
+}
 
 using Reference = std::function<void(InProcessLoop&, double)>;
 
 Result run(const std::string& file, double duration, const Reference& reference = {},
-           double push_scale = 1.0) {
+           double push_scale = 1.0, std::uint64_t seed = 0) {
   scenario::Scenario sc =
       scenario::load_scenario(std::string(POISE_SOURCE_DIR) + "/deploy/scenarios/" + file);
   for (sim::Push& p : sc.sim.pushes)
     p.force_W *= push_scale;
+  if (seed != 0) sc.sim.imu.seed = seed;
   LoopOptions opt;
   opt.duration = duration;
   InProcessLoop loop(sc, opt);
@@ -147,53 +188,28 @@ Result run(const std::string& file, double duration, const Reference& reference 
               lr.com_error_max_m, lr.foot_slip_max_m, lr.non_foot_contacts, lr.min_base_height_m);
   const double ms = loop.simulator().dt() * 1e3;
   for (int side = 0; side < 2; ++side) {
-    const auto te = events(log[side].truth, 10);
-    const auto ee = events(log[side].est, 1);
-    r.truth_transitions += static_cast<int>(te.size());
     r.est_transitions += transitions(log[side].est);
     r.truth_raw_transitions += transitions(log[side].truth);
     r.truth_loaded_transitions += transitions(log[side].truth_loaded);
     if (std::getenv("POISE_CONTACT_EVENTS_TRACE"))
       for (std::size_t k = 1; k < log[side].est.size(); ++k)
-        if (log[side].est[k] != log[side].est[k - 1] || log[side].truth[k] != log[side].truth[k - 1])
-          std::printf("  foot %d tick %zu truth %d estimate %d\n", side, k, log[side].truth[k],
-                      log[side].est[k]);
-    // Every raw change of the truth (bounces included): a foot that taps the ground before it
-    // settles makes several true touch-downs, and the estimate may follow each of them.
-    const auto raw = events(log[side].truth, 1);
-    for (const Event& t : te) {
-      long best = 1000000;
-      for (const Event& e : ee)
-        if (e.touch_down == t.touch_down && std::abs(e.tick - t.tick) < std::abs(best))
-          best = e.tick - t.tick;
-      if (std::abs(best) > 100) {
-        ++r.unmatched;
-        r.all.push_back(Matched{t.tick, t.touch_down, false, 0.0});
-        std::printf("  unmatched true %s of foot %d at tick %ld\n",
-                    t.touch_down ? "touch-down" : "lift-off", side, t.tick);
-        continue;
-      }
-      // The delay of that estimated change against the true change of the same kind nearest to
-      // it within the settling (the debounced event and up to 2 x 10 ticks of bounces before it).
-      const long est_tick = t.tick + best;
-      long delay = best;
-      for (const Event& e : raw)
-        if (e.touch_down == t.touch_down && e.tick <= t.tick && e.tick >= t.tick - 20 &&
-            std::abs(est_tick - e.tick) < std::abs(delay))
-          delay = est_tick - e.tick;
-      (t.touch_down ? r.touch_down_ms : r.lift_off_ms).push_back(static_cast<double>(delay) * ms);
-      r.all.push_back(Matched{t.tick, t.touch_down, true, static_cast<double>(delay) * ms});
-    }
+        if (log[side].est[k] != log[side].est[k - 1] || log[side].truth[k] != log[side].truth[k - 1] ||
+            log[side].truth_loaded[k] != log[side].truth_loaded[k - 1])
+          std::printf("  foot %d tick %zu truth %d loaded %d estimate %d\n", side, k,
+                      log[side].truth[k], log[side].truth_loaded[k], log[side].est[k]);
+    r.truth_transitions += match(log[side].truth, log[side].est, side, "true", ms, r.all);
+    match(log[side].truth_loaded, log[side].est, side, "loaded", ms, r.loaded);
   }
+  for (const Matched& m : r.all)
+    if (m.matched) (m.touch_down ? r.touch_down_ms : r.lift_off_ms).push_back(m.delay_ms);
+    else ++r.unmatched;
+  for (const Matched& m : r.loaded)
+    if (!m.matched) ++r.loaded_unmatched;
   std::printf(
       "%-32s survived %d | truth events %d (raw changes %d, loaded > 1 %% W changes %d), "
       "estimate changes %d, unmatched %d\n",
       file.c_str(), r.survived, r.truth_transitions, r.truth_raw_transitions,
       r.truth_loaded_transitions, r.est_transitions, r.unmatched);
-  for (double d : r.touch_down_ms)
-    std::printf("  touch-down delay %+.0f ms\n", d);
-  for (double d : r.lift_off_ms)
-    std::printf("  lift-off delay   %+.0f ms\n", d);
   return r;
 }
 
@@ -239,32 +255,32 @@ TEST(ContactEvents, LateralPushLiftsAFoot) {
 
 TEST(ContactEvents, StepInPlace) {
   // The weight goes over the left foot, then the reference swings the right foot (FOOT_SWING,
-  // the contact detector's prior: contact_detector.hpp) and sets it down. The swing's lift-off
-  // and the landing are checked against the 5 ms target. Before the swing the right foot rests
-  // with 0-3 N: the flag drops when the load falls below 1 % of the weight (with the resting
-  // rule off it means "loaded"), and the simulator's contact there came and went
-  // with no load (< 1 N) and no motion: those true changes are printed, and must all come
-  // before the swing. Measured (seed 1, 2026-12-02, before a01ba9d): swing lift-off 4 ms early (7 ms early
-  // without the plan), landing at the tick of the truth; before the swing the flag is off from
-  // 0.11 s before a 20 ms true separation until 0.19 s after it (2 true changes unmatched).
-  // The detector's resting rule (EstimatorConfig::contact_rest_time, off by default) keeps that
-  // flag on (2 flag changes against 2 true ones, every event within 5 ms, in process), but in
-  // real time it delayed the swing's lift-off past 5 ms (idl/README.md "Contact flags").
+  // the contact detector's prior: contact_detector.hpp) and sets it down. Before the swing the
+  // right foot, with the weight gone, leaves the ground by 0.3 mm (tick 3226, seed 1) and comes
+  // back down with 2 N (0.4 % of the weight, tick 3439) 0.1 s before its load grows past 1 %:
+  // that light touch-down is flagged from the step it makes in the F/T reading (the detector's
+  // light-touch rule; without it, +91 ms: 2 true changes unmatched before 2026-12-03). Every
+  // true event of the run, the swing's lift-off and the landing included, is checked against
+  // the 5 ms target, on seed 1; other seeds: the DISABLED_ measurement below and idl/README.md
+  // "Contact flags".
   const Result r = run("step_in_place.yaml", 8.0);
   EXPECT_TRUE(r.survived);
   ASSERT_GE(r.swing_start, 0);
-  int swing_lift_offs = 0, landings = 0;
+  int swing_lift_offs = 0, landings = 0, before_swing = 0;
   for (const Matched& m : r.all) {
-    if (m.true_tick < r.swing_start) continue;  // printed by run()
-    EXPECT_TRUE(m.matched) << "true event at tick " << m.true_tick << " after the swing began";
+    EXPECT_TRUE(m.matched) << "true event at tick " << m.true_tick;
     if (!m.matched) continue;
-    (m.touch_down ? landings : swing_lift_offs) += 1;
     EXPECT_LE(m.delay_ms, 5.0) << "tick " << m.true_tick;
     EXPECT_GE(m.delay_ms, -5.0) << "tick " << m.true_tick;
+    if (m.true_tick < r.swing_start)
+      ++before_swing;
+    else
+      (m.touch_down ? landings : swing_lift_offs) += 1;
   }
+  EXPECT_EQ(before_swing, 2);     // the separation and the light touch-down
   EXPECT_EQ(swing_lift_offs, 1);  // the right foot leaves the ground once after the swing began
   EXPECT_EQ(landings, 1);         // and lands once
-  EXPECT_LE(r.est_transitions, chatter_bound(r) + 2);
+  EXPECT_LE(r.est_transitions, chatter_bound(r));
 }
 
 TEST(ContactEvents, NoChatterWhenAStrongPushSlidesTheFeet) {
@@ -275,5 +291,29 @@ TEST(ContactEvents, NoChatterWhenAStrongPushSlidesTheFeet) {
   expect_delays_within(r, 5.0, 5.0);
 }
 
+}  // namespace
+}  // namespace poise::inprocess
+namespace poise::inprocess {
+namespace {
+// Measurements, not checks (ctest does not run them): build/tests/poise_estimator_contact_events_test
+// --gtest_also_run_disabled_tests --gtest_filter='*DISABLED*' prints every event's delay for
+// sensor-noise seeds 1-8 (POISE_CONTACT_EVENTS_SEED=N: one of them) and for lateral pushes of
+// 140-200 N; POISE_CONTACT_EVENTS_CSV=DIR writes the ticks.
+TEST(ContactEvents, DISABLED_Seeds) {
+  const char* only = std::getenv("POISE_CONTACT_EVENTS_SEED");
+  for (std::uint64_t seed = 1; seed <= 8; ++seed) {
+    if (only && std::atoi(only) != static_cast<int>(seed)) continue;
+    std::printf("=== step seed %d\n", static_cast<int>(seed));
+    run("step_in_place.yaml", 8.0, {}, 1.0, seed);
+    std::printf("=== lateral seed %d\n", static_cast<int>(seed));
+    run("lateral_push_unloads_foot.yaml", 3.0, {}, 1.0, seed);
+  }
+}
+TEST(ContactEvents, DISABLED_Scan) {
+  for (double f : {140.0, 150.0, 160.0, 170.0, 180.0, 190.0, 200.0}) {
+    std::printf("=== lateral %.0f N\n", f);
+    run("lateral_push_unloads_foot.yaml", 3.0, {}, f / 175.0);
+  }
+}
 }  // namespace
 }  // namespace poise::inprocess

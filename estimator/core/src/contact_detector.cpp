@@ -35,6 +35,10 @@ ContactDetector::ContactDetector(const ContactThresholds& thresholds) : threshol
   if (t.swing_off_force > t.off_force) fail("swing_off_force must be <= off_force");
   if (!(t.swing_lift_height >= 0.0) || !std::isfinite(t.swing_lift_height))
     fail("swing_lift_height must be finite and >= 0");
+  if (!(t.light_noise >= 0.0) || !std::isfinite(t.light_noise))
+    fail("light_noise must be finite and >= 0");
+  if (!(t.light_baseline_time > 0.0) || !std::isfinite(t.light_baseline_time))
+    fail("light_baseline_time must be > 0");
 }
 
 void ContactDetector::reset(bool in_contact) noexcept {
@@ -46,6 +50,9 @@ void ContactDetector::reset(bool in_contact) noexcept {
   light_time_ = 0.0;
   resting_ = false;
   swing_seen_ = false;
+  light_ = false;
+  baseline_age_ = 0.0;
+  cusum_ = 0.0;
 }
 
 bool ContactDetector::update(const Force& wrench_Fo_F, const FootKinematics& kin) noexcept {
@@ -88,21 +95,33 @@ bool ContactDetector::update(const Force& wrench_Fo_F, const FootKinematics& kin
   fn_prev_ = fn;
   have_prev_ = true;
 
+  const double step = have_kin ? kin.dt : 0.001;
+  const double sigma = t.light_noise;
+  // The light-touch CUSUM's threshold (header comment): 6 sigma.
+  const double cusum_limit = 6.0 * sigma;
+
   if (in_contact_) {
-    light_time_ = fn < t.touch_force ? light_time_ + (have_kin ? kin.dt : 0.001) : 0.0;
+    if (light_ && fn > t.touch_force) light_ = false;  // an ordinary contact now
+    light_time_ = fn < t.touch_force ? light_time_ + step : 0.0;
     // Resting (rule on when rest_time > 0): lightly loaded for rest_time with the sole where it
     // stood (kinematics given).
     resting_ = t.rest_time > 0.0 && have_kin && !(height > t.lift_height) &&
                light_time_ >= t.rest_time;
     const bool lifted = have_kin && height > t.lift_height && rising;
     // Planned swing: the load must fall to swing_off_force (the controller unloads the foot to
-    // zero), or below it the sole leaves its lowest height since the swing began.
+    // zero), or below it the sole leaves its lowest height since the swing began. A light
+    // contact's load is measured from its baseline.
     const double off = swing_seen_ ? t.swing_off_force : t.off_force;
-    const bool swing_lifted = swing_seen_ && fn < off && rising &&
+    const double load = light_ ? fn - baseline_ : fn;
+    const bool swing_lifted = swing_seen_ && load < (light_ ? 0.0 : off) && rising &&
                               kin.sole_z - swing_low_z_ > t.swing_lift_height;
     if (lifted || swing_lifted) {
       in_contact_ = false;
       pending_ = 0;
+    } else if (light_) {
+      // The release CUSUM: the reading back within sigma of the baseline.
+      cusum_ = std::max(0.0, cusum_ + (baseline_ + sigma - fn));
+      if (cusum_ > cusum_limit) in_contact_ = false;
     } else if (fn < off) {
       ++pending_;
       if (!resting_ && pending_ >= t.confirm_ticks) {
@@ -115,6 +134,9 @@ bool ContactDetector::update(const Force& wrench_Fo_F, const FootKinematics& kin
     if (!in_contact_) {
       light_time_ = 0.0;
       resting_ = false;
+      light_ = false;
+      cusum_ = 0.0;
+      baseline_age_ = 0.0;
     }
   } else {
     const bool too_high = have_kin && height > t.max_touch_height;
@@ -130,6 +152,27 @@ bool ContactDetector::update(const Force& wrench_Fo_F, const FootKinematics& kin
       }
     } else {
       pending_ = 0;
+    }
+    // The light touch: a step in the reading above its baseline out of contact, with the sole
+    // down where it stood and not rising (kinematics given).
+    const bool baseline_ready = baseline_age_ >= t.light_baseline_time;
+    if (!in_contact_ && sigma > 0.0 && baseline_ready && have_kin && !(height > t.lift_height) &&
+        !rising) {
+      cusum_ = std::max(0.0, cusum_ + (fn - baseline_ - 2.0 * sigma));
+      if (cusum_ > cusum_limit) {
+        in_contact_ = true;
+        light_ = true;
+      }
+    } else {
+      cusum_ = 0.0;
+    }
+    if (in_contact_) {
+      cusum_ = 0.0;
+    } else if (cusum_ == 0.0) {
+      // The baseline learns while no touch is suspected (a mean over light_baseline_time).
+      const double a = baseline_age_ > 0.0 ? std::min(1.0, step / t.light_baseline_time) : 1.0;
+      baseline_ += a * (fn - baseline_);
+      baseline_age_ += step;
     }
   }
   // Where the foot stands: its height while it carries a load.

@@ -83,6 +83,8 @@ Estimator::Estimator(const model::Model& model, const model::RobotConfig& robot,
           "stance_rate_hold must be finite and >= 0");
   require(std::isfinite(config.contact_rest_time) && config.contact_rest_time >= 0.0,
           "contact_rest_time must be finite and >= 0");
+  require(std::isfinite(config.contact_ft_noise) && config.contact_ft_noise >= 0.0,
+          "contact_ft_noise must be finite and >= 0");
   require(config.frozen_imu_ticks >= 2, "frozen_imu_ticks must be >= 2");
   require(positive_finite(config.max_gap) && config.max_gap > config.dt,
           "max_gap must be finite and > dt");
@@ -125,6 +127,7 @@ Estimator::Estimator(const model::Model& model, const model::RobotConfig& robot,
     ContactThresholds t{config.contact_on_fraction * weight_, config.contact_off_fraction * weight_};
     t.touch_force = std::max(t.off_force, std::min(0.02 * weight_, 0.5 * t.on_force));
     t.rest_time = config.contact_rest_time;
+    t.light_noise = config.contact_ft_noise;
     contact_[f] = ContactDetector(t);
   }
   require(config.supports == SupportModel::kFixed || config.supports == SupportModel::kMoving ||

@@ -120,6 +120,14 @@ int run(int argc, char** argv) {
                  "touching); 0: off, the flag drops below 1 % of the weight [s]")
       ->check(CLI::Range(0.0, 10.0))
       ->capture_default_str();
+  double contact_ft_noise = estimator::EstimatorConfig{}.contact_ft_noise;
+  app.add_option("--contact-ft-noise", contact_ft_noise,
+                 "the foot F/T sensors' normal-force noise (1 sigma) for the contact detector's "
+                 "light-touch rule: a touch too light for the 1 % load threshold is flagged from "
+                 "its step in the reading, with the sole down where it stood; 0: the rule is "
+                 "off [N]")
+      ->check(CLI::Range(0.0, 1.0e4))
+      ->capture_default_str();
   double stance_rate_hz = estimator::EstimatorConfig{}.stance_rate_filter_hz;
   app.add_option("--stance-rate-hz", stance_rate_hz,
                  "cut-off of the complementary filter of the gyro and the stance feet's "
@@ -143,6 +151,7 @@ int run(int argc, char** argv) {
   config.supports = estimator::parse_support_model(supports);
   config.frozen_imu_ticks = frozen_imu_ticks;
   config.contact_rest_time = contact_rest_time;
+  config.contact_ft_noise = contact_ft_noise;
   config.stance_rate_filter_hz = stance_rate_hz;
   config.kind = estimator::parse_estimator_kind(kind);
   config.ground_height = ground_height;

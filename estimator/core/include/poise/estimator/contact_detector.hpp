@@ -32,6 +32,19 @@
 //              the contact by force. A planned swing's foot (below touch_force for 29 ms before
 //              its sole left) may rest too: its lift-off then comes from the plan's rule
 //              (the sole swing_lift_height up), or without a plan once the sole is lift_height up.
+//   light      with light_noise > 0 (the F/T normal-force noise, 1 sigma; the Estimator's
+//              EstimatorConfig::contact_ft_noise, 0.5 N), a touch too light for the rules above
+//              (below touch_force: a foot that re-touches with 2 N while the weight is on the
+//              other one) is told from the air by the step it makes in the reading: a CUSUM of
+//              fn - (baseline + 2 sigma), the baseline being the reading's mean while the foot
+//              was out of contact (the sensor offset plus any load too light to matter, learnt
+//              over light_baseline_time; the rule waits until that is learnt), touches down
+//              once it passes 6 sigma with the sole within lift_height of where it stood and not
+//              rising. A 2 sigma step is then flagged after ~3 ticks, a 4 sigma one sooner;
+//              noise alone needs several 2 sigma excesses in a row. The light contact ends by
+//              the mirror CUSUM of (baseline + sigma) - fn passing 6 sigma (the dead band
+//              between sigma and 2 sigma keeps a load there from chattering), by the lift and
+//              plan rules, and becomes an ordinary contact above touch_force;
 // A sliding foot keeps its load, so neither rule fires while it slides (no chatter).
 
 #include <limits>
@@ -62,6 +75,12 @@ struct ContactThresholds {
   /// With the plan kSwing and fn < swing_off_force: lift-off once the sole is this far above the
   /// lowest it was since the plan said swing, and rising [m] (>= 0).
   double swing_lift_height = 3e-5;
+  /// The F/T normal-force noise (1 sigma) for the light-touch rule [N] (>= 0; 0: the rule is off,
+  /// the default of the detector alone; the Estimator's is EstimatorConfig::contact_ft_noise).
+  double light_noise = 0.0;
+  /// How long the foot must have been out of contact before the light-touch rule may fire: the
+  /// baseline's time constant [s] (> 0).
+  double light_baseline_time = 0.05;
 };
 
 /// What the estimator knows of the foot's motion this tick (NaN: unknown).
@@ -86,6 +105,8 @@ class ContactDetector {
   bool in_contact() const noexcept { return in_contact_; }
   /// The foot is in contact and rests (see the header comment).
   bool resting() const noexcept { return resting_; }
+  /// The foot is in contact by the light-touch rule (its load stayed below touch_force).
+  bool light() const noexcept { return light_; }
   void reset(bool in_contact = false) noexcept;
   const ContactThresholds& thresholds() const noexcept { return thresholds_; }
   /// Normal force offset learnt in the air [N] (0 until the foot was clearly up once).
@@ -106,6 +127,10 @@ class ContactDetector {
   bool resting_ = false;
   bool swing_seen_ = false;  ///< the plan says kSwing (and said so at the previous update)
   double swing_low_z_ = 0.0;  ///< lowest sole height since then [m]
+  bool light_ = false;        ///< in contact by the light-touch rule
+  double baseline_ = 0.0;     ///< mean reading out of contact [N]
+  double baseline_age_ = 0.0;  ///< how long it has been learnt [s]
+  double cusum_ = 0.0;        ///< the touch (out of contact) or release (light) CUSUM [N]
 };
 
 /// Centre of pressure on the sole plane z = -sole_height of the foot frame F, in F coordinates:

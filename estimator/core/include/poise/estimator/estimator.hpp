@@ -155,6 +155,13 @@ struct EstimatorConfig {
   /// time its swing lift-off was flagged 5-9 ms late and a 170 ms true separation not at all
   /// (contact_detector.hpp). >= 0.
   double contact_rest_time = 0.0;
+  /// The contact detector's light-touch rule (ContactThresholds::light_noise): the foot F/T's
+  /// normal-force noise, 1 sigma [N]. A touch too light for the load thresholds (a foot that
+  /// re-touches with 2 N while the weight is on the other one) is flagged from the step it makes
+  /// in the reading above the reading in the air, with the sole where it stood, until the reading
+  /// is back there (contact_detector.hpp). 0.5 N: the simulator's default F/T
+  /// (simulator/sim/SENSORS.md); set it to the sensor's own figure; 0: the rule is off. >= 0.
+  double contact_ft_noise = 0.5;
   /// The published base angular velocity: a complementary filter of the gyro and the stance
   /// feet's kinematics [Hz]. A flat stance foot does not turn, so while feet are in contact the
   /// base turns at -omega_F0_B (the leg's joint rates through its Jacobian, load-weighted over
