@@ -50,6 +50,9 @@ TEST(EstimatorStart, ScenarioKeysAndDefaults) {
   EXPECT_TRUE(std::isnan(plain.estimator.stance_rate_hz));
   EXPECT_DOUBLE_EQ(parse("estimator: {stance_rate_hz: 0}\n").estimator.stance_rate_hz, 0.0);
   EXPECT_DOUBLE_EQ(parse("estimator: {stance_rate_hz: 12.5}\n").estimator.stance_rate_hz, 12.5);
+  // The contact detector's light-touch rule: NaN (the estimator's default, off) unless given.
+  EXPECT_TRUE(std::isnan(plain.estimator.contact_ft_noise));
+  EXPECT_DOUBLE_EQ(parse("estimator: {contact_ft_noise: 0.5}\n").estimator.contact_ft_noise, 0.5);
 }
 
 TEST(EstimatorStart, BadValuesAreRefusedNamingTheKey) {
@@ -72,6 +75,10 @@ TEST(EstimatorStart, BadValuesAreRefusedNamingTheKey) {
   EXPECT_NE(message("estimator: {stance_rate_hz: -1}\n").find("estimator.stance_rate_hz"),
             std::string::npos);
   EXPECT_NE(message("estimator: {stance_rate_hz: fast}\n").find("estimator.stance_rate_hz"),
+            std::string::npos);
+  EXPECT_NE(message("estimator: {contact_ft_noise: -0.5}\n").find("estimator.contact_ft_noise"),
+            std::string::npos);
+  EXPECT_NE(message("estimator: {contact_ft_noise: .nan}\n").find("estimator.contact_ft_noise"),
             std::string::npos);
   EXPECT_THROW(estimator::parse_estimator_kind("kalman"), estimator::EstimatorError);
 }

@@ -69,7 +69,15 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
   // estimator setting
   if (const YAML::Node e = root["estimator"]) {
     c.allow(e, "estimator",
-            {"type", "supports", "ground_height", "support_height", "stance_rate_hz"});
+            {"type", "supports", "ground_height", "support_height", "stance_rate_hz",
+             "contact_ft_noise"});
+    if (e["contact_ft_noise"]) {
+      sc.estimator.contact_ft_noise = c.num(e["contact_ft_noise"], "estimator.contact_ft_noise");
+      if (!(sc.estimator.contact_ft_noise >= 0.0) || !std::isfinite(sc.estimator.contact_ft_noise))
+        c.fail("estimator.contact_ft_noise",
+               "must be a finite number >= 0 (N, the F/T normal-force noise; 0: the light-touch "
+               "rule off)");
+    }
     if (e["stance_rate_hz"]) {
       sc.estimator.stance_rate_hz = c.num(e["stance_rate_hz"], "estimator.stance_rate_hz");
       if (!(sc.estimator.stance_rate_hz >= 0.0) || !std::isfinite(sc.estimator.stance_rate_hz))

@@ -101,7 +101,15 @@ bool ContactDetector::update(const Force& wrench_Fo_F, const FootKinematics& kin
   const double cusum_limit = 6.0 * sigma;
 
   if (in_contact_) {
-    if (light_ && fn > t.touch_force) light_ = false;  // an ordinary contact now
+    if (light_) {
+      // An ordinary contact once its load stays above touch_force for confirm_ticks (one tick
+      // of an impact spike does not make it one: the 1 % rule would then end it at once).
+      pending_ = fn > t.touch_force ? pending_ + 1 : 0;
+      if (pending_ >= t.confirm_ticks) {
+        light_ = false;
+        pending_ = 0;
+      }
+    }
     light_time_ = fn < t.touch_force ? light_time_ + step : 0.0;
     // Resting (rule on when rest_time > 0): lightly loaded for rest_time with the sole where it
     // stood (kinematics given).

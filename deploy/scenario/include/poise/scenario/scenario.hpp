@@ -40,6 +40,9 @@ struct EstimatorHints {
   /// `stance_rate_hz: F`: the cut-off of the estimator's gyro / stance-kinematics complementary
   /// filter (EstimatorConfig::stance_rate_filter_hz; 0: the gyro alone); NaN: the default.
   double stance_rate_hz = std::numeric_limits<double>::quiet_NaN();
+  /// `contact_ft_noise: N`: the contact detector's light-touch rule, the F/T normal-force noise
+  /// (EstimatorConfig::contact_ft_noise; 0: off, the default); NaN: the default.
+  double contact_ft_noise = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// A scenario: the simulator's world (name, duration, robot_config, sim, success, support...)

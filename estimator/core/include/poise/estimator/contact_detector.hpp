@@ -44,7 +44,7 @@
 //              noise alone needs several 2 sigma excesses in a row. The light contact ends by
 //              the mirror CUSUM of (baseline + sigma) - fn passing 6 sigma (the dead band
 //              between sigma and 2 sigma keeps a load there from chattering), by the lift and
-//              plan rules, and becomes an ordinary contact above touch_force;
+//              plan rules, and becomes an ordinary contact above touch_force (confirm_ticks);
 // A sliding foot keeps its load, so neither rule fires while it slides (no chatter).
 
 #include <limits>
