@@ -32,8 +32,9 @@
 //              the contact by force. A planned swing's foot (below touch_force for 29 ms before
 //              its sole left) may rest too: its lift-off then comes from the plan's rule
 //              (the sole swing_lift_height up), or without a plan once the sole is lift_height up.
-//   light      with light_noise > 0 (the F/T normal-force noise, 1 sigma; the Estimator's
-//              EstimatorConfig::contact_ft_noise, 0.5 N), a touch too light for the rules above
+//   light      with light_noise > 0 (the F/T normal-force noise, 1 sigma, 0.5 N for the
+//              simulator's; the Estimator's EstimatorConfig::contact_ft_noise, off by default:
+//              why there), a touch too light for the rules above
 //              (below touch_force: a foot that re-touches with 2 N while the weight is on the
 //              other one) is told from the air by the step it makes in the reading: a CUSUM of
 //              fn - (baseline + 2 sigma), the baseline being the reading's mean while the foot
@@ -44,7 +45,7 @@
 //              noise alone needs several 2 sigma excesses in a row. The light contact ends by
 //              the mirror CUSUM of (baseline + sigma) - fn passing 6 sigma (the dead band
 //              between sigma and 2 sigma keeps a load there from chattering), by the lift and
-//              plan rules, and becomes an ordinary contact above touch_force (confirm_ticks);
+//              plan rules (the plan's with the reading at or below the baseline), and becomes an ordinary contact above touch_force (confirm_ticks);
 // A sliding foot keeps its load, so neither rule fires while it slides (no chatter).
 
 #include <limits>
