@@ -161,7 +161,7 @@ struct EstimatorConfig {
   /// in the reading above the reading in the air, with the sole where it stood, until the reading
   /// is back there (contact_detector.hpp); set it to the sensor's own figure (0.5 N: the
   /// simulator's default F/T, simulator/sim/SENSORS.md). 0 (off) by default: with 0.5 N every
-  /// touch-down of the step in place was flagged, 19 of 22 within 2 ms (8 seeds; 9 were more
+  /// touch-down of the step in place was flagged, 14 of 17 within 2 ms (8 seeds; 8 were more
   /// than 100 ms late without), but the balance controller rests a support foot on any load
   /// above 0.2 % of W (Sec. 4.2: it follows its own velocity), so a foot that came down
   /// lightly while sliding kept sliding: 14 mm of slip in 1 of 8 seeds, 5 mm without
