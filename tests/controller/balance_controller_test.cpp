@@ -673,6 +673,41 @@ void wander_and_tick(RobotState& s, const std::vector<int>& legs, std::mt19937& 
   b.finish(sol, cmd_b);
 }
 
+/// The bench of the reference-rule tests below: a controller with the rule under test (`cfg`)
+/// and one with the paper's integration, on the standing state; the left elbow's posture target
+/// moves (its references integrate qdd); with `one_unloaded` the right foot touches with 5 % of
+/// the weight (below support_force_fraction: not a load-bearing foot).
+struct ReferenceRuleBench {
+  BalanceController leaky, plain;
+  RobotState s;
+  BalanceReference ref;
+  int elbow = -1;
+  contact::SequentialOptimizer opt;
+  JointCommand cmd, cmd_plain;
+
+  ReferenceRuleBench(const ControllerConfig& cfg, bool one_unloaded)
+      : leaky(make_controller(cfg)), plain(make_controller(paper())) {
+    s = test::standing_state(leaky);
+    const model::Model& m = leaky.model();
+    if (one_unloaded) s.feet[1].normal_force = 0.05 * m.total_mass * m.gravity.norm();
+    ref = leaky.make_reference();
+    ref.has_upper_body_q = true;
+    elbow = m.joint_index("l_elbow");
+    ref.upper_body_q[elbow] -= 0.3;
+    cmd = leaky.make_command();
+    cmd_plain = plain.make_command();
+  }
+  static ControllerConfig paper() {
+    ControllerConfig c;
+    c.feedback.support_leg_leak_hz = 0.0;
+    c.feedback.internal_force_leak_hz = 0.0;
+    return c;
+  }
+  void tick(const std::vector<int>& legs, std::mt19937& rng) {
+    wander_and_tick(s, legs, rng, ref, opt, leaky, cmd, plain, cmd_plain);
+  }
+};
+
 // FeedbackConfig::support_leg_leak_hz: while both feet bear load, a leg's references decay
 // towards the measured joints before qdd_a is integrated; the arms always integrate; with one
 // foot unloaded, or the option off, nothing changes (bit for bit the paper's integration).
@@ -685,23 +720,15 @@ TEST(BalanceController, BothLoadedLegsReferencesLeakTowardsTheMeasuredJoints) {
     cfg.feedback.support_leg_leak_hz = hz(rng);
     cfg.feedback.internal_force_leak_hz = 0.0;  // this rule alone (the split: the test below)
     const double keep = std::exp(-2.0 * M_PI * cfg.feedback.support_leg_leak_hz * 1e-3);
-    BalanceController leaky = make_controller(cfg);
-    ControllerConfig paper;
-    paper.feedback.support_leg_leak_hz = 0.0;
-    paper.feedback.internal_force_leak_hz = 0.0;
-    BalanceController plain = make_controller(paper);
-    RobotState s = test::standing_state(leaky);
-    const bool one_unloaded = trial == 3;  // the right foot touches with 5 % of the weight
-    if (one_unloaded) s.feet[1].normal_force = 0.05 * 50.8 * 9.81;
-    BalanceReference ref = leaky.make_reference();
-    ref.has_upper_body_q = true;
-    const int elbow = leaky.model().joint_index("l_elbow");
-    ref.upper_body_q[elbow] -= 0.3;  // the arm moves: its references integrate qdd
+    const bool one_unloaded = trial == 3;
+    ReferenceRuleBench b(cfg, one_unloaded);
+    const BalanceController& leaky = b.leaky;
+    const RobotState& s = b.s;
+    const JointCommand &cmd = b.cmd, &cmd_plain = b.cmd_plain;
+    const int elbow = b.elbow;
     std::vector<int> legs;
     for (const char* j : {"l_hip_pitch", "l_knee", "r_hip_roll", "r_ankle_pitch"})
       legs.push_back(leaky.model().joint_index(j));
-    contact::SequentialOptimizer opt;
-    JointCommand cmd = leaky.make_command(), cmd_plain = plain.make_command();
     Eigen::VectorXd q_ref_prev, qd_ref_prev;
     double leg_error_max = 0.0;
     // The rule by hand, the clamps of FeedbackConfig included (the frozen arm reaches them).
@@ -709,7 +736,7 @@ TEST(BalanceController, BothLoadedLegsReferencesLeakTowardsTheMeasuredJoints) {
       return meas + std::clamp(keep_j * (ref_prev - meas) + rate * 1e-3, -max_err, max_err);
     };
     for (int k = 0; k < 60; ++k) {
-      wander_and_tick(s, legs, rng, ref, opt, leaky, cmd, plain, cmd_plain);
+      b.tick(legs, rng);
       const Eigen::VectorXd qdd = leaky.generalized_acceleration().tail(leaky.num_joints());
       if (k > 0) {
         std::vector<std::pair<int, double>> checks{{elbow, 1.0}};  // the arm: pure integration
@@ -751,33 +778,27 @@ TEST(BalanceController, InternalForceLeakRemovesOnlyTheLegsSqueeze) {
   for (int trial = 0; trial < 4; ++trial) {
     SCOPED_TRACE(trial);
     ControllerConfig cfg;
+    cfg.feedback.support_leg_leak_hz = 0.0;  // this rule alone
     cfg.feedback.internal_force_leak_hz = hz(rng);
     const double drop = 1.0 - std::exp(-2.0 * M_PI * cfg.feedback.internal_force_leak_hz * 1e-3);
-    BalanceController leaky = make_controller(cfg);
-    ControllerConfig paper;
-    paper.feedback.internal_force_leak_hz = 0.0;
-    BalanceController plain = make_controller(paper);
-    RobotState s = test::standing_state(leaky);
     const bool one_unloaded = trial == 3;
-    if (one_unloaded) s.feet[1].normal_force = 0.05 * 50.8 * 9.81;
-    BalanceReference ref = leaky.make_reference();
-    ref.has_upper_body_q = true;
-    const int elbow = leaky.model().joint_index("l_elbow");
-    ref.upper_body_q[elbow] -= 0.3;
+    ReferenceRuleBench b(cfg, one_unloaded);
+    const BalanceController& leaky = b.leaky;
+    const RobotState& s = b.s;
+    const JointCommand &cmd = b.cmd, &cmd_plain = b.cmd_plain;
+    const int elbow = b.elbow;
     const int n = leaky.num_joints();
     std::vector<int> legs;
     for (const char* side : {"l_", "r_"})
       for (const char* j : {"hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll"})
         legs.push_back(leaky.model().joint_index(std::string(side) + j));
-    contact::SequentialOptimizer opt;
-    JointCommand cmd = leaky.make_command(), cmd_plain = plain.make_command();
     Eigen::VectorXd q_ref_prev, qd_ref_prev;
     double internal_max = 0.0, rest_max = 0.0;
     auto step = [&](double ref_prev, double meas, double rate, double max_err) {
       return meas + std::clamp(ref_prev - meas + rate * 1e-3, -max_err, max_err);
     };
     for (int k = 0; k < 60; ++k) {
-      wander_and_tick(s, legs, rng, ref, opt, leaky, cmd, plain, cmd_plain);
+      b.tick(legs, rng);
       const Eigen::VectorXd qdd = leaky.generalized_acceleration().tail(n);
       const Eigen::VectorXd& iq = leaky.internal_position_error();
       const Eigen::VectorXd& iv = leaky.internal_velocity_error();
