@@ -10,6 +10,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <string_view>
 #include <thread>
 #include <vector>
 
@@ -574,6 +575,32 @@ TEST(Launch, SecuredStackKeepsOutsidersAndEnforcesWhoWritesWhat) {
 // step in place is played by a poise-reference process that `poise run` starts from the
 // scenario's `reference:` key. The in-process twins are tests/estimator/contact_events_test.cpp
 // and tests/controller/step_in_place_test.cpp.
+// The scenario's estimator: {contact_ft_noise: N} (the contact detector's light-touch rule) reaches
+// the distributed estimator (its summary says what it ran with); without it, the rule is off.
+TEST(Launch, TheScenarioSetsTheEstimatorsLightTouchRule) {
+  const fs::path dir = work_dir("light_touch");
+  const std::string robot =
+      (fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/robot.yaml").string();
+  for (const std::string_view section : {"estimator: {contact_ft_noise: 0.5}\n", ""}) {
+    const std::string name = section.empty() ? "rule_off" : "rule_on";
+    const fs::path file = dir / (name + ".yaml");
+    std::ofstream(file) << "name: " << name << "\nrobot: {config: " << robot
+                        << "}\nduration: 0.5\n" << section;
+    const fs::path logs = dir / (name + ".logs");
+    auto [code, out] = run_command({bin("poise"), "run", file.string(), "-q", "--domain",
+                                    std::to_string(poise::testing::unique_domain_id()), "-o",
+                                    (dir / (name + ".json")).string(), "--log-dir", logs.string()},
+                                   120s);
+    EXPECT_EQ(code, 0) << name << ":\n" << out;
+    std::ifstream summary_file(logs / "estimator.summary.json");
+    ASSERT_TRUE(summary_file.good()) << name << ": no estimator summary";
+    const Json summary = Json::parse(summary_file);
+    ASSERT_TRUE(summary.contains("contact_ft_noise")) << summary.dump(2);
+    EXPECT_DOUBLE_EQ(summary["contact_ft_noise"].get<double>(), section.empty() ? 0.0 : 0.5)
+        << name;
+  }
+}
+
 TEST(Launch, ScenariosInWhichContactsChangeSurviveDistributed) {
   const fs::path dir = work_dir("contact_changes");
   for (const std::string name : {"drop_onto_feet", "lateral_push_unloads_foot", "step_in_place"}) {
