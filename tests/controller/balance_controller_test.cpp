@@ -335,6 +335,70 @@ TEST(BalanceController, AFootRestsOnItsMeasuredLoadNotOnItsContactFlag) {
   EXPECT_FALSE(c.diagnostics().resting[0]);
 }
 
+TEST(BalanceController, AFootBackFromTheAirRestsOnlyOnceItCarriesTheTouchDownLoad) {
+  // ControllerConfig::resting_touchdown_force_fraction: a foot whose contact flag was off for
+  // longer than resting_touchdown_air_time comes down with its swing's velocity; between the two
+  // thresholds it is held where it last rested (pulled back against its velocity), above the
+  // touch-down one it rests, and then keeps resting down to resting_force_fraction. A foot that
+  // never left the ground (the flag off for less than the air time) keeps the low threshold.
+  BalanceController c = make_controller();
+  const ControllerConfig cfg;
+  ASSERT_GT(cfg.resting_touchdown_force_fraction, 2.0 * cfg.resting_force_fraction);
+  const double weight = humanoid().model.total_mass * humanoid().model.gravity.norm();
+  const double between =
+      0.5 * (cfg.resting_force_fraction + cfg.resting_touchdown_force_fraction) * weight;
+  const int air_ticks = static_cast<int>(std::lround(cfg.resting_touchdown_air_time / cfg.dt));
+  RobotState s = test::standing_state(c);
+  BalanceReference ref = c.make_reference();
+  ref.feet[0].mode = FootMode::kSupport;  // planned: a support whatever its flag
+  contact::ContactProblem p;
+  c.prepare(s, ref, p);
+  ASSERT_TRUE(c.diagnostics().resting[0]);
+  // Never left the ground: the flag off for one tick less than the air time, back with the load
+  // between the thresholds: rests.
+  s.feet[0].in_contact = false;
+  s.feet[0].normal_force = 0.0;
+  for (int k = 0; k < air_ticks; ++k) c.prepare(s, ref, p);
+  EXPECT_FALSE(c.diagnostics().resting[0]);
+  s.feet[0].in_contact = true;
+  s.feet[0].normal_force = between;
+  c.prepare(s, ref, p);
+  EXPECT_TRUE(c.diagnostics().resting[0]);
+  // Back from the air (one tick more than the air time), moving forward 0.1 m/s: between the
+  // thresholds it is held (pulled back), not resting; tick after tick.
+  s.feet[0].in_contact = false;
+  s.feet[0].normal_force = 0.0;
+  for (int k = 0; k < air_ticks + 1; ++k) c.prepare(s, ref, p);
+  RobotState moving = s;
+  moving.v_WB.x() += 0.1;
+  moving.feet[0].in_contact = true;
+  moving.feet[0].normal_force = between;
+  for (int k = 0; k < 5; ++k) {
+    c.prepare(moving, ref, p);
+    EXPECT_TRUE(p.feet[0].in_contact);
+    EXPECT_FALSE(c.diagnostics().resting[0]) << "tick " << k;
+    EXPECT_LT(c.diagnostics().foot_acceleration_desired[0][0], -1.0);
+  }
+  // Above the touch-down threshold: rests (zero acceleration asked with v_d = v) ...
+  moving.feet[0].normal_force = 1.1 * cfg.resting_touchdown_force_fraction * weight;
+  c.prepare(moving, ref, p);
+  EXPECT_TRUE(c.diagnostics().resting[0]);
+  EXPECT_NEAR(c.diagnostics().foot_acceleration_desired[0][0], 0.0, 1e-9);
+  // ... and keeps resting with the load back between the thresholds, down to the low one.
+  moving.feet[0].normal_force = between;
+  c.prepare(moving, ref, p);
+  EXPECT_TRUE(c.diagnostics().resting[0]);
+  moving.feet[0].normal_force = 0.9 * cfg.resting_force_fraction * weight;
+  c.prepare(moving, ref, p);
+  EXPECT_FALSE(c.diagnostics().resting[0]);
+  // reset() starts a standing robot: the low threshold.
+  c.reset();
+  s = test::standing_state(c);
+  s.feet[0].normal_force = between;
+  c.prepare(s, ref, p);
+  EXPECT_TRUE(c.diagnostics().resting[0]);
+}
+
 TEST(BalanceController, APlannedSupportLiftedOffTheGroundLeavesTheContactProblem) {
   // ControllerConfig::planned_support_release: a planned support (FOOT_SUPPORT) measured off the
   // ground -- no contact flag, no load, its foot frame risen from where it last rested -- for

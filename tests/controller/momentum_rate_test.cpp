@@ -54,6 +54,8 @@ TEST(ControllerConfig, ShippedFileLoadsWithTheDefaults) {
   EXPECT_EQ(c.foot.support_acceleration_tau, d.foot.support_acceleration_tau);
   EXPECT_EQ(c.feedback.max_position_error, d.feedback.max_position_error);
   EXPECT_EQ(c.resting_force_fraction, d.resting_force_fraction);
+  EXPECT_EQ(c.resting_touchdown_force_fraction, d.resting_touchdown_force_fraction);
+  EXPECT_EQ(c.resting_touchdown_air_time, d.resting_touchdown_air_time);
   EXPECT_EQ(c.contact.priority, d.contact.priority);
   EXPECT_EQ(c.contact.torsion_limit, d.contact.torsion_limit);
   EXPECT_EQ(d.contact.torsion_limit, contact::TorsionLimit::kFrictionCoupled);
@@ -85,6 +87,8 @@ TEST(ControllerConfig, BadFilesNameTheProblem) {
   expect_error("dt: -1\n", "dt");
   expect_error("resting_force_fraction: -0.01\n", "resting_force_fraction");
   expect_error("resting_force_fraction: 1.5\n", "resting_force_fraction");
+  expect_error("resting_touchdown_force_fraction: 1.0\n", "resting_touchdown_force_fraction");
+  expect_error("resting_touchdown_air_time: -0.001\n", "resting_touchdown_air_time");
   expect_error("contact: {torsion_limit: coupled}\n", "contact.torsion_limit");
   expect_error("contact: {torsion_limit: [independent]}\n", "contact.torsion_limit");
   try {
@@ -97,6 +101,11 @@ TEST(ControllerConfig, BadFilesNameTheProblem) {
   EXPECT_EQ(load_controller_config(p).acceleration.w_b, 0.9);
   const std::string q = write_temp("controller_config_rest.yaml", "resting_force_fraction: 0.05\n");
   EXPECT_EQ(load_controller_config(q).resting_force_fraction, 0.05);
+  const std::string r = write_temp("controller_config_touchdown.yaml",
+                                   "resting_touchdown_force_fraction: 0.03\n"
+                                   "resting_touchdown_air_time: 0.05\n");
+  EXPECT_EQ(load_controller_config(r).resting_touchdown_force_fraction, 0.03);
+  EXPECT_EQ(load_controller_config(r).resting_touchdown_air_time, 0.05);
   const std::string t = write_temp("controller_config_torsion.yaml",
                                    "contact: {torsion_limit: independent}\n");
   EXPECT_EQ(load_controller_config(t).contact.torsion_limit, contact::TorsionLimit::kIndependent);

@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 #include <poise/dds/dds.hpp>
 #include <poise/msg/joint_command.h>
+#include <poise/sim/sim_config.hpp>
 
 #include "child_process.hpp"
 
@@ -578,26 +579,38 @@ TEST(Launch, SecuredStackKeepsOutsidersAndEnforcesWhoWritesWhat) {
 // The scenario's estimator: {contact_ft_noise: N} (the contact detector's light-touch rule) reaches
 // the distributed estimator (its summary says what it ran with); without it, the rule is off.
 TEST(Launch, TheScenarioSetsTheEstimatorsLightTouchRule) {
+  // scenario::estimator_contact_ft_noise: the estimator section's value (0: the rule off), else
+  // the simulated F/T's noise (sensors.foot_ft.force_noise_std), else the default sensors' 0.5 N.
   const fs::path dir = work_dir("light_touch");
   const std::string robot =
       (fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/robot.yaml").string();
-  for (const std::string_view section : {"estimator: {contact_ft_noise: 0.5}\n", ""}) {
-    const std::string name = section.empty() ? "rule_off" : "rule_on";
-    const fs::path file = dir / (name + ".yaml");
-    std::ofstream(file) << "name: " << name << "\nrobot: {config: " << robot
-                        << "}\nduration: 0.5\n" << section;
-    const fs::path logs = dir / (name + ".logs");
+  const poise::sim::ForceTorqueSensorConfig default_ft = poise::sim::industrial_foot_ft();
+  ASSERT_GT(default_ft.force_noise_std, 0.0);
+  struct Case {
+    std::string name, section;
+    double expected;
+  };
+  const std::vector<Case> cases{
+      {"set", "estimator: {contact_ft_noise: 0.25}\n", 0.25},
+      {"off", "estimator: {contact_ft_noise: 0}\n", 0.0},
+      {"from_sensor", "sensors: {foot_ft: {force_noise_std: 0.8}}\n", 0.8},
+      {"default", "", default_ft.force_noise_std}};
+  for (const Case& c : cases) {
+    const fs::path file = dir / (c.name + ".yaml");
+    std::ofstream(file) << "name: " << c.name << "\nrobot: {config: " << robot
+                        << "}\nduration: 0.5\n" << c.section;
+    const fs::path logs = dir / (c.name + ".logs");
     auto [code, out] = run_command({bin("poise"), "run", file.string(), "-q", "--domain",
                                     std::to_string(poise::testing::unique_domain_id()), "-o",
-                                    (dir / (name + ".json")).string(), "--log-dir", logs.string()},
+                                    (dir / (c.name + ".json")).string(), "--log-dir",
+                                    logs.string()},
                                    120s);
-    EXPECT_EQ(code, 0) << name << ":\n" << out;
+    EXPECT_EQ(code, 0) << c.name << ":\n" << out;
     std::ifstream summary_file(logs / "estimator.summary.json");
-    ASSERT_TRUE(summary_file.good()) << name << ": no estimator summary";
+    ASSERT_TRUE(summary_file.good()) << c.name << ": no estimator summary";
     const Json summary = Json::parse(summary_file);
     ASSERT_TRUE(summary.contains("contact_ft_noise")) << summary.dump(2);
-    EXPECT_DOUBLE_EQ(summary["contact_ft_noise"].get<double>(), section.empty() ? 0.0 : 0.5)
-        << name;
+    EXPECT_DOUBLE_EQ(summary["contact_ft_noise"].get<double>(), c.expected) << c.name;
   }
 }
 

@@ -206,6 +206,8 @@ void BalanceController::reset() noexcept {
   have_hold_ = {false, false};
   planned_off_time_ = {0.0, 0.0};
   placed_ = {false, false};
+  rested_on_ground_ = {true, true};
+  flag_off_time_ = {0.0, 0.0};
   have_hold_seen_ = false;
   have_foot_velocity_ = false;
   have_feedback_ = false;
@@ -325,7 +327,14 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
     // the weight went over the other foot -- is held where it last rested instead of following
     // its own velocity, which let it drift (a step in place: up 0.32 m, or 18-24 mm of slip with
     // the flag of a touching foot taken for a load).
-    const bool loaded = meas.normal_force > config_.resting_force_fraction * weight;
+    // A foot back from the air (flag off for resting_touchdown_air_time since it last rested)
+    // comes down with its swing's velocity: it rests only once it carries
+    // resting_touchdown_force_fraction, then down to resting_force_fraction.
+    flag_off_time_[i] = meas.in_contact ? 0.0 : flag_off_time_[i] + config_.dt;
+    if (flag_off_time_[i] > config_.resting_touchdown_air_time + 1e-9) rested_on_ground_[i] = false;
+    const double rest_fraction = rested_on_ground_[i] ? config_.resting_force_fraction
+                                                      : config_.resting_touchdown_force_fraction;
+    const bool loaded = meas.normal_force > rest_fraction * weight;
     const bool resting =
         support && loaded &&
         cop_in_safe_region(X_WF_[i], meas.cop_W, foot.sole,
@@ -338,6 +347,7 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
     touch_down_[i] = support && !diag_.support[i] && have_hold_seen_;
     diag_.support[i] = support;
     diag_.resting[i] = resting;
+    if (resting) rested_on_ground_[i] = true;
     bears_load[i] = support && meas.normal_force > config_.support_force_fraction * weight;
 
     model::SE3 X_d = X_WF_hold_[i];

@@ -118,6 +118,11 @@ void ControllerConfig::validate() const {
   require(std::isfinite(resting_force_fraction) && resting_force_fraction >= 0.0 &&
               resting_force_fraction < 1.0,
           "resting_force_fraction", "must be in [0, 1)");
+  require(std::isfinite(resting_touchdown_force_fraction) &&
+              resting_touchdown_force_fraction >= 0.0 && resting_touchdown_force_fraction < 1.0,
+          "resting_touchdown_force_fraction", "must be in [0, 1)");
+  require(std::isfinite(resting_touchdown_air_time) && resting_touchdown_air_time >= 0.0,
+          "resting_touchdown_air_time", "must be finite and >= 0 (s)");
   require(std::isfinite(com_height), "com_height", "must be finite");
   require(std::isfinite(planned_support_release) && planned_support_release >= 0.0,
           "planned_support_release", "must be finite and >= 0 (s; 0: never)");
@@ -133,11 +138,14 @@ ControllerConfig from_yaml(const YAML::Node& root, const std::string& file) {
   if (root.IsNull()) return c;
   r.keys(root, "",
          {"dt", "momentum", "contact", "foot", "acceleration", "feedback", "fallback",
-          "resting_extra_margin", "resting_force_fraction", "com_height",
+          "resting_extra_margin", "resting_force_fraction", "resting_touchdown_force_fraction",
+          "resting_touchdown_air_time", "com_height",
           "planned_support_release", "planned_support_release_height"});
   r.number(root, "dt", "", c.dt);
   r.number(root, "resting_extra_margin", "", c.resting_extra_margin);
   r.number(root, "resting_force_fraction", "", c.resting_force_fraction);
+  r.number(root, "resting_touchdown_force_fraction", "", c.resting_touchdown_force_fraction);
+  r.number(root, "resting_touchdown_air_time", "", c.resting_touchdown_air_time);
   r.number(root, "com_height", "", c.com_height);
   r.number(root, "planned_support_release", "", c.planned_support_release);
   r.number(root, "planned_support_release_height", "", c.planned_support_release_height);

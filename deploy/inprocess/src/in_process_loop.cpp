@@ -120,8 +120,8 @@ InProcessLoop::InProcessLoop(const scenario::Scenario& scenario, const LoopOptio
         options_.estimator.empty() ? scenario_.estimator.type : options_.estimator);
     if (std::isfinite(scenario_.estimator.stance_rate_hz))
       ecfg.stance_rate_filter_hz = scenario_.estimator.stance_rate_hz;
-    if (std::isfinite(scenario_.estimator.contact_ft_noise))
-      ecfg.contact_ft_noise = scenario_.estimator.contact_ft_noise;
+    if (const double n = scenario::estimator_contact_ft_noise(scenario_); std::isfinite(n))
+      ecfg.contact_ft_noise = n;
     // Where the soles start: the scenario's estimator section, or the platforms at t = 0.
     const scenario::EstimatorStart start = scenario::estimator_start(scenario_);
     ecfg.ground_height = start.ground_height;

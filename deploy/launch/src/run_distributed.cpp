@@ -372,9 +372,8 @@ int run_distributed(int argc, char** argv) {
                                       exact(scenario.sim.initial.base_position.y())});
     if (std::isfinite(scenario.estimator.stance_rate_hz))
       est_args.insert(est_args.end(), {"--stance-rate-hz", exact(scenario.estimator.stance_rate_hz)});
-    if (std::isfinite(scenario.estimator.contact_ft_noise))
-      est_args.insert(est_args.end(),
-                      {"--contact-ft-noise", exact(scenario.estimator.contact_ft_noise)});
+    if (const double n = scenario::estimator_contact_ft_noise(scenario); std::isfinite(n))
+      est_args.insert(est_args.end(), {"--contact-ft-noise", exact(n)});
     if (recording_run) est_args.insert(est_args.end(), {"--output-readers", output_readers});
     // Lockstep: a tick takes as long as the slowest process needs, and a loaded machine stalls
     // the loop for 100+ ms now and then (171 ms in a CI run); the nodes' 50 ms wall-clock

@@ -154,6 +154,12 @@ Scenario load_scenario(const fs::path& path) {
   return sc;
 }
 
+double estimator_contact_ft_noise(const Scenario& sc) {
+  if (std::isfinite(sc.estimator.contact_ft_noise)) return sc.estimator.contact_ft_noise;
+  if (sc.sim.foot_ft.force_noise_std > 0.0) return sc.sim.foot_ft.force_noise_std;
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
 EstimatorStart estimator_start(const Scenario& sc) {
   EstimatorStart out;
   out.ground_height = sc.sim.world.ground.height;

@@ -124,8 +124,8 @@ int run(int argc, char** argv) {
   app.add_option("--contact-ft-noise", contact_ft_noise,
                  "the foot F/T sensors' normal-force noise (1 sigma) for the contact detector's "
                  "light-touch rule: a touch too light for the 1 % load threshold is flagged from "
-                 "its step in the reading, with the sole down where it stood (0.5 for the "
-                 "simulator's F/T); 0: the rule is off [N]")
+                 "its step in the reading, with the sole down where it stood (default: the "
+                 "simulator's F/T, an industrial strain-gauge class); 0: the rule is off [N]")
       ->check(CLI::Range(0.0, 1.0e4))
       ->capture_default_str();
   double stance_rate_hz = estimator::EstimatorConfig{}.stance_rate_filter_hz;

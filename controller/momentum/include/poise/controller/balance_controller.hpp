@@ -160,6 +160,10 @@ class BalanceController {
   /// (ControllerConfig::planned_support_release).
   std::array<double, 2> planned_off_time_{0.0, 0.0};
   std::array<model::SE3, 2> X_WF_hold_;  // desired pose of each foot when not resting
+  // Rested and not back from the air since (ControllerConfig::resting_touchdown_force_fraction);
+  // true at start: a robot started standing rests on the low threshold.
+  std::array<bool, 2> rested_on_ground_{true, true};
+  std::array<double, 2> flag_off_time_{0.0, 0.0};  // contact flag off for this long [s]
   std::array<bool, 2> placed_{false, false};  // the foot has rested or followed a target
   bool both_feet_loaded_ = false;  // this tick: both supports carry support_force_fraction
   std::array<bool, 2> touch_down_{false, false};  // became a support this tick

@@ -187,6 +187,19 @@ struct ControllerConfig {
   /// last rested and dragged back), with 0 and 0.002 1.7 mm (controller/momentum/README.md).
   /// >= 0 (0: any positive load).
   double resting_force_fraction = 0.002;
+  /// ... except for a foot back from the air (its contact flag off for more than
+  /// resting_touchdown_air_time since it last rested): it starts to rest only above this larger
+  /// fraction, and then keeps resting down to resting_force_fraction. Why: a foot comes down with
+  /// its swing's velocity, not its support's; resting (v_d = v) on the first newton of a light
+  /// touch kept it moving (step in place, seed 3, the estimator's light-touch rule on: the
+  /// landed foot bounced, came back with 1.8 N while moving forward and slid 18 mm/s for 0.55 s,
+  /// 14 mm of slip). A foot that never left the ground keeps the low threshold: on accelerating
+  /// supports a resting foot's load dips to a few newtons (with 0.01 for every foot,
+  /// platforms_out_of_phase_20cm's CoM error was 38.9 mm against 13.2). In [0, 1).
+  double resting_touchdown_force_fraction = 0.01;
+  /// The contact flag off for longer than this [s] counts as back from the air (0.02: a foot
+  /// on the out-of-phase platforms loses contact for a few ticks at a time). >= 0.
+  double resting_touchdown_air_time = 0.02;
   /// Desired CoM height above the mean sole height of the support feet when the reference gives
   /// no CoM target [m]; <= 0: the nominal posture's CoM height.
   double com_height = 0.0;

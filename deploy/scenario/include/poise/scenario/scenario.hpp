@@ -41,7 +41,7 @@ struct EstimatorHints {
   /// filter (EstimatorConfig::stance_rate_filter_hz; 0: the gyro alone); NaN: the default.
   double stance_rate_hz = std::numeric_limits<double>::quiet_NaN();
   /// `contact_ft_noise: N`: the contact detector's light-touch rule, the F/T normal-force noise
-  /// (EstimatorConfig::contact_ft_noise; 0: off, the default); NaN: the default.
+  /// (EstimatorConfig::contact_ft_noise; 0: off); NaN: not given (estimator_contact_ft_noise()).
   double contact_ft_noise = std::numeric_limits<double>::quiet_NaN();
 };
 
@@ -97,5 +97,11 @@ struct EstimatorStart {
   std::string source;     ///< "scenario support_height" | "scenario ground_height" | "platforms at t = 0" | "ground plane"
 };
 EstimatorStart estimator_start(const Scenario& scenario);
+
+/// The F/T noise the estimator's contact detector is given for this scenario, in both modes: the
+/// estimator section's contact_ft_noise; without it the simulated F/T's force_noise_std when > 0
+/// (an estimator configured with its sensor's figure, as on hardware); else NaN: the estimator's
+/// own default (EstimatorConfig::contact_ft_noise).
+double estimator_contact_ft_noise(const Scenario& scenario);
 
 }  // namespace poise::scenario

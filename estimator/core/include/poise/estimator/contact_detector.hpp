@@ -33,8 +33,8 @@
 //              its sole left) may rest too: its lift-off then comes from the plan's rule
 //              (the sole swing_lift_height up), or without a plan once the sole is lift_height up.
 //   light      with light_noise > 0 (the F/T normal-force noise, 1 sigma, 0.5 N for the
-//              simulator's; the Estimator's EstimatorConfig::contact_ft_noise, off by default:
-//              why there), a touch too light for the rules above
+//              simulator's; the Estimator's EstimatorConfig::contact_ft_noise, 0.5 N by
+//              default), a touch too light for the rules above
 //              (below touch_force: a foot that re-touches with 2 N while the weight is on the
 //              other one) is told from the air by the step it makes in the reading: a CUSUM of
 //              fn - (baseline + 2 sigma), the baseline being the reading's mean while the foot

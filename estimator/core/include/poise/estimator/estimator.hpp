@@ -160,13 +160,13 @@ struct EstimatorConfig {
   /// re-touches with 2 N while the weight is on the other one) is flagged from the step it makes
   /// in the reading above the reading in the air, with the sole where it stood, until the reading
   /// is back there (contact_detector.hpp); set it to the sensor's own figure (0.5 N: the
-  /// simulator's default F/T, simulator/sim/SENSORS.md). 0 (off) by default: with 0.5 N every
+  /// simulator's default F/T, simulator/sim/SENSORS.md, the default). With 0.5 N every
   /// touch-down of the step in place was flagged, 14 of 17 within 2 ms (8 seeds; 8 were more
-  /// than 100 ms late without), but the balance controller rests a support foot on any load
-  /// above 0.2 % of W (Sec. 4.2: it follows its own velocity), so a foot that came down
-  /// lightly while sliding kept sliding: 14 mm of slip in 1 of 8 seeds, 5 mm without
-  /// (idl/README.md "Contact flags"). >= 0.
-  double contact_ft_noise = 0.0;
+  /// than 100 ms late without). A lightly touching foot is a support to the balance controller;
+  /// one back from the air rests (follows its own velocity, Sec. 4.2) only once it carries 1 %
+  /// of W (ControllerConfig::resting_touchdown_force_fraction), else it kept sliding (idl/README.md
+  /// "Contact flags"). 0: off. >= 0.
+  double contact_ft_noise = 0.5;
   /// The published base angular velocity: a complementary filter of the gyro and the stance
   /// feet's kinematics [Hz]. A flat stance foot does not turn, so while feet are in contact the
   /// base turns at -omega_F0_B (the leg's joint rates through its Jacobian, load-weighted over
