@@ -1,6 +1,6 @@
 // Contact detection delays against the simulator's truth (#20 item 3), closed loop in process
 // with the industrial sensor defaults (simulator/sim/SENSORS.md) and the detector's light-touch
-// rule on (contact_ft_noise 0.5 N, the default F/T's noise; off by default): the estimator's
+// rule on (contact_ft_noise 0.5 N, the default F/T's noise and the default): the estimator's
 // contact flags drive the controller. Scenarios in which contacts change: a drop onto the feet, a lateral
 // push that lifts a foot, a step in place (deploy/scenarios/step_in_place.yaml: its balance
 // reference swings the right foot 3 cm up and down, played by the in-process loop).
@@ -140,7 +140,7 @@ Result run(const std::string& file, double duration, const Reference& reference 
   for (sim::Push& p : sc.sim.pushes)
     p.force_W *= push_scale;
   if (seed != 0) sc.sim.imu.seed = seed;
-  // The detector's light-touch rule (off by default, EstimatorConfig::contact_ft_noise): the
+  // The detector's light-touch rule (EstimatorConfig::contact_ft_noise, 0.5 N by default): the
   // default F/T's noise; POISE_CONTACT_EVENTS_FT_NOISE=N another value (0: off).
   const char* ft_noise = std::getenv("POISE_CONTACT_EVENTS_FT_NOISE");
   sc.estimator.contact_ft_noise = ft_noise ? std::atof(ft_noise) : 0.5;
