@@ -50,9 +50,25 @@ TEST(EstimatorStart, ScenarioKeysAndDefaults) {
   EXPECT_TRUE(std::isnan(plain.estimator.stance_rate_hz));
   EXPECT_DOUBLE_EQ(parse("estimator: {stance_rate_hz: 0}\n").estimator.stance_rate_hz, 0.0);
   EXPECT_DOUBLE_EQ(parse("estimator: {stance_rate_hz: 12.5}\n").estimator.stance_rate_hz, 12.5);
-  // The contact detector's light-touch rule: NaN (the estimator's default, off) unless given.
+  // The contact detector's light-touch rule: NaN unless given; what the estimator gets
+  // (estimator_contact_ft_noise): the key, else the simulated F/T's noise, else NaN (the
+  // estimator's own default).
   EXPECT_TRUE(std::isnan(plain.estimator.contact_ft_noise));
   EXPECT_DOUBLE_EQ(parse("estimator: {contact_ft_noise: 0.5}\n").estimator.contact_ft_noise, 0.5);
+  EXPECT_DOUBLE_EQ(scenario::estimator_contact_ft_noise(plain), plain.sim.foot_ft.force_noise_std);
+  EXPECT_GT(scenario::estimator_contact_ft_noise(plain), 0.0) << "default sensors: the rule on";
+  EXPECT_DOUBLE_EQ(scenario::estimator_contact_ft_noise(
+                       parse("estimator: {contact_ft_noise: 0}\n")),
+                   0.0);
+  EXPECT_DOUBLE_EQ(scenario::estimator_contact_ft_noise(parse(
+                       "estimator: {contact_ft_noise: 0.3}\nsensors: {foot_ft: "
+                       "{force_noise_std: 0.8}}\n")),
+                   0.3);
+  EXPECT_DOUBLE_EQ(scenario::estimator_contact_ft_noise(
+                       parse("sensors: {foot_ft: {force_noise_std: 0.8}}\n")),
+                   0.8);
+  EXPECT_TRUE(std::isnan(scenario::estimator_contact_ft_noise(
+      parse("sensors: {foot_ft: {force_noise_std: 0}}\n"))));
 }
 
 TEST(EstimatorStart, BadValuesAreRefusedNamingTheKey) {
