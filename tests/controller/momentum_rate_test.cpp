@@ -49,6 +49,8 @@ TEST(ControllerConfig, ShippedFileLoadsWithTheDefaults) {
       std::string(POISE_SOURCE_DIR) + "/controller/momentum/config/balance_controller.yaml");
   const ControllerConfig d;
   EXPECT_EQ(c.momentum.gamma21, d.momentum.gamma21);
+  EXPECT_EQ(c.momentum.ankle_first_blend, d.momentum.ankle_first_blend);
+  EXPECT_EQ(d.momentum.ankle_first_blend, 0.0);  // off: the paper's (11)
   EXPECT_EQ(c.acceleration.w_b, d.acceleration.w_b);
   EXPECT_EQ(c.foot.kp, d.foot.kp);
   EXPECT_EQ(c.foot.support_acceleration_tau, d.foot.support_acceleration_tau);
@@ -90,6 +92,8 @@ TEST(ControllerConfig, BadFilesNameTheProblem) {
   expect_error("resting_touchdown_force_fraction: 1.0\n", "resting_touchdown_force_fraction");
   expect_error("resting_touchdown_air_time: -0.001\n", "resting_touchdown_air_time");
   expect_error("contact: {torsion_limit: coupled}\n", "contact.torsion_limit");
+  expect_error("momentum: {ankle_first_blend: -0.01}\n", "momentum.ankle_first_blend");
+  expect_error("momentum: {ankle_first_blend: .nan}\n", "momentum.ankle_first_blend");
   expect_error("contact: {torsion_limit: [independent]}\n", "contact.torsion_limit");
   try {
     load_controller_config("/nonexistent/controller.yaml");
@@ -106,6 +110,9 @@ TEST(ControllerConfig, BadFilesNameTheProblem) {
                                    "resting_touchdown_air_time: 0.05\n");
   EXPECT_EQ(load_controller_config(r).resting_touchdown_force_fraction, 0.03);
   EXPECT_EQ(load_controller_config(r).resting_touchdown_air_time, 0.05);
+  const std::string a = write_temp("controller_config_ankle.yaml",
+                                   "momentum: {ankle_first_blend: 0.02}\n");
+  EXPECT_EQ(load_controller_config(a).momentum.ankle_first_blend, 0.02);
   const std::string t = write_temp("controller_config_torsion.yaml",
                                    "contact: {torsion_limit: independent}\n");
   EXPECT_EQ(load_controller_config(t).contact.torsion_limit, contact::TorsionLimit::kIndependent);

@@ -30,7 +30,8 @@ namespace {
 
 // Parameter: foot.support_acceleration_tau (0: off, the default; > 0: the moving-support
 // options of the platform scenarios run too: the foot acceleration filter and its feed-forward,
-// the CoM target's lean, the legs' reference leak).
+// the CoM target's lean, the legs' reference leak, and the ankle-first horizontal demand with its
+// support polygon).
 class NoMallocTick : public ::testing::TestWithParam<double> {};
 
 TEST_P(NoMallocTick, ControllerTickPhasesAndFallbacks) {
@@ -41,6 +42,7 @@ TEST_P(NoMallocTick, ControllerTickPhasesAndFallbacks) {
     config.momentum.support_acceleration_hz = 1.0;
     config.feedback.support_leg_leak_hz = 300.0;
     config.feedback.internal_force_leak_hz = 30.0;
+    config.momentum.ankle_first_blend = 0.02;
   }
   BalanceController c(h.model, h.robot, config);
   std::mt19937 rng(7);

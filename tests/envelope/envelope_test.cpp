@@ -12,6 +12,9 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+#include <yaml-cpp/yaml.h>
+
 #include "child_process.hpp"
 
 namespace {
@@ -245,6 +248,61 @@ TEST(Envelope, DistributedLockstepRunsTheSameStudy) {
   for (const auto& e : fs::directory_iterator(dir / "runs"))
     saw_logs = saw_logs || e.path().extension() == ".logs";
   EXPECT_TRUE(saw_logs);
+}
+
+// --controller-config FILE replaces every run's controller: section (--priority still applies on
+// top); each run's scenario is kept in runs/, and `poise run` of one gives the run's verdict.
+TEST(Envelope, AControllerConfigReplacesEveryRunsSection) {
+  const fs::path dir = work_dir("controller_config");
+  const fs::path cfg = dir / "ankle.yaml";
+  std::ofstream(cfg) << "momentum: {ankle_first_blend: 0.1, gamma21: [20, 20, 20]}\n";
+  auto [code, out] = run_command(
+      {bin("poise"), "envelope", "pushes", "--supports", "double", "--directions", "1",
+       "--force-step", "200", "--force-tol", "100", "--force-max", "400", "--probes", "0",
+       "--priority", "weighted", "--controller-config", cfg.string(), "-o", dir.string()},
+      240s);
+  ASSERT_EQ(code, 0) << out;
+  std::stringstream md;
+  md << std::ifstream(dir / "envelope.md").rdbuf();
+  EXPECT_NE(md.str().find("Controller: `" + cfg.string() + "`"), std::string::npos) << md.str();
+  const auto rows = read_csv(dir / "runs.csv");
+  ASSERT_GE(rows.size(), 2u);
+  for (const auto& row : rows) {
+    char name[96];
+    std::snprintf(name, sizeof(name), "push_double_%05.1fdeg_%06.1fN",
+                  std::stod(row.at("direction_deg")), std::stod(row.at("force_N")));
+    const fs::path run_file = dir / "runs" / (std::string(name) + ".yaml");
+    ASSERT_TRUE(fs::exists(run_file)) << run_file;
+    const YAML::Node sc = YAML::LoadFile(run_file.string());
+    EXPECT_EQ(sc["controller"]["momentum"]["ankle_first_blend"].as<double>(), 0.1) << name;
+    EXPECT_EQ(sc["controller"]["momentum"]["gamma21"][0].as<double>(), 20.0) << name;
+    EXPECT_EQ(sc["controller"]["contact"]["priority"].as<std::string>(), "weighted") << name;
+  }
+  // The first run again, by itself, in process: the same verdict.
+  const auto& first = rows.front();
+  char name[96];
+  std::snprintf(name, sizeof(name), "push_double_%05.1fdeg_%06.1fN",
+                std::stod(first.at("direction_deg")), std::stod(first.at("force_N")));
+  const fs::path json = dir / "rerun.json";
+  auto [rc, rout] = run_command({bin("poise"), "run", (dir / "runs" / (std::string(name) + ".yaml")).string(),
+                                 "--in-process", "-q", "-o", json.string()},
+                                120s);
+  std::ifstream js(json);
+  ASSERT_TRUE(js) << rout;
+  const bool survived = nlohmann::json::parse(js).at("survived").get<bool>();
+  EXPECT_EQ(survived, first.at("survived") == "1") << rout;
+  EXPECT_EQ(rc, survived ? 0 : 1) << rout;
+
+  // A bad controller file is refused before any run, naming the key.
+  const fs::path bad_dir = work_dir("controller_config_bad");
+  std::ofstream(bad_dir / "bad.yaml") << "momentum: {ankle_first_blend: -1}\n";
+  auto [bcode, bout] = run_command(
+      {bin("poise"), "envelope", "pushes", "--controller-config", (bad_dir / "bad.yaml").string(),
+       "-o", bad_dir.string()},
+      60s);
+  EXPECT_EQ(bcode, 2) << bout;
+  EXPECT_NE(bout.find("momentum.ankle_first_blend"), std::string::npos) << bout;
+  EXPECT_FALSE(fs::exists(bad_dir / "runs.csv"));
 }
 
 TEST(Envelope, BadInputIsRefusedNamingTheProblem) {

@@ -40,6 +40,12 @@ struct Setup {
                                              c.feedback.internal_force_leak_hz = 0.0;
                                              return c;
                                            }()};
+  /// The same with MomentumGains::ankle_first_blend (support polygon and the ankle's demand).
+  controller::BalanceController ankle_first{model, robot, [] {
+                                              controller::ControllerConfig c;
+                                              c.momentum.ankle_first_blend = 0.1;
+                                              return c;
+                                            }()};
   std::vector<controller::RobotState> states;
   std::vector<contact::ContactSolution> solutions;
   controller::BalanceReference ref = ctrl.make_reference();
@@ -117,15 +123,17 @@ void BM_ControllerTick_NoContactOptimiser(benchmark::State& st) {
 }
 BENCHMARK(BM_ControllerTick_NoContactOptimiser)->Unit(benchmark::kMicrosecond);
 
+// Arg 0: the defaults; 1: with momentum.ankle_first_blend (its support polygon every tick).
 void BM_PhaseA_ContactProblem(benchmark::State& st) {
   Setup& s = setup();
+  controller::BalanceController& c = st.range(0) == 0 ? s.ctrl : s.ankle_first;
   std::size_t k = 0;
   for (auto _ : st) {
-    s.ctrl.prepare(s.states[k++ % s.states.size()], s.ref, s.problem);
+    c.prepare(s.states[k++ % s.states.size()], s.ref, s.problem);
     benchmark::DoNotOptimize(s.problem.l_dot_desired.data());
   }
 }
-BENCHMARK(BM_PhaseA_ContactProblem)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_PhaseA_ContactProblem)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 
 void BM_PhaseB_Eq33_InverseDynamics(benchmark::State& st) {
   Setup& s = setup();

@@ -7,6 +7,7 @@
 #include "poise/controller/contact_fallback.hpp"
 #include "poise/controller/foot_motion.hpp"
 #include "poise/controller/momentum_rate.hpp"
+#include "poise/controller/support_polygon.hpp"
 #include "poise/model/centroidal.hpp"
 #include "poise/model/dynamics.hpp"
 #include "poise/model/kinematics.hpp"
@@ -451,6 +452,26 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
   diag_.hdot_desired =
       desired_momentum_rate(config_.momentum, mass, k_filtered_, reference.k_W, data_.com,
                             diag_.com_target_W, Eigen::Vector3d::Zero(), vcom_error_filtered_);
+  // MomentumGains::ankle_first_blend (support_polygon.hpp): the ankle strategy before the hip's.
+  diag_.ankle_first_beta = 1.0;
+  if (config_.momentum.ankle_first_blend > 0.0 && num_support > 0) {
+    polygon_.clear();
+    const double m = robot_.safety_margin;
+    for (int i = 0; i < kFeet; ++i) {
+      if (!problem_.feet[i].in_contact) continue;
+      const auto& sole = robot_.feet[i].sole;
+      for (const double x : {sole.x_min + m, sole.x_max - m})
+        for (const double y : {sole.y_min + m, sole.y_max - m})
+          polygon_.add(X_WF_[i].act(Eigen::Vector3d(x, y, -sole.height)).head<2>());
+    }
+    polygon_.hull();
+    const double omega = std::sqrt(model_.gravity.norm() / com_height_);
+    const AnkleFirstRate r = ankle_first_rate(
+        diag_.hdot_desired.segment<2>(3) / mass, data_.com.head<2>(),
+        vcom_error_filtered_.head<2>(), omega, polygon_, config_.momentum.ankle_first_blend);
+    diag_.hdot_desired.segment<2>(3) = mass * r.acceleration;
+    diag_.ankle_first_beta = r.beta;
+  }
   diag_.hdot_desired.tail<3>() += mass * diag_.support_acceleration_W;
 
   // Upper-body objective of this tick.

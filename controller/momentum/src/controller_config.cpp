@@ -91,6 +91,9 @@ void ControllerConfig::validate() const {
               momentum.support_acceleration_hz >= 0.0 &&
               momentum.support_acceleration_hz < 0.5 / dt,
           "momentum.support_acceleration_hz", "must be >= 0 and below half the control rate (0: off)");
+  require(std::isfinite(momentum.ankle_first_blend) && momentum.ankle_first_blend >= 0.0 &&
+              momentum.ankle_first_blend <= 1.0,
+          "momentum.ankle_first_blend", "must be in [0, 1] m (0: off)");
   require(contact.w_k >= 0.0 && contact.eps_f >= 0.0 && contact.eps_cop >= 0.0, "contact",
           "weights must be >= 0");
   require(foot.kp >= 0.0 && foot.kd >= 0.0, "foot", "gains must be >= 0");
@@ -151,8 +154,10 @@ ControllerConfig from_yaml(const YAML::Node& root, const std::string& file) {
   r.number(root, "planned_support_release_height", "", c.planned_support_release_height);
   if (const auto m = root["momentum"]) {
     r.keys(m, "momentum",
-           {"gamma11", "gamma21", "gamma22", "feedback_filter_hz", "support_acceleration_hz"});
+           {"gamma11", "gamma21", "gamma22", "feedback_filter_hz", "support_acceleration_hz",
+            "ankle_first_blend"});
     r.number(m, "feedback_filter_hz", "momentum.", c.momentum.feedback_filter_hz);
+    r.number(m, "ankle_first_blend", "momentum.", c.momentum.ankle_first_blend);
     r.number(m, "support_acceleration_hz", "momentum.", c.momentum.support_acceleration_hz);
     r.vec3(m, "gamma11", "momentum.", c.momentum.gamma11);
     r.vec3(m, "gamma21", "momentum.", c.momentum.gamma21);

@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "poise/contact/contact_optimizer.hpp"
+#include "poise/controller/controller_config.hpp"
 #include "poise/inprocess/in_process_loop.hpp"
 #include "poise/launch/child.hpp"
 #include "poise/plot/balance_plot.hpp"
@@ -64,6 +65,10 @@ struct Options {
   double freq_step = 0.1, freq_tol = 0.02, freq_max = 2.0;
   double periods = 3.0;
   std::string priority;  // "" = the base scenario's / controller default
+  /// --controller-config: a controller YAML that replaces every run's `controller:` section
+  /// (loaded and validated before the first run; null node: not given).
+  std::string controller_config;
+  YAML::Node controller_node;
   std::string output_dir = "results/envelope";
   std::string gnuplot;
   double run_timeout_s = 600.0;
@@ -126,12 +131,25 @@ class Runner {
   Outcome run(YAML::Node scenario, const std::string& name) {
     ++count_;
     scenario["name"] = name;
+    if (!o_.controller_config.empty()) {
+      if (o_.controller_node.IsMap())
+        scenario["controller"] = YAML::Clone(o_.controller_node);
+      else
+        scenario.remove("controller");  // an empty file: the controller's defaults
+    }
     if (!o_.priority.empty()) scenario["controller"]["contact"]["priority"] = o_.priority;
     Outcome out;
     try {
+      // Every run's scenario is kept (runs/NAME.yaml): `poise run` re-runs one case.
+      YAML::Emitter e;
+      e << scenario;
+      const fs::path file = work_ / (name + ".yaml");
+      {
+        std::ofstream f(file);
+        f << e.c_str() << "\n";
+        if (!f) throw std::runtime_error("cannot write " + file.string());
+      }
       if (o_.mode == "in-process") {
-        YAML::Emitter e;
-        e << scenario;
         const scenario::Scenario sc = scenario::parse_scenario(e.c_str(), work_, "scenario " + name);
         inprocess::LoopOptions lo;
         if (o_.ground_truth_state) lo.state_source = inprocess::StateSource::kGroundTruth;
@@ -145,7 +163,7 @@ class Runner {
         out.trunk_roll_max_deg = r.trunk_roll_max_deg;
         for (const auto& f : r.failed) out.failed += (out.failed.empty() ? "" : "; ") + f;
       } else {
-        out = run_lockstep(scenario, name);
+        out = run_lockstep(file, name);
       }
     } catch (const std::exception& e) {
       out.survived = false;
@@ -158,16 +176,8 @@ class Runner {
   int count() const { return count_; }
 
  private:
-  Outcome run_lockstep(const YAML::Node& scenario, const std::string& name) {
-    const fs::path file = work_ / (name + ".yaml");
+  Outcome run_lockstep(const fs::path& file, const std::string& name) {
     const fs::path json = work_ / (name + ".json");
-    {
-      std::ofstream f(file);
-      YAML::Emitter e;
-      e << scenario;
-      f << e.c_str() << "\n";
-      if (!f) throw std::runtime_error("cannot write " + file.string());
-    }
     const std::string timeout = std::to_string(static_cast<int>(o_.run_timeout_s));
     std::vector<std::string> args{poise_, "run", file.string(), "-q", "-o", json.string(),
                                   "--log-dir", (work_ / (name + ".logs")).string(), "--timeout",
@@ -369,6 +379,12 @@ int envelope_main(int argc, char** argv) {
                  "contact optimiser priority for every run (default: the base scenario's "
                  "controller section, else lexicographic)")
       ->check(CLI::IsMember({"lexicographic", "weighted"}));
+  app.add_option("--controller-config", o.controller_config,
+                 "controller YAML for every run (keys of "
+                 "controller/momentum/config/balance_controller.yaml, e.g. "
+                 "controller/momentum/config/ankle_first.yaml); replaces the base scenarios' "
+                 "controller: sections; --priority still applies (default: those sections)")
+      ->check(CLI::ExistingFile);
   app.add_option("--output-dir,-o", o.output_dir, "where the CSV, the summary and the plots go")
       ->capture_default_str();
   app.add_option("--run-timeout", o.run_timeout_s, "lockstep: wall-clock bound of one run [s]")
@@ -383,6 +399,14 @@ int envelope_main(int argc, char** argv) {
 
   const auto t0 = std::chrono::steady_clock::now();
   try {
+    if (!o.controller_config.empty()) {
+      // Refused before the first run, naming the key (poise::controller's own parser).
+      (void)controller::load_controller_config(o.controller_config);
+      o.controller_node = YAML::LoadFile(o.controller_config);
+      if (o.controller_node && !o.controller_node.IsNull() && !o.controller_node.IsMap())
+        throw std::runtime_error("--controller-config " + o.controller_config +
+                                 ": not a YAML mapping of controller keys");
+    }
     const fs::path out_dir = o.output_dir;
     const fs::path work = out_dir / "runs";
     fs::create_directories(work);
@@ -631,6 +655,9 @@ int envelope_main(int argc, char** argv) {
          << fmt(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 0)
          << " s). Every run: runs.csv. Priority: "
          << (o.priority.empty() ? "the base scenarios' (default lexicographic)" : o.priority)
+         << ". Controller: "
+         << (o.controller_config.empty() ? std::string("the base scenarios' sections")
+                                         : "`" + o.controller_config + "`")
          << ". State: " << (o.ground_truth_state ? "ground truth (debug)" : "the estimator's")
          << ".\n\n";
       if (!dirs.empty()) {

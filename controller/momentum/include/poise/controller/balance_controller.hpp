@@ -29,6 +29,7 @@
 #include "poise/controller/controller_config.hpp"
 #include "poise/controller/joint_command.hpp"
 #include "poise/controller/robot_state.hpp"
+#include "poise/controller/support_polygon.hpp"
 #include "poise/controller/tick_diagnostics.hpp"
 #include "poise/model/data.hpp"
 #include "poise/model/model.hpp"
@@ -131,6 +132,7 @@ class BalanceController {
   Eigen::VectorXd is_upper_;                // dim n, 1 for upper-body joints
   Eigen::VectorXd q_nominal_;               // dim n
   double com_height_ = 0.0;
+  SupportPolygon polygon_;  ///< MomentumGains::ankle_first_blend, rebuilt every tick
 
   // ---- per tick
   // ----------------------------------------------------------------------------------

@@ -49,6 +49,13 @@ struct MomentumGains {
   /// Only with the Sec. 4.2 target (not a reference's CoM target). 0: off (the paper's (11)).
   /// Measured: controller/momentum/README.md "Accelerating supports".
   double support_acceleration_hz = 0.0;
+  /// Ankle strategy first (not in the paper; support_polygon.hpp): > 0: when (11)'s horizontal
+  /// demand has its inverted-pendulum CoP outside the support polygon (the supports' safe
+  /// regions) while the capture point is inside it, the demand is replaced by the one that puts
+  /// the CoP on the polygon's edge beyond the capture point, which stops the CoM without
+  /// angular momentum; the paper's demand (and the hip strategy with it) returns linearly as the
+  /// capture point comes within this distance [m] of the edge. 0: off (the paper's (11)).
+  double ankle_first_blend = 0.0;
 };
 
 /// Weights of the contact problem, eqs (21) and (29) (copied into the problem sent out; the

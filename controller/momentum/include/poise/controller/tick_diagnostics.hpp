@@ -36,6 +36,9 @@ struct TickDiagnostics {
   model::Vector6 hdot_admissible = model::Vector6::Zero();  ///< [k_dot_a; l_dot_a] of the wrenches
   model::Vector6 hdot_achieved =
       model::Vector6::Zero();  ///< A qdd + A_dot qd of the eq (33) output
+  /// MomentumGains::ankle_first_blend: 0 = the horizontal demand of (11) replaced by the ankle
+  /// strategy's, 1 = (11) as it is (also when the rule is off), between: blended.
+  double ankle_first_beta = 1.0;
   std::array<model::Motion, 2> foot_acceleration_desired{model::Motion::Zero(),
                                                          model::Motion::Zero()};  ///< a_d (36)
   std::array<model::Vector6, 2> foot_wrench_W{model::Vector6::Zero(),
