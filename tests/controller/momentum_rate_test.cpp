@@ -53,6 +53,8 @@ TEST(ControllerConfig, ShippedFileLoadsWithTheDefaults) {
   EXPECT_EQ(d.momentum.ankle_first_blend, 0.0);  // off: the paper's (11)
   EXPECT_EQ(c.acceleration.w_b, d.acceleration.w_b);
   EXPECT_EQ(c.foot.kp, d.foot.kp);
+  EXPECT_EQ(c.foot.unloaded_kp, d.foot.unloaded_kp);
+  EXPECT_EQ(c.foot.unloaded_kd, d.foot.unloaded_kd);
   EXPECT_EQ(c.foot.support_acceleration_tau, d.foot.support_acceleration_tau);
   EXPECT_EQ(c.feedback.max_position_error, d.feedback.max_position_error);
   EXPECT_EQ(c.resting_force_fraction, d.resting_force_fraction);
@@ -94,6 +96,9 @@ TEST(ControllerConfig, BadFilesNameTheProblem) {
   expect_error("contact: {torsion_limit: coupled}\n", "contact.torsion_limit");
   expect_error("momentum: {ankle_first_blend: -0.01}\n", "momentum.ankle_first_blend");
   expect_error("momentum: {ankle_first_blend: .nan}\n", "momentum.ankle_first_blend");
+  expect_error("foot: {unloaded_kp: .nan}\n", "foot.unloaded_kp");
+  expect_error("foot: {unloaded_kd: .inf}\n", "foot.unloaded_kd");
+  expect_error("foot: {unloaded_kp: []}\n", "foot.unloaded_kp");
   expect_error("contact: {torsion_limit: [independent]}\n", "contact.torsion_limit");
   try {
     load_controller_config("/nonexistent/controller.yaml");
@@ -113,6 +118,11 @@ TEST(ControllerConfig, BadFilesNameTheProblem) {
   const std::string a = write_temp("controller_config_ankle.yaml",
                                    "momentum: {ankle_first_blend: 0.02}\n");
   EXPECT_EQ(load_controller_config(a).momentum.ankle_first_blend, 0.02);
+  const std::string u = write_temp("controller_config_unloaded.yaml",
+                                   "foot: {unloaded_kp: 250, unloaded_kd: 30}\n");
+  EXPECT_EQ(load_controller_config(u).foot.unloaded_kp, 250.0);
+  EXPECT_EQ(load_controller_config(u).foot.unloaded_kd, 30.0);
+  EXPECT_EQ(load_controller_config(u).foot.kp, ControllerConfig{}.foot.kp);
   const std::string t = write_temp("controller_config_torsion.yaml",
                                    "contact: {torsion_limit: independent}\n");
   EXPECT_EQ(load_controller_config(t).contact.torsion_limit, contact::TorsionLimit::kIndependent);

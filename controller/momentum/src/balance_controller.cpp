@@ -369,8 +369,22 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
       X_WF_hold_[i] = X_WF_[i];
       a_support = A_WF_filtered_[i];  // shared with its support; zero when the filter is off
     }
-    const model::Motion a_d =
-        foot_acceleration(config_.foot, X_WF_[i], V_WF_[i], X_d, V_d) + a_support;
+    // A held foot back from the air (its flag off for more than resting_touchdown_air_time
+    // since it last rested) and without load carries none of the contact forces: only its own
+    // gains keep it where it stood (FootGains::unloaded_kp). A foot that touches, or lost its
+    // flag for a few ticks only, keeps kp, kd: the ground holds it, and stiffer gains there pull
+    // it against its support (a light foot on an accelerating platform).
+    // Horizontally only: how the foot comes down (its height, its tilt) stays (36)'s with kp,
+    // kd, so a foot set down by a swing lands as before (a stiffer vertical hold at the swing's
+    // end pose left the step in place's landing touching with < 1 % of the weight and bouncing).
+    model::Motion a_d = foot_acceleration(config_.foot, X_WF_[i], V_WF_[i], X_d, V_d) + a_support;
+    if (!ref.has_target && !loaded && !rested_on_ground_[i]) {
+      FootGains held = config_.foot;
+      if (held.unloaded_kp >= 0.0) held.kp = held.unloaded_kp;
+      if (held.unloaded_kd >= 0.0) held.kd = held.unloaded_kd;
+      a_d.head<2>() = foot_acceleration(held, X_WF_[i], V_WF_[i], X_d, V_d).head<2>() +
+                      a_support.head<2>();
+    }
     diag_.foot_acceleration_desired[i] = a_d;
     d_.segment<6>(6 * i) = a_d - jdot_v_.segment<6>(6 * i);
 

@@ -97,6 +97,8 @@ void ControllerConfig::validate() const {
   require(contact.w_k >= 0.0 && contact.eps_f >= 0.0 && contact.eps_cop >= 0.0, "contact",
           "weights must be >= 0");
   require(foot.kp >= 0.0 && foot.kd >= 0.0, "foot", "gains must be >= 0");
+  require(std::isfinite(foot.unloaded_kp) && std::isfinite(foot.unloaded_kd),
+          "foot.unloaded_kp/unloaded_kd", "must be finite (< 0: foot.kp, foot.kd)");
   require(foot.support_acceleration_tau >= 0.0, "foot.support_acceleration_tau",
           "must be >= 0 (0: no support acceleration feed-forward)");
   const auto& a = acceleration;
@@ -185,9 +187,11 @@ ControllerConfig from_yaml(const YAML::Node& root, const std::string& file) {
     r.number(m, "eps_cop", "contact.", c.contact.eps_cop);
   }
   if (const auto m = root["foot"]) {
-    r.keys(m, "foot", {"kp", "kd", "support_acceleration_tau"});
+    r.keys(m, "foot", {"kp", "kd", "unloaded_kp", "unloaded_kd", "support_acceleration_tau"});
     r.number(m, "kp", "foot.", c.foot.kp);
     r.number(m, "kd", "foot.", c.foot.kd);
+    r.number(m, "unloaded_kp", "foot.", c.foot.unloaded_kp);
+    r.number(m, "unloaded_kd", "foot.", c.foot.unloaded_kd);
     r.number(m, "support_acceleration_tau", "foot.", c.foot.support_acceleration_tau);
   }
   if (const auto m = root["acceleration"]) {
