@@ -544,8 +544,8 @@ TEST(ClosedLoop, HoldsSidewaysPushesInDoubleSupportWithTheAnkleFirst) {
   // default held foot (FootGains::unloaded_kp) the defaults hold these four as well
   // (ClosedLoop.AFootAPushLiftsIsHeldWhereItStood).
   controller::ControllerConfig paper;
-  paper.foot.unloaded_kp = -1.0;
-  paper.foot.unloaded_kd = -1.0;
+  paper.foot.unloaded_kp = paper.foot.kp;
+  paper.foot.unloaded_kd = paper.foot.kd;
   int paper_failures = 0;
   for (const double force : {190.0, 210.0}) {
     for (const double side : {1.0, -1.0}) {
@@ -570,9 +570,9 @@ TEST(ClosedLoop, HoldsSidewaysPushesInDoubleSupportWithTheAnkleFirst) {
       paper_failures += p.survived ? 0 : 1;
     }
   }
-  // (Measured: the paper's (11) failed all four on 12.3-77.7 mm of slip, trunk roll 16.4-19.8 deg;
-  // the ankle first: 3.2-6.1 mm, 13.6-15.4 deg. Before the held foot's gains (FootGains::
-  // unloaded_kp): 14.2-19.7 mm, 17.6-20.4 deg and 2.9-5.3 mm, 12.8-15.8 deg.)
+  // (Measured 2026-12-04: the paper's (11) with the lifted foot at kp, kd failed all four on
+  // 14.2-19.7 mm of slip, trunk roll 17.6-20.4 deg; the ankle first, its foot held: 2.3-4.6 mm,
+  // 12.8-16.4 deg (2.9-5.3 mm, 12.8-15.8 deg with kp, kd before the held foot).)
   EXPECT_GE(paper_failures, 3);
 }
 
@@ -602,8 +602,8 @@ TEST(ClosedLoop, AFootAPushLiftsIsHeldWhereItStood) {
   for (const Case& c : cases) {
     ASSERT_GT(c.config.foot.unloaded_kp, c.config.foot.kp);
     controller::ControllerConfig loose = c.config;
-    loose.foot.unloaded_kp = -1.0;  // kp, kd
-    loose.foot.unloaded_kd = -1.0;
+    loose.foot.unloaded_kp = loose.foot.kp;
+    loose.foot.unloaded_kd = loose.foot.kd;
     double loose_worst = 0.0;
     int loose_failures = 0;
     for (const double force : c.forces) {
@@ -644,8 +644,8 @@ TEST(ClosedLoop, AFootAPushLiftsIsHeldWhereItStood) {
     }
     // Measured 2026-12-04. Ankle first: held, drift 4.7-5.8 mm, slip 1.8-2.5 mm, all survive;
     // kp, kd: drift = slip 11.6-14.6 mm, all four fail. Defaults: held, the foot swings 15.6-28.0
-    // mm out in the air (the trunk rolls 18-20 deg and the hip roll reaches its limit:
-    // deploy/envelope/README.md) but is brought back before it lands: slip 2.2-7.4 mm, all
+    // mm out in the air (the trunk rolls 17-18 deg; the hip roll's limit, recorded at 30599eb in
+    // deploy/envelope/README.md, is what stops it) but is brought back before it lands: slip 2.2-7.4 mm, all
     // survive; kp, kd: drift 25.3-52.4 mm, slip 14.2-19.7 mm, all four fail. The test can tell
     // the two apart:
     EXPECT_GT(loose_worst, 0.010) << c.name;

@@ -99,6 +99,8 @@ TEST(ControllerConfig, BadFilesNameTheProblem) {
   expect_error("foot: {unloaded_kp: .nan}\n", "foot.unloaded_kp");
   expect_error("foot: {unloaded_kd: .inf}\n", "foot.unloaded_kd");
   expect_error("foot: {unloaded_kp: []}\n", "foot.unloaded_kp");
+  expect_error("foot: {unloaded_kp: -1}\n", "foot.unloaded_kp");
+  expect_error("foot: {unloaded_kd: -0.5}\n", "foot.unloaded_kd");
   expect_error("contact: {torsion_limit: [independent]}\n", "contact.torsion_limit");
   try {
     load_controller_config("/nonexistent/controller.yaml");

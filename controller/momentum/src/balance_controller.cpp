@@ -379,9 +379,9 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
     // end pose left the step in place's landing touching with < 1 % of the weight and bouncing).
     model::Motion a_d = foot_acceleration(config_.foot, X_WF_[i], V_WF_[i], X_d, V_d) + a_support;
     if (!ref.has_target && !loaded && !rested_on_ground_[i]) {
-      FootGains held = config_.foot;
-      if (held.unloaded_kp >= 0.0) held.kp = held.unloaded_kp;
-      if (held.unloaded_kd >= 0.0) held.kd = held.unloaded_kd;
+      FootGains held;
+      held.kp = config_.foot.unloaded_kp;
+      held.kd = config_.foot.unloaded_kd;
       a_d.head<2>() = foot_acceleration(held, X_WF_[i], V_WF_[i], X_d, V_d).head<2>() +
                       a_support.head<2>();
     }

@@ -97,8 +97,8 @@ void ControllerConfig::validate() const {
   require(contact.w_k >= 0.0 && contact.eps_f >= 0.0 && contact.eps_cop >= 0.0, "contact",
           "weights must be >= 0");
   require(foot.kp >= 0.0 && foot.kd >= 0.0, "foot", "gains must be >= 0");
-  require(std::isfinite(foot.unloaded_kp) && std::isfinite(foot.unloaded_kd),
-          "foot.unloaded_kp/unloaded_kd", "must be finite (< 0: foot.kp, foot.kd)");
+  require(foot.unloaded_kp >= 0.0, "foot.unloaded_kp", "must be >= 0 (foot.kp: as the others)");
+  require(foot.unloaded_kd >= 0.0, "foot.unloaded_kd", "must be >= 0 (foot.kd: as the others)");
   require(foot.support_acceleration_tau >= 0.0, "foot.support_acceleration_tau",
           "must be >= 0 (0: no support acceleration feed-forward)");
   const auto& a = acceleration;

@@ -83,9 +83,9 @@ struct ContactWeights {
 struct FootGains {
   double kp = 100.0;  ///< [1/s^2]
   double kd = 20.0;   ///< [1/s]
-  /// Horizontal gains of a support foot back from the air (its contact flag off for more than
-  /// resting_touchdown_air_time since it last rested) that measures no load (below the resting
-  /// threshold) and has no target: held where it last rested while a push has lifted it. In the
+  /// Horizontal gains of a foot held where it last rested (no target) that is back from the air
+  /// (its contact flag off for more than resting_touchdown_air_time since it last rested) and
+  /// measures no load (below the resting threshold): a support a push has lifted. In the
   /// air it carries none of the contact problem's forces, so nothing but these gains keeps it
   /// over its spot while the body it hangs from rolls above it; with kp, kd the far foot of a
   /// 160-165 N sideways push (config/ankle_first.yaml) drifted 12-15 mm in the air and landed
@@ -93,7 +93,7 @@ struct FootGains {
   /// (controller/momentum/README.md "A lifted foot held where it stood"). Height and tilt keep
   /// kp, kd (a swing's landing is unchanged), and so does a foot that touches or lost its flag
   /// for a few ticks only (stiffer, it was pulled against an accelerating platform). The paper
-  /// gives no values for (36). < 0: kp, kd.
+  /// gives no values for (36). >= 0; equal to kp, kd: every held foot as (36) with kp, kd.
   double unloaded_kp = 400.0;  ///< [1/s^2] (critically damped with unloaded_kd)
   double unloaded_kd = 40.0;   ///< [1/s]
   /// Sec. 4.2 moving supports: a resting foot follows its support, v_d = v and T_d = T, so eq
