@@ -399,6 +399,75 @@ TEST(BalanceController, AFootBackFromTheAirRestsOnlyOnceItCarriesTheTouchDownLoa
   EXPECT_TRUE(c.diagnostics().resting[0]);
 }
 
+// FootGains::unloaded_kp, unloaded_kd: a foot held where it last rested (no target), back from
+// the air (flag off longer than resting_touchdown_air_time) and without load gets them on its
+// horizontal rows; height and tilt, a loaded foot, a foot off the ground for less than the air
+// time (also right after reset()) and a foot with a target keep kp, kd. Checked against eq (36)
+// written out for a pure translation of the robot (the foot moved by d at velocity v from where
+// it rested): a = -k_p d - k_d v per row, on seeded random d, v.
+TEST(BalanceController, AHeldFootBackFromTheAirGetsTheUnloadedGainsHorizontally) {
+  ControllerConfig cfg;
+  cfg.foot.unloaded_kp = 400.0;
+  cfg.foot.unloaded_kd = 40.0;
+  ASSERT_NE(cfg.foot.unloaded_kp, cfg.foot.kp);
+  BalanceController c = make_controller(cfg);
+  const double weight = humanoid().model.total_mass * humanoid().model.gravity.norm();
+  const int air_ticks = static_cast<int>(std::lround(cfg.resting_touchdown_air_time / cfg.dt));
+  BalanceReference ref = c.make_reference();
+  ref.feet[0].mode = FootMode::kSupport;
+  contact::ContactProblem p;
+  std::mt19937 rng(3);
+  // The standing robot rests, then foot 0 leaves the ground for `off_ticks` ticks (the last one
+  // with the whole robot translated by d and moving at v); returns foot 0's a_d.
+  auto a_d_after = [&](int off_ticks, const Eigen::Vector3d& d, const Eigen::Vector3d& v,
+                       double load, bool cop_outside) {
+    c.reset();
+    RobotState s = test::standing_state(c);
+    c.prepare(s, ref, p);
+    EXPECT_TRUE(c.diagnostics().resting[0]);
+    s.feet[0].in_contact = false;
+    s.feet[0].normal_force = 0.0;
+    for (int k = 0; k < off_ticks - 1; ++k) c.prepare(s, ref, p);
+    RobotState moved = s;
+    moved.X_WB.p += d;
+    moved.v_WB = v;
+    moved.feet[0].normal_force = load;
+    if (cop_outside) moved.feet[0].cop_W += Eigen::Vector3d(1.0, 0.0, 0.0);
+    c.prepare(moved, ref, p);
+    EXPECT_FALSE(c.diagnostics().resting[0]);
+    return model::Motion(c.diagnostics().foot_acceleration_desired[0]);
+  };
+  auto expect_rows = [](const model::Motion& a, double kp_xy, double kd_xy, double kp_z,
+                        double kd_z, const Eigen::Vector3d& d, const Eigen::Vector3d& v,
+                        const char* what) {
+    for (int r = 0; r < 3; ++r) {
+      const double kp = r < 2 ? kp_xy : kp_z, kd = r < 2 ? kd_xy : kd_z;
+      const double expected = -kp * d[r] - kd * v[r];
+      EXPECT_NEAR(a[r], expected, 1e-9 * (1.0 + std::abs(expected))) << what << ", row " << r;
+    }
+    EXPECT_LT(a.tail<3>().norm(), 1e-9) << what << ": no tilt asked";
+  };
+  const double touch_load = 2.0 * cfg.resting_touchdown_force_fraction * weight;
+  for (int trial = 0; trial < 5; ++trial) {
+    const Eigen::Vector3d d(test::uniform(rng, -0.02, 0.02), test::uniform(rng, -0.02, 0.02),
+                            test::uniform(rng, 0.0, 0.002));  // below the release height
+    const Eigen::Vector3d v = test::random_vec3(rng, 0.2);
+    const FootGains& k = cfg.foot;
+    expect_rows(a_d_after(air_ticks + 1, d, v, 0.0, false), k.unloaded_kp, k.unloaded_kd, k.kp,
+                k.kd, d, v, "back from the air, no load");
+    expect_rows(a_d_after(air_ticks, d, v, 0.0, false), k.kp, k.kd, k.kp, k.kd, d, v,
+                "off for the air time only");
+    expect_rows(a_d_after(air_ticks + 1, d, v, touch_load, true), k.kp, k.kd, k.kp, k.kd, d, v,
+                "back from the air with load (CoP outside: not resting)");
+  }
+  // A foot with a target keeps kp, kd (its target is where it stood).
+  ref.feet[0].has_target = true;
+  ref.feet[0].X_WF_target = test::standing_state(c).feet[0].X_WF;
+  const Eigen::Vector3d d(0.01, -0.015, 0.001), v(0.1, 0.05, 0.0);
+  expect_rows(a_d_after(air_ticks + 1, d, v, 0.0, false), cfg.foot.kp, cfg.foot.kd, cfg.foot.kp,
+              cfg.foot.kd, d, v, "with a target");
+}
+
 TEST(BalanceController, APlannedSupportLiftedOffTheGroundLeavesTheContactProblem) {
   // ControllerConfig::planned_support_release: a planned support (FOOT_SUPPORT) measured off the
   // ground -- no contact flag, no load, its foot frame risen from where it last rested -- for
