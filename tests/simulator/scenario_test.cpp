@@ -249,17 +249,22 @@ TEST(SimScenario, MonitorMeasuresComErrorAndSlipAgainstTheSupports) {
   EXPECT_EQ(mon.result().non_foot_contacts, 1);
 }
 
-TEST(SimScenario, MonitorTellsASlideFromAPivotAndFromALandingElsewhere) {
-  // Foot slide: the sole point under the CoP against where that point of the sole was when the
-  // contact began. Foot slip (the criterion): the foot frame's displacement since the start.
+TEST(SimScenario, MonitorTellsASlipFromARollOntoTheToeAndATwist) {
+  // Foot slip (the criterion): the sole centre's displacement since the start. Foot
+  // displacement: the foot frame's (the ankle's). Foot slide: the sole point under the CoP
+  // against where that point of the sole was when the contact began. Foot tilt: the sole
+  // normal's angle to the support's.
   Scenario sc = parse_scenario(kInline, fs::path(POISE_SOURCE_DIR) / "tests/simulator");
   sc.sim.world.platforms.clear();
+  sc.sim.robot.feet[0].has_sole = true;
+  sc.sim.robot.feet[0].sole = SoleConfig{-0.08, 0.14, -0.055, 0.055, 0.08, 0.02};
+  sc.success.foot_slip_max_m = 0.01;
+  const Eigen::Vector3d centre_F(0.03, 0.0, -0.08);  // of that sole, 8 cm below the ankle
   ScenarioMonitor mon(sc, platforms_of_feet(sc));
   GroundTruth g;
   g.feet.resize(2);
   g.non_foot_contact.assign(3, 0);
   g.com_W = Eigen::Vector3d(0.0, 0.0, 0.8);
-  const Eigen::Vector3d toe_corner_F(0.13, -0.045, -0.08);  // a sole corner, ankle 8 cm up
   auto stand = [&](const Eigen::Isometry3d& X_WF0, const Eigen::Vector3d& cop_F, bool contact) {
     g.feet[0].X_WF = X_WF0;
     g.feet[0].cop_W = X_WF0 * cop_F;
@@ -271,30 +276,85 @@ TEST(SimScenario, MonitorTellsASlideFromAPivotAndFromALandingElsewhere) {
     g.time += 0.001;
   };
   const Eigen::Isometry3d X0(Eigen::Translation3d(0.0, -0.1, 0.08));
-  stand(X0, toe_corner_F, true);
-  // Pivot: the foot turns 6 deg in yaw and 2 deg of pitch about its toe corner (the CoP stays
-  // there). The ankle moves ~14 mm: slip, no slide.
-  const Eigen::Vector3d corner_W = X0 * toe_corner_F;
-  const Eigen::Isometry3d turn =
-      Eigen::Translation3d(corner_W) *
-      Eigen::AngleAxisd(6.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ()) *
-      Eigen::AngleAxisd(2.0 * M_PI / 180.0, Eigen::Vector3d::UnitY()) *
-      Eigen::Translation3d(-corner_W);
-  stand(turn * X0, toe_corner_F, true);
+  stand(X0, centre_F, true);
+  auto about = [](const Eigen::Vector3d& p_W, const Eigen::AngleAxisd& rotation) {
+    return Eigen::Isometry3d(Eigen::Translation3d(p_W) * rotation * Eigen::Translation3d(-p_W));
+  };
+  // Rolled 7.5 deg onto the toe edge (heel up, the CoP on that edge): the ankle swings ~11 mm
+  // forward, the sole centre 0.11 (1 - cos 7.5 deg) = 0.94 mm; nothing slides.
+  const Eigen::Vector3d toe_F(0.14, 0.0, -0.08);
+  const double tilt = 7.5 * M_PI / 180.0;
+  const Eigen::Isometry3d rolled =
+      about(X0 * toe_F, Eigen::AngleAxisd(tilt, Eigen::Vector3d::UnitY())) * X0;
+  stand(rolled, toe_F, true);
   auto r = mon.result();
-  EXPECT_GT(r.foot_slip_max_m, 0.012);
+  EXPECT_NEAR(r.foot_slip_max_m, 0.11 * (1.0 - std::cos(tilt)), 1e-12);
+  EXPECT_NEAR(r.foot_displacement_max_m, (rolled.translation() - X0.translation()).head<2>().norm(),
+              1e-12);
+  EXPECT_GT(r.foot_displacement_max_m, 0.010);
   EXPECT_LT(r.foot_slide_max_m, 1e-12);
-  // Lifted, and set down 20 mm to the side, flat: a landing elsewhere, no slide.
-  stand(Eigen::Translation3d(0.0, 0.0, 0.01) * X0, toe_corner_F, false);
+  EXPECT_NEAR(r.foot_tilt_max_deg, 7.5, 1e-9);
+  EXPECT_TRUE(r.survived) << "slip 0.9 mm of the 10 mm allowed; no tilt criterion";
+  // Back flat, then twisted 6 deg about its toe's outer corner (the CoP there): the sole centre
+  // swings 2 |corner - centre| sin(3 deg) = 12.9 mm: slip, no slide (the loaded point stays).
+  stand(X0, centre_F, true);
+  const Eigen::Vector3d corner_F(0.14, -0.055, -0.08);
+  const Eigen::Isometry3d twisted =
+      about(X0 * corner_F, Eigen::AngleAxisd(6.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ())) * X0;
+  stand(twisted, corner_F, true);
+  r = mon.result();
+  const double arm = (corner_F - centre_F).norm();
+  EXPECT_NEAR(r.foot_slip_max_m, 2.0 * arm * std::sin(3.0 * M_PI / 180.0), 1e-12);
+  EXPECT_LT(r.foot_slide_max_m, 1e-12);
+  EXPECT_NEAR(r.foot_tilt_max_deg, 7.5, 1e-9) << "a turn about the normal is no tilt";
+  // Lifted, and set down 20 mm to the side, flat: a landing elsewhere, slip 20 mm, no slide.
+  stand(Eigen::Translation3d(0.0, 0.0, 0.01) * X0, centre_F, false);
   const Eigen::Isometry3d X1 = Eigen::Translation3d(0.0, -0.02, 0.0) * X0;
-  stand(X1, Eigen::Vector3d(0.0, 0.0, -0.08), true);
+  stand(X1, centre_F, true);
   r = mon.result();
   EXPECT_NEAR(r.foot_slip_max_m, 0.02, 1e-12);
+  EXPECT_GE(r.foot_displacement_max_m, 0.02 - 1e-12);
   EXPECT_LT(r.foot_slide_max_m, 1e-12);
-  // Then it slides 4 mm forward, flat, with its CoP at the sole centre: slide 4 mm.
-  stand(Eigen::Translation3d(0.004, 0.0, 0.0) * X1, Eigen::Vector3d(0.0, 0.0, -0.08), true);
+  stand(Eigen::Translation3d(0.0, -0.01, 0.0) * X1, centre_F, true);
   r = mon.result();
-  EXPECT_NEAR(r.foot_slide_max_m, 0.004, 1e-12);
+  EXPECT_NEAR(r.foot_slip_max_m, 0.03, 1e-12);
+  // It slid 10 mm of that within its contact: slide 10 mm.
+  EXPECT_NEAR(r.foot_slide_max_m, 0.01, 1e-12);
+  EXPECT_FALSE(r.survived);
+  EXPECT_NE(mon.failed_criteria().at(0).find("foot_slip_max 0.03 m"), std::string::npos)
+      << mon.failed_criteria().at(0);
+}
+
+TEST(SimScenario, FootTiltIsACriterionOnlyWhenAsked) {
+  Scenario sc = parse_scenario(kInline + std::string("success: {foot_tilt_max_deg: 5}\n"),
+                               fs::path(POISE_SOURCE_DIR) / "tests/simulator");
+  EXPECT_EQ(sc.success.foot_tilt_max_deg, 5.0);
+  EXPECT_NE(error_of(kInline + std::string("success: {foot_tilt_max_deg: -1}\n"))
+                .find("success.foot_tilt_max_deg: must be >= 0"),
+            std::string::npos);
+  EXPECT_TRUE(std::isinf(parse_scenario(kInline, fs::path(POISE_SOURCE_DIR) / "tests/simulator")
+                             .success.foot_tilt_max_deg));
+  sc.sim.world.platforms.clear();
+  ScenarioMonitor mon(sc, platforms_of_feet(sc));
+  GroundTruth g;
+  g.feet.resize(2);
+  g.non_foot_contact.assign(3, 0);
+  for (int f = 0; f < 2; ++f) {
+    g.feet[f].X_WF = Eigen::Isometry3d(Eigen::Translation3d(0.0, f ? 0.1 : -0.1, 0.0));
+    g.feet[f].cop_W = g.feet[f].X_WF.translation();
+    g.feet[f].in_contact = true;
+  }
+  mon.update(g);
+  EXPECT_TRUE(mon.result().survived);
+  // The left foot rolled 6 deg about its outer edge (x axis): over the 5 deg asked.
+  g.feet[0].X_WF.linear() =
+      Eigen::AngleAxisd(6.0 * M_PI / 180.0, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  g.time = 0.001;
+  mon.update(g);
+  EXPECT_NEAR(mon.result().foot_tilt_max_deg, 6.0, 1e-9);
+  EXPECT_FALSE(mon.result().survived);
+  ASSERT_EQ(mon.failed_criteria().size(), 1u);
+  EXPECT_EQ(mon.failed_criteria()[0], "foot_tilt_max 6 deg > 5 deg");
 }
 
 }  // namespace

@@ -81,6 +81,7 @@ struct Outcome {
   bool survived = false;
   double com_error_max_m = 0.0, foot_slip_max_m = 0.0;
   double foot_slide_max_m = 0.0;  // the sliding part of the slip (ScenarioMonitor)
+  double foot_displacement_max_m = 0.0, foot_tilt_max_deg = 0.0;  // (ScenarioMonitor)
   double trunk_pitch_max_deg = 0.0, trunk_roll_max_deg = 0.0;
   std::string failed;  // the failed criteria, or the error that stopped the run
 };
@@ -159,6 +160,8 @@ class Runner {
         out.com_error_max_m = r.com_error_max_m;
         out.foot_slip_max_m = r.foot_slip_max_m;
         out.foot_slide_max_m = r.foot_slide_max_m;
+        out.foot_displacement_max_m = r.foot_displacement_max_m;
+        out.foot_tilt_max_deg = r.foot_tilt_max_deg;
         out.trunk_pitch_max_deg = r.trunk_pitch_max_deg;
         out.trunk_roll_max_deg = r.trunk_roll_max_deg;
         for (const auto& f : r.failed) out.failed += (out.failed.empty() ? "" : "; ") + f;
@@ -203,6 +206,8 @@ class Runner {
     out.com_error_max_m = r.value("com_error_max_m", 0.0);
     out.foot_slip_max_m = r.value("foot_slip_max_m", 0.0);
     out.foot_slide_max_m = r.value("foot_slide_max_m", 0.0);
+    out.foot_displacement_max_m = r.value("foot_displacement_max_m", 0.0);
+    out.foot_tilt_max_deg = r.value("foot_tilt_max_deg", 0.0);
     out.trunk_pitch_max_deg = r.value("trunk_pitch_max_deg", 0.0);
     out.trunk_roll_max_deg = r.value("trunk_roll_max_deg", 0.0);
     out.failed = r.value("failure", std::string());
@@ -556,11 +561,13 @@ int envelope_main(int argc, char** argv) {
     {
       std::ofstream f(out_dir / "runs.csv");
       f << "study,support,direction_deg,force_N,duration_s,frequency_Hz,survived,com_error_max_m,"
-           "foot_slip_max_m,foot_slide_max_m,trunk_pitch_max_deg,trunk_roll_max_deg,failed\n";
+           "foot_slip_max_m,foot_slide_max_m,foot_displacement_max_m,foot_tilt_max_deg,"
+           "trunk_pitch_max_deg,trunk_roll_max_deg,failed\n";
       for (const Row& r : rows)
         f << r.study << ',' << r.support << ',' << r.direction_deg << ',' << r.force_n << ','
           << r.duration_s << ',' << r.frequency_hz << ',' << (r.o.survived ? 1 : 0) << ','
           << r.o.com_error_max_m << ',' << r.o.foot_slip_max_m << ',' << r.o.foot_slide_max_m
+          << ',' << r.o.foot_displacement_max_m << ',' << r.o.foot_tilt_max_deg
           << ',' << r.o.trunk_pitch_max_deg
           << ',' << r.o.trunk_roll_max_deg << ',' << csv_field(r.o.failed) << '\n';
     }

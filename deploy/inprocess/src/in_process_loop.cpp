@@ -396,6 +396,8 @@ RunResult InProcessLoop::result() const {
   r.com_error_final_m = m.com_error_final_m;
   r.foot_slip_max_m = m.foot_slip_max_m;
   r.foot_slide_max_m = m.foot_slide_max_m;
+  r.foot_displacement_max_m = m.foot_displacement_max_m;
+  r.foot_tilt_max_deg = m.foot_tilt_max_deg;
   r.non_foot_contacts = m.non_foot_contacts;
   r.min_base_height_m = m.min_base_height_m;
   r.recovery_time_s = m.last_recovery_time_s;

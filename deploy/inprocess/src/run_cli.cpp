@@ -24,6 +24,8 @@ nlohmann::json to_json(const RunResult& r) {
   j["com_error_final_m"] = r.com_error_final_m;
   j["foot_slip_max_m"] = r.foot_slip_max_m;
   j["foot_slide_max_m"] = r.foot_slide_max_m;
+  j["foot_displacement_max_m"] = r.foot_displacement_max_m;
+  j["foot_tilt_max_deg"] = r.foot_tilt_max_deg;
   j["non_foot_contacts"] = r.non_foot_contacts;
   j["tick_latency_us"] = {{"p50", r.tick_latency_us.p50_us},
                           {"p99", r.tick_latency_us.p99_us},
@@ -150,11 +152,12 @@ int cli_main(int argc, char** argv) {
     std::string why;
     for (const auto& f : r.failed) why += (why.empty() ? " on " : "; ") + f;
     std::printf(
-        "%s: %s%s  (CoM error max %.4f m, final %.4f m; foot slip %.4f m; non-foot contacts %d; "
+        "%s: %s%s  (CoM error max %.4f m, final %.4f m; foot slip %.4f m, tilt %.1f deg; "
+        "non-foot contacts %d; "
         "trunk pitch/roll max %.1f/%.1f deg; tick p50 %.1f us p99 %.1f us; %llu deadline misses; "
         "x%.2f real time; state %s)\n",
         r.scenario.c_str(), r.survived ? "SURVIVED" : "FAILED", why.c_str(), r.com_error_max_m,
-        r.com_error_final_m, r.foot_slip_max_m, r.non_foot_contacts, r.trunk_pitch_max_deg,
+        r.com_error_final_m, r.foot_slip_max_m, r.foot_tilt_max_deg, r.non_foot_contacts, r.trunk_pitch_max_deg,
         r.trunk_roll_max_deg, r.tick_latency_us.p50_us, r.tick_latency_us.p99_us,
         static_cast<unsigned long long>(r.deadline_misses), r.realtime_factor,
         to_string(r.state_source));

@@ -673,7 +673,7 @@ int run_distributed(int argc, char** argv) {
     r["completed"] = sim_r.value("completed", false);
     for (const char* k :
          {"com_error_max_m", "com_error_final_m", "foot_slip_max_m", "foot_slide_max_m",
-          "non_foot_contacts",
+          "foot_displacement_max_m", "foot_tilt_max_deg", "non_foot_contacts",
           "min_base_height_m", "recovery_time_s", "trunk_pitch_max_deg", "trunk_roll_max_deg",
           "failed_criteria", "tick_latency_us", "realtime_factor", "sim_time_s", "wall_time_s",
           "command_timeouts", "damping_ticks", "watchdog_stale_events", "hold_ticks",
@@ -813,7 +813,8 @@ int run_distributed(int argc, char** argv) {
             w.value("p50", 0.0), w.value("p99", 0.0));
       }
     std::printf(
-        "%s %s (%s, %s)%s%s: com_error max %.3f m final %.3f m, foot slip %.4f m, non-foot "
+        "%s %s (%s, %s)%s%s: com_error max %.3f m final %.3f m, foot slip %.4f m tilt %.1f deg, "
+        "non-foot "
         "contacts %d, trunk pitch/roll max %.1f/%.1f deg, tick latency p50/p99/max %.0f/%.0f/%.0f "
         "us, deadline misses %llu, %.2fx real time -> %s\n",
         r["survived"].get<bool>() ? "SURVIVED" : "FAILED", scenario.name.c_str(),
@@ -824,7 +825,8 @@ int run_distributed(int argc, char** argv) {
             : "mixed dds",
         verdict_reason.empty() ? "" : " on ", verdict_reason.c_str(),
         r.value("com_error_max_m", 0.0), r.value("com_error_final_m", 0.0),
-        r.value("foot_slip_max_m", 0.0), r.value("non_foot_contacts", 0),
+        r.value("foot_slip_max_m", 0.0), r.value("foot_tilt_max_deg", 0.0),
+        r.value("non_foot_contacts", 0),
         r.value("trunk_pitch_max_deg", 0.0), r.value("trunk_roll_max_deg", 0.0),
         lat.is_object() ? lat.value("p50", 0.0) : 0.0,
         lat.is_object() ? lat.value("p99", 0.0) : 0.0,

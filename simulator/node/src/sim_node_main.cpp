@@ -206,6 +206,8 @@ class SimNode {
     j["com_error_final_m"] = r.com_error_final_m;
     j["foot_slip_max_m"] = r.foot_slip_max_m;
     j["foot_slide_max_m"] = r.foot_slide_max_m;
+    j["foot_displacement_max_m"] = r.foot_displacement_max_m;
+    j["foot_tilt_max_deg"] = r.foot_tilt_max_deg;
     j["non_foot_contacts"] = r.non_foot_contacts;
     j["min_base_height_m"] = std::isfinite(r.min_base_height_m) ? r.min_base_height_m : -1.0;
     j["last_recovery_time_s"] =

@@ -487,12 +487,15 @@ World parse_world(const std::string& yaml_text, const fs::path& base_dir,
   // success criteria
   if (const YAML::Node s = root["success"]) {
     c.allow(s, "success",
-            {"com_error_max_m", "com_error_final_m", "foot_slip_max_m", "recovery_time_s",
+            {"com_error_max_m", "com_error_final_m", "foot_slip_max_m", "foot_tilt_max_deg",
+             "recovery_time_s",
              "allow_non_foot_contacts", "min_base_height_m", "max_damping_ticks"});
     SuccessCriteria& k = sc.success;
     k.com_error_max_m = c.num(s, "com_error_max_m", "success", k.com_error_max_m);
     k.com_error_final_m = c.num(s, "com_error_final_m", "success", k.com_error_final_m);
     k.foot_slip_max_m = c.num(s, "foot_slip_max_m", "success", k.foot_slip_max_m);
+    k.foot_tilt_max_deg = c.num(s, "foot_tilt_max_deg", "success", k.foot_tilt_max_deg);
+    if (!(k.foot_tilt_max_deg >= 0.0)) c.fail("success.foot_tilt_max_deg", "must be >= 0");
     k.recovery_time_s = c.num(s, "recovery_time_s", "success", k.recovery_time_s);
     k.allow_non_foot_contacts = c.boolean(s, "allow_non_foot_contacts", "success", false);
     k.min_base_height_m = c.num(s, "min_base_height_m", "success", k.min_base_height_m);
@@ -563,9 +566,18 @@ ScenarioMonitor::ScenarioMonitor(const World& scenario, std::vector<int> platfor
       support_feet_.push_back(static_cast<int>(f));
   for (const Push& p : scenario.sim.pushes)
     last_push_end_ = std::max(last_push_end_, p.start + p.duration);
-  foot_in_support_0_.assign(scenario.sim.robot.feet.size(), Eigen::Vector3d::Zero());
+  foot_in_support_0_.assign(scenario.sim.robot.feet.size(), Eigen::Isometry3d::Identity());
   contact_start_X_SF_.assign(scenario.sim.robot.feet.size(), Eigen::Isometry3d::Identity());
   in_contact_before_.assign(scenario.sim.robot.feet.size(), 0);
+  sole_point_F_.assign(scenario.sim.robot.feet.size(), Eigen::Vector3d::Zero());
+  sole_known_.assign(scenario.sim.robot.feet.size(), 0);
+  for (std::size_t f = 0; f < scenario.sim.robot.feet.size(); ++f) {
+    const FootConfig& foot = scenario.sim.robot.feet[f];
+    if (!foot.has_sole) continue;
+    sole_point_F_[f] = Eigen::Vector3d(0.5 * (foot.sole.x_min + foot.sole.x_max),
+                                       0.5 * (foot.sole.y_min + foot.sole.y_max), -foot.sole.height);
+    sole_known_[f] = 1;
+  }
   r_.last_recovery_time_s = std::numeric_limits<double>::infinity();
 }
 
@@ -584,7 +596,7 @@ void ScenarioMonitor::update(const GroundTruth& g) {
     com_offset_ = g.com_W.head<2>() - centre;
     for (int f : support_feet_)
       foot_in_support_0_[static_cast<std::size_t>(f)] =
-          support_pose(f).inverse() * g.feet[static_cast<std::size_t>(f)].X_WF.translation();
+          support_pose(f).inverse() * g.feet[static_cast<std::size_t>(f)].X_WF;
     initialised_ = true;
   }
   time_ = g.time;
@@ -596,18 +608,33 @@ void ScenarioMonitor::update(const GroundTruth& g) {
     const auto& ft = g.feet[static_cast<std::size_t>(f)];
     if (!ft.in_contact) continue;
     const Eigen::Isometry3d X_SW = support_pose(f).inverse();
-    const Eigen::Vector3d p = X_SW * ft.X_WF.translation();
-    r_.foot_slip_max_m = std::max(
-        r_.foot_slip_max_m, (p - foot_in_support_0_[static_cast<std::size_t>(f)]).head<2>().norm());
-    // Slide: the sole point under the CoP now, against where that point of the sole was when
-    // this contact began.
     const auto fi = static_cast<std::size_t>(f);
     const Eigen::Isometry3d X_SF = X_SW * ft.X_WF;
+    const Eigen::Isometry3d& X_SF0 = foot_in_support_0_[fi];
+    r_.foot_displacement_max_m = std::max(
+        r_.foot_displacement_max_m, (X_SF.translation() - X_SF0.translation()).head<2>().norm());
     if (!in_contact_before_[fi]) contact_start_X_SF_[fi] = X_SF;
     const Eigen::Vector3d cop_S = X_SW * ft.cop_W;
     const Eigen::Vector3d cop_F = X_SF.inverse() * cop_S;
+    // Slip: the sole's centre point against where it was at the start. Without a sole in the
+    // robot config, the point of the sole plane (learnt from the first contact's CoP) below the
+    // foot frame's origin.
+    if (!sole_known_[fi]) {
+      sole_point_F_[fi] = Eigen::Vector3d(0.0, 0.0, cop_F.z());
+      sole_known_[fi] = 1;
+    }
+    r_.foot_slip_max_m = std::max(
+        r_.foot_slip_max_m, (X_SF * sole_point_F_[fi] - X_SF0 * sole_point_F_[fi]).head<2>().norm());
+    // Slide: the sole point under the CoP now, against where that point of the sole was when
+    // this contact began.
     r_.foot_slide_max_m = std::max(r_.foot_slide_max_m,
                                    (cop_S - contact_start_X_SF_[fi] * cop_F).head<2>().norm());
+    // Tilt: the angle between the sole's normal (the support's z when the foot stood at the
+    // start, in F: whatever the foot frame's axes) and the support's z now.
+    const Eigen::Vector3d n_F = X_SF0.linear().transpose().col(2);
+    const double c = (X_SF.linear() * n_F).z();
+    r_.foot_tilt_max_deg =
+        std::max(r_.foot_tilt_max_deg, std::acos(std::clamp(c, -1.0, 1.0)) * (180.0 / M_PI));
   }
   for (int f : support_feet_)
     in_contact_before_[static_cast<std::size_t>(f)] = g.feet[static_cast<std::size_t>(f)].in_contact;
@@ -632,6 +659,7 @@ ScenarioMonitor::Result ScenarioMonitor::result() const {
   r.survived = initialised_ && r.com_error_max_m <= k.com_error_max_m &&
                r.com_error_final_m <= k.com_error_final_m &&
                r.foot_slip_max_m <= k.foot_slip_max_m &&
+               (std::isinf(k.foot_tilt_max_deg) || r.foot_tilt_max_deg <= k.foot_tilt_max_deg) &&
                (k.allow_non_foot_contacts || r.non_foot_contacts == 0) &&
                r.min_base_height_m >= k.min_base_height_m &&
                (std::isinf(k.recovery_time_s) || r.last_recovery_time_s <= k.recovery_time_s);
@@ -656,6 +684,9 @@ std::vector<std::string> ScenarioMonitor::failed_criteria() const {
        !(r.com_error_final_m <= k.com_error_final_m));
   over("foot_slip_max", r.foot_slip_max_m, k.foot_slip_max_m, "m",
        !(r.foot_slip_max_m <= k.foot_slip_max_m));
+  if (!std::isinf(k.foot_tilt_max_deg))
+    over("foot_tilt_max", r.foot_tilt_max_deg, k.foot_tilt_max_deg, "deg",
+         !(r.foot_tilt_max_deg <= k.foot_tilt_max_deg));
   if (!k.allow_non_foot_contacts && r.non_foot_contacts > 0)
     failed.push_back("non_foot_contacts on " + std::to_string(r.non_foot_contacts) + " ticks");
   over("min_base_height", r.min_base_height_m, k.min_base_height_m, "m",

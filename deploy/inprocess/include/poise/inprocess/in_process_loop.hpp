@@ -116,6 +116,8 @@ struct RunResult {
   double com_error_final_m = 0.0;
   double foot_slip_max_m = 0.0;
   double foot_slide_max_m = 0.0;  ///< the sliding part of it (ScenarioMonitor)
+  double foot_displacement_max_m = 0.0;  ///< of the foot frame (ScenarioMonitor)
+  double foot_tilt_max_deg = 0.0;        ///< of a supporting foot (ScenarioMonitor)
   int non_foot_contacts = 0;  ///< ticks with a non-foot body touching something
   double min_base_height_m = 0.0;
   double recovery_time_s = 0.0;      ///< after the last push

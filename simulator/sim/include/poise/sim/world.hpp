@@ -21,6 +21,9 @@ struct SuccessCriteria {
   double com_error_max_m = std::numeric_limits<double>::infinity();    ///< over the whole run
   double com_error_final_m = std::numeric_limits<double>::infinity();  ///< at the end
   double foot_slip_max_m = std::numeric_limits<double>::infinity();    ///< of a supporting foot
+  /// Largest tilt of a supporting foot against its support [deg] (inf: not checked, the
+  /// default: a foot rolled onto its toe is one of the ways a push is ridden out).
+  double foot_tilt_max_deg = std::numeric_limits<double>::infinity();
   double recovery_time_s = std::numeric_limits<double>::infinity();    ///< after the last push
   bool allow_non_foot_contacts = false;  ///< a knee / hand / trunk touching = fall
   double min_base_height_m = 0.0;        ///< base below this height = fall
@@ -57,20 +60,30 @@ World parse_world(const std::string& yaml_text, const std::filesystem::path& bas
 /// Accumulates the verdict quantities of a run from its ground truth (one update per tick).
 /// CoM error: horizontal distance between the CoM and its reference, the reference being the
 /// initial CoM offset from the centroid of the support feet, carried along with that centroid
-/// (so moving supports are not counted as error). Foot slip: largest displacement of a
-/// supporting foot relative to the support it stands on (platform or ground), while in contact.
-/// Foot slide (informational, not a criterion): the part of that which is sliding -- largest
-/// horizontal displacement of the sole point under the foot's CoP from where that point of the
-/// sole was when the current contact began. A foot that pivots about its CoP (heel up on a toe
-/// corner, turning about it) or one that was lifted and landed elsewhere counts as slip but not
-/// as slide.
+/// (so moving supports are not counted as error). Relative to the support each foot stands on
+/// (platform or ground), horizontally, while the foot is in contact:
+///   foot slip (the criterion): largest displacement of the sole's centre point (on the sole
+///     plane; without a sole in the robot config, the point of the sole plane below the foot
+///     frame's origin, the plane taken from the first contact's CoP) from where it was at the
+///     start. It counts a foot sliding or twisting on its support and one lifted and set down
+///     elsewhere; a foot rolled onto an edge moves that point only by the edge's distance x
+///     (1 - cos tilt) (1.2 mm for a toe 14 cm ahead at 7.5 deg).
+///   foot displacement (informational): largest displacement of the foot frame (the ankle) from
+///     where it stood: the slip criterion before 2026-12-04. A foot rolled onto its toe moves its
+///     ankle forward by ~ ankle height x sin(tilt) without sliding (11 mm at 7.5 deg).
+///   foot slide (informational): the sole point under the CoP against where that point of the
+///     sole was when the current contact began (a landing elsewhere is not a slide).
+///   foot tilt (criterion when success.foot_tilt_max_deg is set): largest angle between a
+///     supporting foot's sole normal and its support's.
 class ScenarioMonitor {
  public:
   struct Result {
     double com_error_max_m = 0.0;
     double com_error_final_m = 0.0;
     double foot_slip_max_m = 0.0;
-    double foot_slide_max_m = 0.0;  ///< see the class comment
+    double foot_slide_max_m = 0.0;         ///< see the class comment
+    double foot_displacement_max_m = 0.0;  ///< see the class comment
+    double foot_tilt_max_deg = 0.0;        ///< see the class comment
     int non_foot_contacts = 0;  ///< ticks with at least one non-foot contact
     double min_base_height_m = std::numeric_limits<double>::infinity();
     double last_recovery_time_s = 0.0;  ///< time after the last push until the CoM error stayed
@@ -98,10 +111,13 @@ class ScenarioMonitor {
   std::vector<int> support_feet_;
   bool initialised_ = false;
   Eigen::Vector2d com_offset_ = Eigen::Vector2d::Zero();
-  std::vector<Eigen::Vector3d> foot_in_support_0_;
+  std::vector<Eigen::Isometry3d> foot_in_support_0_;  ///< per foot: its pose at the start
   /// Per foot: its pose in its support's frame when the current contact began (foot slide).
   std::vector<Eigen::Isometry3d> contact_start_X_SF_;
   std::vector<std::uint8_t> in_contact_before_;
+  /// Per foot: the sole point whose displacement is the slip, in F (the sole's centre).
+  std::vector<Eigen::Vector3d> sole_point_F_;
+  std::vector<std::uint8_t> sole_known_;
   double last_push_end_ = 0.0;
   double last_bad_time_ = 0.0;
   double time_ = 0.0;
