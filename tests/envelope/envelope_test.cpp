@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -94,12 +95,41 @@ void check_push_study(const fs::path& dir, double step) {
       EXPECT_TRUE(boundary_survived);
     }
     EXPECT_TRUE(failed_above);
+    // first_failure: the smallest force that failed, and each of its runs' kind of failure.
+    double smallest = 1e18;
+    std::string why;
+    for (const auto& r : runs) {
+      if (r.at("study") != "push" || r.at("support") != e.at("support_or_scenario") ||
+          r.at("survived") == "1")
+        continue;
+      const double f = std::stod(r.at("force_N"));
+      if (f < smallest - 1e-9) why.clear();
+      if (f < smallest + 1e-9) {
+        smallest = std::min(smallest, f);
+        why += r.at("failed") + ";";
+      }
+    }
+    const std::string first = e.at("first_failure");
+    char force[32];
+    std::snprintf(force, sizeof(force), "%.1f N: ", smallest);
+    EXPECT_EQ(first.rfind(force, 0), 0u) << first << " (smallest failure " << smallest << " N)";
+    auto named = [&](const char* criterion, const char* kind) {
+      if (why.find(criterion) != std::string::npos) {
+        EXPECT_NE(first.find(kind), std::string::npos) << first << " / " << why;
+      }
+    };
+    named("com_error_max", "fall");
+    named("min_base_height", "fall");
+    named("foot_slip_max", "slip");
+    named("com_error_final", "slow recovery");
+    named("recovery_time", "slow recovery");
   }
   std::ifstream md(dir / "envelope.md");
   std::stringstream text;
   text << md.rdbuf();
   EXPECT_NE(text.str().find("| double | 0.0 |"), std::string::npos) << text.str();
   EXPECT_NE(text.str().find("120 N survived (Fig. 8)"), std::string::npos) << text.str();
+  EXPECT_NE(text.str().find("| failure above it |"), std::string::npos) << text.str();
 }
 
 TEST(Envelope, PushBoundariesAgreeWithTheRunsInProcess) {

@@ -273,6 +273,22 @@ std::string fmt(double v, int prec = 1) {
   return buf;
 }
 
+/// What kind of failure a run's failed criteria describe: "fall" (CoM error over its maximum,
+/// the base too low, a non-foot contact), "slip" (a foot's sole centre), "tilt", "slow
+/// recovery" (the CoM not back within com_error_final in time), "error" (the run did not run),
+/// joined with "+" in that order when several.
+std::string failure_kinds(const std::string& failed) {
+  const auto has = [&](const char* s) { return failed.find(s) != std::string::npos; };
+  std::string kinds;
+  const auto add = [&](const char* k) { kinds += (kinds.empty() ? "" : "+") + std::string(k); };
+  if (has("error:") || has("aborted")) add("error");
+  if (has("com_error_max") || has("min_base_height") || has("non_foot_contacts")) add("fall");
+  if (has("foot_slip_max")) add("slip");
+  if (has("foot_tilt_max")) add("tilt");
+  if (has("com_error_final") || has("recovery_time")) add("slow recovery");
+  return kinds.empty() ? "other" : kinds;
+}
+
 std::string list(const std::vector<double>& v, int prec = 0) {
   std::string s;
   for (double x : v) s += (s.empty() ? "" : ", ") + fmt(x, prec);
@@ -434,6 +450,8 @@ int envelope_main(int argc, char** argv) {
       std::string support;
       double direction_deg;
       Boundary b;
+      /// The smallest force that failed (just above the boundary) and how its runs failed.
+      std::string first_failure;
     };
     std::vector<DirResult> dirs;
     int jitter_split = 0;  // --jitter-deg: forces whose three runs did not agree
@@ -445,6 +463,7 @@ int envelope_main(int argc, char** argv) {
         const int n = support == "double" ? o.directions : o.single_directions;
         for (int k = 0; k < n; ++k) {
           const double deg = 360.0 * k / n;
+          std::map<double, std::string> failed_at;  // force -> kinds of its failed runs
           auto survives_at = [&](double force, double angle_deg) {
             YAML::Node sc = YAML::Clone(base);
             YAML::Node push = first_push(sc, base_path);
@@ -456,6 +475,11 @@ int envelope_main(int argc, char** argv) {
                           angle_deg, force);
             Row r{"push", support, angle_deg, force, o.push_duration, 0.0, runner.run(sc, name)};
             progress(r);
+            if (!r.o.survived) {
+              std::string& k = failed_at[force];
+              const std::string kind = failure_kinds(r.o.failed);
+              if (k.find(kind) == std::string::npos) k += (k.empty() ? "" : ", ") + kind;
+            }
             return r.o.survived;
           };
           auto survives = [&](double force) {
@@ -466,8 +490,11 @@ int envelope_main(int argc, char** argv) {
             if (n_survived != 0 && n_survived != 3) ++jitter_split;
             return n_survived == 3;
           };
-          dirs.push_back({support, deg,
-                          sweep(o.force_step, o.force_tol, o.force_max, o.probes, survives)});
+          const Boundary b = sweep(o.force_step, o.force_tol, o.force_max, o.probes, survives);
+          std::string first;
+          if (!failed_at.empty())
+            first = fmt(failed_at.begin()->first, 1) + " N: " + failed_at.begin()->second;
+          dirs.push_back({support, deg, b, first});
         }
       }
     }
@@ -574,17 +601,17 @@ int envelope_main(int argc, char** argv) {
     {
       std::ofstream f(out_dir / "envelope.csv");
       f << "study,support_or_scenario,direction_deg_or_force_N,monotone,boundary,reached_max,"
-           "non_monotone\n";
+           "non_monotone,first_failure\n";
       for (const auto& d : dirs)
         f << "push," << d.support << ',' << d.direction_deg << ',' << d.b.monotone << ','
           << d.b.boundary << ',' << (d.b.reached_max ? 1 : 0) << ','
-          << csv_field(list(d.b.non_monotone, 1)) << '\n';
+          << csv_field(list(d.b.non_monotone, 1)) << ',' << csv_field(d.first_failure) << '\n';
       for (const auto& p : fig11)
         f << "fig11,double," << p.force << ',' << p.duration << ',' << p.duration << ','
-          << (p.reached_max ? 1 : 0) << ",\"-\"\n";
+          << (p.reached_max ? 1 : 0) << ",\"-\",\"\"\n";
       for (const auto& q : freqs)
         f << "platforms," << q.scenario << ",0," << q.b.monotone << ',' << q.b.boundary << ','
-          << (q.b.reached_max ? 1 : 0) << ',' << csv_field(list(q.b.non_monotone, 3)) << '\n';
+          << (q.b.reached_max ? 1 : 0) << ',' << csv_field(list(q.b.non_monotone, 3)) << ",\"\"\n";
     }
     // Plot data and gnuplot script.
     std::vector<std::string> pictures;
@@ -679,9 +706,11 @@ int envelope_main(int argc, char** argv) {
                    : std::string())
            << ". *Monotone*: every step up to it survived. "
               "*Boundary*: the bisected edge. *Non-monotone*: forces above the first failure "
-              "that survived.\n\n"
+              "that survived. *Failure above it*: the smallest force that failed and how "
+              "(fall: CoM error over its maximum, the base too low or a non-foot contact; slip: a "
+              "foot's sole centre moved too far; slow recovery: the CoM not back in time).\n\n"
            << "| support | direction (deg, 0 = forward, 90 = left) | monotone (N) | boundary (N) "
-              "| non-monotone (N) | paper |\n|---|---|---|---|---|---|\n";
+              "| non-monotone (N) | failure above it | paper |\n|---|---|---|---|---|---|---|\n";
         for (const auto& d : dirs) {
           std::string paper = "-";
           if (d.support == "double" && std::abs(d.direction_deg) < 1e-9) paper = "120 N survived (Fig. 8)";
@@ -690,7 +719,8 @@ int envelope_main(int argc, char** argv) {
           md << "| " << d.support << " | " << fmt(d.direction_deg, 1) << " | "
              << (d.b.reached_max ? ">= " : "") << fmt(d.b.monotone, 0) << " | "
              << (d.b.reached_max ? ">= " : "") << fmt(d.b.boundary, 1) << " | "
-             << list(d.b.non_monotone, 0) << " | " << paper << " |\n";
+             << list(d.b.non_monotone, 0) << " | "
+             << (d.first_failure.empty() ? "-" : d.first_failure) << " | " << paper << " |\n";
         }
         md << "\n";
       }
