@@ -97,32 +97,28 @@ void check_push_study(const fs::path& dir, double step) {
     EXPECT_TRUE(failed_above);
     // first_failure: the smallest force that failed, and each of its runs' kind of failure.
     double smallest = 1e18;
-    std::string why;
-    for (const auto& r : runs) {
-      if (r.at("study") != "push" || r.at("support") != e.at("support_or_scenario") ||
-          r.at("survived") == "1")
-        continue;
-      const double f = std::stod(r.at("force_N"));
-      if (f < smallest - 1e-9) why.clear();
-      if (f < smallest + 1e-9) {
-        smallest = std::min(smallest, f);
-        why += r.at("failed") + ";";
-      }
-    }
+    for (const auto& r : runs)
+      if (r.at("study") == "push" && r.at("support") == e.at("support_or_scenario") &&
+          r.at("survived") != "1")
+        smallest = std::min(smallest, std::stod(r.at("force_N")));
     const std::string first = e.at("first_failure");
     char force[32];
     std::snprintf(force, sizeof(force), "%.1f N: ", smallest);
-    EXPECT_EQ(first.rfind(force, 0), 0u) << first << " (smallest failure " << smallest << " N)";
-    auto named = [&](const char* criterion, const char* kind) {
-      if (why.find(criterion) != std::string::npos) {
-        EXPECT_NE(first.find(kind), std::string::npos) << first << " / " << why;
-      }
-    };
-    named("com_error_max", "fall");
-    named("min_base_height", "fall");
-    named("foot_slip_max", "slip");
-    named("com_error_final", "slow recovery");
-    named("recovery_time", "slow recovery");
+    ASSERT_EQ(first.rfind(force, 0), 0u) << first << " (smallest failure " << smallest << " N)";
+    // Each failed run's most severe kind is named.
+    for (const auto& r : runs) {
+      if (r.at("study") != "push" || r.at("support") != e.at("support_or_scenario") ||
+          r.at("survived") == "1" || std::abs(std::stod(r.at("force_N")) - smallest) > 1e-9)
+        continue;
+      const std::string& f = r.at("failed");
+      const auto has = [&](const char* c) { return f.find(c) != std::string::npos; };
+      const char* kind = has("com_error_max") || has("min_base_height") || has("non_foot")
+                             ? "fall"
+                         : has("foot_slip_max") ? "slip"
+                         : has("com_error_final") || has("recovery_time") ? "slow recovery"
+                                                                            : "";
+      EXPECT_NE(first.find(kind), std::string::npos) << first << " / " << f;
+    }
   }
   std::ifstream md(dir / "envelope.md");
   std::stringstream text;
@@ -189,6 +185,64 @@ TEST(Envelope, JitterRunsEachForceThreeTimesAndNeedsAllThree) {
   EXPECT_NE(text.str().find("disagreed at " + std::to_string(split) + " forces"),
             std::string::npos)
       << text.str();
+}
+
+// --grid-forces: exactly the forces given, in every direction (here with the jitter), no search;
+// the summary tabulates every verdict, and the boundary is the largest force all runs survived.
+TEST(Envelope, GridRunsExactlyTheForcesGivenAndTabulatesEveryVerdict) {
+  const fs::path dir = work_dir("grid");
+  auto [code, out] =
+      run_command({bin("poise"), "envelope", "pushes", "--supports", "double", "--directions", "1",
+                   "--grid-forces", "400,100", "--jitter-deg", "0.5", "-o", dir.string()},
+                  240s);
+  ASSERT_EQ(code, 0) << out;
+  const auto runs = read_csv(dir / "runs.csv");
+  ASSERT_EQ(runs.size(), 6u);
+  std::map<double, std::string> cells;  // force -> S or not, ordered -0.5, 0, +0.5
+  std::map<double, std::map<double, bool>> by;
+  int survived = 0;
+  for (const auto& r : runs) {
+    const double f = std::stod(r.at("force_N"));
+    double a = std::stod(r.at("direction_deg"));
+    if (a > 180.0) a -= 360.0;
+    by[f][a] = r.at("survived") == "1";
+    survived += r.at("survived") == "1" ? 1 : 0;
+  }
+  ASSERT_EQ(by.size(), 2u);
+  ASSERT_TRUE(by.count(100.0) && by.count(400.0));
+  std::ifstream md(dir / "envelope.md");
+  std::stringstream text;
+  text << md.rdbuf();
+  std::string row = "| double | 0.0 |";
+  for (const auto& [f, angles] : by) {
+    ASSERT_EQ(angles.size(), 3u) << f;
+    // A survival is S, a failure one of the kind letters.
+    row += " ";
+    const std::size_t table = text.str().find("Every run (");
+    ASSERT_NE(table, std::string::npos) << text.str();
+    std::size_t at = text.str().find(row, table);
+    ASSERT_NE(at, std::string::npos) << row << "\n" << text.str();
+    const std::string cell = text.str().substr(at + row.size(), 3);
+    for (std::size_t i = 0; i < 3; ++i) {
+      const bool ok = std::next(angles.begin(), static_cast<long>(i))->second;
+      EXPECT_EQ(cell[i] == 'S', ok) << f << " N, cell " << cell;
+      if (!ok) {
+        EXPECT_NE(std::string("fsctex").find(cell[i]), std::string::npos) << cell;
+      }
+    }
+    row += cell + " |";
+  }
+  EXPECT_NE(text.str().find(std::to_string(survived) + " of 6 runs survived"), std::string::npos)
+      << text.str();
+  const auto env = read_csv(dir / "envelope.csv");
+  ASSERT_EQ(env.size(), 1u);
+  double largest_all = 0.0;
+  for (const auto& [f, angles] : by) {
+    bool all = true;
+    for (const auto& [a, ok] : angles) all = all && ok;
+    if (all) largest_all = f;
+  }
+  EXPECT_NEAR(std::stod(env[0].at("boundary")), largest_all, 1e-9);
 }
 
 TEST(Envelope, Fig11ReportsTheLongestPushSurvived) {

@@ -17,6 +17,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -60,6 +61,7 @@ struct Options {
   double force_step = 25.0, force_tol = 5.0, force_max = 500.0;
   int probes = 3;
   double jitter_deg = 0.0;  // > 0: each push force also at direction -+ this; all must survive
+  std::vector<double> grid_forces;  // pushes: these forces only (a grid), no scan or bisection
   std::vector<double> fig11_forces{40, 60, 80, 100, 120, 160, 200, 250};
   double duration_max = 1.5, duration_tol = 0.01;
   double freq_step = 0.1, freq_tol = 0.02, freq_max = 2.0;
@@ -267,26 +269,54 @@ Boundary sweep(double step, double tol, double max, int probes,
   return b;
 }
 
+/// Runs every force of `forces` (ascending), no search: monotone = the largest force with every
+/// smaller one surviving, boundary = the largest that survived, non-monotone = survivals above
+/// the first failure.
+std::vector<double> sorted(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v;
+}
+
+Boundary grid(std::vector<double> forces, const std::function<bool(double)>& survives) {
+  std::sort(forces.begin(), forces.end());
+  Boundary b;
+  bool failed = false;
+  for (const double x : forces) {
+    const bool ok = survives(x);
+    if (ok && !failed) b.monotone = x;
+    if (ok) b.boundary = x;
+    if (ok && failed) b.non_monotone.push_back(x);
+    failed = failed || !ok;
+  }
+  b.reached_max = !failed;
+  return b;
+}
+
 std::string fmt(double v, int prec = 1) {
   char buf[64];
   std::snprintf(buf, sizeof(buf), "%.*f", prec, v);
   return buf;
 }
 
-/// What kind of failure a run's failed criteria describe: "fall" (CoM error over its maximum,
-/// the base too low, a non-foot contact), "slip" (a foot's sole centre), "tilt", "slow
-/// recovery" (the CoM not back within com_error_final in time), "error" (the run did not run),
-/// joined with "+" in that order when several.
-std::string failure_kinds(const std::string& failed) {
+/// What kind of failure a run's failed criteria describe, the most severe that applies:
+/// "error" (the run did not run to its end), "fall" (CoM error over its maximum, the base too
+/// low, a non-foot contact), "slip" (a foot's sole centre), "tilt", "slow recovery" (the CoM not
+/// back within com_error_final in time).
+std::string failure_kind(const std::string& failed) {
   const auto has = [&](const char* s) { return failed.find(s) != std::string::npos; };
-  std::string kinds;
-  const auto add = [&](const char* k) { kinds += (kinds.empty() ? "" : "+") + std::string(k); };
-  if (has("error:") || has("aborted")) add("error");
-  if (has("com_error_max") || has("min_base_height") || has("non_foot_contacts")) add("fall");
-  if (has("foot_slip_max")) add("slip");
-  if (has("foot_tilt_max")) add("tilt");
-  if (has("com_error_final") || has("recovery_time")) add("slow recovery");
-  return kinds.empty() ? "other" : kinds;
+  if (has("error:") || has("aborted")) return "error";
+  if (has("com_error_max") || has("min_base_height") || has("non_foot_contacts")) return "fall";
+  if (has("foot_slip_max")) return "slip";
+  if (has("foot_tilt_max")) return "tilt";
+  if (has("com_error_final") || has("recovery_time")) return "slow recovery";
+  return "other";
+}
+
+/// One letter for a run's verdict in the grid table: e, f, s, t, c (failure_kind), x other;
+/// S is a survival.
+char failure_letter(const std::string& failed) {
+  const std::string k = failure_kind(failed);
+  return k == "slow recovery" ? 'c' : k == "other" ? 'x' : k[0];
 }
 
 std::string list(const std::vector<double>& v, int prec = 0) {
@@ -375,6 +405,13 @@ int envelope_main(int argc, char** argv) {
                  "README.md); 0: one run per force")
       ->check(CLI::Range(0.0, 45.0))
       ->capture_default_str();
+  app.add_option("--grid-forces", o.grid_forces,
+                 "pushes: run exactly these forces in every direction (with --jitter-deg, each "
+                 "at the direction and -+ it) instead of the scan and bisection, and tabulate "
+                 "every verdict: a fixed grid, for comparing two builds or configurations run "
+                 "for run [N]")
+      ->check(CLI::Range(0.001, 1e5))
+      ->delimiter(',');
   app.add_option("--fig11-forces", o.fig11_forces, "forces of Fig. 11 [N]")
       ->check(CLI::Range(1.0, 1e5));
   app.add_option("--duration-max", o.duration_max, "longest push tried for Fig. 11 [s]")
@@ -452,6 +489,8 @@ int envelope_main(int argc, char** argv) {
       Boundary b;
       /// The smallest force that failed (just above the boundary) and how its runs failed.
       std::string first_failure;
+      /// Per force run: one letter per run (failure_letter; S survived), in run order.
+      std::map<double, std::string> cells;
     };
     std::vector<DirResult> dirs;
     int jitter_split = 0;  // --jitter-deg: forces whose three runs did not agree
@@ -464,6 +503,7 @@ int envelope_main(int argc, char** argv) {
         for (int k = 0; k < n; ++k) {
           const double deg = 360.0 * k / n;
           std::map<double, std::string> failed_at;  // force -> kinds of its failed runs
+          std::map<double, std::string> cells;      // force -> one letter per run (grid table)
           auto survives_at = [&](double force, double angle_deg) {
             YAML::Node sc = YAML::Clone(base);
             YAML::Node push = first_push(sc, base_path);
@@ -477,9 +517,10 @@ int envelope_main(int argc, char** argv) {
             progress(r);
             if (!r.o.survived) {
               std::string& k = failed_at[force];
-              const std::string kind = failure_kinds(r.o.failed);
+              const std::string kind = failure_kind(r.o.failed);
               if (k.find(kind) == std::string::npos) k += (k.empty() ? "" : ", ") + kind;
             }
+            cells[force] += r.o.survived ? 'S' : failure_letter(r.o.failed);
             return r.o.survived;
           };
           auto survives = [&](double force) {
@@ -490,11 +531,13 @@ int envelope_main(int argc, char** argv) {
             if (n_survived != 0 && n_survived != 3) ++jitter_split;
             return n_survived == 3;
           };
-          const Boundary b = sweep(o.force_step, o.force_tol, o.force_max, o.probes, survives);
+          const Boundary b = o.grid_forces.empty()
+                                 ? sweep(o.force_step, o.force_tol, o.force_max, o.probes, survives)
+                                 : grid(o.grid_forces, survives);
           std::string first;
           if (!failed_at.empty())
             first = fmt(failed_at.begin()->first, 1) + " N: " + failed_at.begin()->second;
-          dirs.push_back({support, deg, b, first});
+          dirs.push_back({support, deg, b, first, cells});
         }
       }
     }
@@ -696,19 +739,26 @@ int envelope_main(int argc, char** argv) {
          << ".\n\n";
       if (!dirs.empty()) {
         md << "## Pushes of " << fmt(o.push_duration, 2)
-           << " s by direction\n\nScan in steps of " << fmt(o.force_step, 1)
-           << " N, bisection to " << fmt(o.force_tol, 1) << " N, " << o.probes
-           << " probes above the first failure"
+           << " s by direction\n\n"
+           << (o.grid_forces.empty()
+                   ? "Scan in steps of " + fmt(o.force_step, 1) + " N, bisection to " +
+                         fmt(o.force_tol, 1) + " N, " + std::to_string(o.probes) +
+                         " probes above the first failure"
+                   : "A grid: every direction at " + list(sorted(o.grid_forces), 1) +
+                         " N, no search")
            << (o.jitter_deg > 0.0
                    ? ", each force run at the direction and at -+" + fmt(o.jitter_deg, 2) +
                          " deg, survived only if all three survived (the three disagreed at " +
                          std::to_string(jitter_split) + " forces)"
                    : std::string())
            << ". *Monotone*: every step up to it survived. "
-              "*Boundary*: the bisected edge. *Non-monotone*: forces above the first failure "
-              "that survived. *Failure above it*: the smallest force that failed and how "
-              "(fall: CoM error over its maximum, the base too low or a non-foot contact; slip: a "
-              "foot's sole centre moved too far; slow recovery: the CoM not back in time).\n\n"
+           << (o.grid_forces.empty() ? "*Boundary*: the bisected edge. "
+                                     : "*Boundary*: the largest force survived. ")
+           << "*Non-monotone*: forces above the first failure "
+              "that survived. *Failure above it*: the smallest force that failed and how, the "
+              "most severe per run (fall: CoM error over its maximum, the base too low or a "
+              "non-foot contact; slip: a foot's sole centre moved too far; slow recovery: the CoM "
+              "not back in time).\n\n"
            << "| support | direction (deg, 0 = forward, 90 = left) | monotone (N) | boundary (N) "
               "| non-monotone (N) | failure above it | paper |\n|---|---|---|---|---|---|---|\n";
         for (const auto& d : dirs) {
@@ -723,6 +773,38 @@ int envelope_main(int argc, char** argv) {
              << (d.first_failure.empty() ? "-" : d.first_failure) << " | " << paper << " |\n";
         }
         md << "\n";
+        if (!o.grid_forces.empty()) {
+          std::vector<double> forces = o.grid_forces;
+          std::sort(forces.begin(), forces.end());
+          int runs = 0, survived = 0;
+          md << "Every run (" << (o.jitter_deg > 0.0 ? "at -" + fmt(o.jitter_deg, 2) +
+                                                           " deg, the direction, +" +
+                                                           fmt(o.jitter_deg, 2) + " deg; "
+                                                     : std::string())
+             << "S survived, f fell, s slipped, t tilted, c slow recovery, e error):\n\n"
+             << "| support | direction (deg) |";
+          for (double f : forces) md << ' ' << fmt(f, 1) << " N |";
+          md << "\n|---|---|";
+          for (std::size_t i = 0; i < forces.size(); ++i) md << "---|";
+          md << "\n";
+          for (const auto& d : dirs) {
+            md << "| " << d.support << " | " << fmt(d.direction_deg, 1) << " |";
+            for (double f : forces) {
+              const auto it = d.cells.find(f);
+              const std::string c = it == d.cells.end() ? "-" : it->second;
+              // runs are recorded in run order: 0, -J, +J; shown -J, 0, +J
+              const std::string shown =
+                  c.size() == 3 ? std::string{c[1], c[0], c[2]} : c;
+              md << ' ' << shown << " |";
+              for (char ch : c) {
+                ++runs;
+                survived += ch == 'S' ? 1 : 0;
+              }
+            }
+            md << "\n";
+          }
+          md << "\n" << survived << " of " << runs << " runs survived.\n\n";
+        }
       }
       if (!fig11.empty()) {
         md << "## Fig. 11: forward push, double support\n\nLongest push survived per force "
