@@ -67,7 +67,7 @@ World parse_world(const std::string& yaml_text, const std::filesystem::path& bas
 ///     frame's origin, the plane taken from the first contact's CoP) from where it was at the
 ///     start. It counts a foot sliding or twisting on its support and one lifted and set down
 ///     elsewhere; a foot rolled onto an edge moves that point only by the edge's distance x
-///     (1 - cos tilt) (1.2 mm for a toe 14 cm ahead at 7.5 deg).
+///     (1 - cos tilt) (0.9 mm for a toe 11 cm ahead of the centre at 7.5 deg).
 ///   foot displacement (informational): largest displacement of the foot frame (the ankle) from
 ///     where it stood: the slip criterion before 2026-12-04. A foot rolled onto its toe moves its
 ///     ankle forward by ~ ankle height x sin(tilt) without sliding (11 mm at 7.5 deg).
