@@ -325,6 +325,43 @@ TEST(SimScenario, MonitorTellsASlipFromARollOntoTheToeAndATwist) {
       << mon.failed_criteria().at(0);
 }
 
+// Without a sole in the robot config the slip point is the point of the sole plane below the
+// foot frame, the plane taken from the first contact that carries a load: a first contact
+// without one (the simulator then reports its CoP at the foot frame's origin) does not teach it.
+TEST(SimScenario, WithoutASoleTheSlipPlaneComesFromALoadedContact) {
+  Scenario sc = parse_scenario(kInline, fs::path(POISE_SOURCE_DIR) / "tests/simulator");
+  sc.sim.world.platforms.clear();
+  ASSERT_FALSE(sc.sim.robot.feet[0].has_sole);
+  ScenarioMonitor mon(sc, platforms_of_feet(sc));
+  GroundTruth g;
+  g.feet.resize(2);
+  g.non_foot_contact.assign(3, 0);
+  const Eigen::Isometry3d X0(Eigen::Translation3d(0.0, -0.1, 0.08));  // ankle 8 cm up
+  g.feet[1].X_WF = Eigen::Isometry3d(Eigen::Translation3d(0.0, 0.1, 0.08));
+  g.feet[1].in_contact = true;
+  auto stand = [&](const Eigen::Isometry3d& X, const Eigen::Vector3d& cop_W, double load) {
+    g.feet[0].X_WF = X;
+    g.feet[0].cop_W = cop_W;
+    g.feet[0].force_W = Eigen::Vector3d(0.0, 0.0, load);
+    g.feet[0].in_contact = true;
+    mon.update(g);
+    g.time += 0.001;
+  };
+  stand(X0, X0.translation(), 0.0);                           // touching, no load
+  stand(X0, X0 * Eigen::Vector3d(0.03, 0.0, -0.08), 250.0);  // loaded: the sole plane, 8 cm down
+  const Eigen::Vector3d toe_F(0.14, 0.0, -0.08);
+  const double tilt = 7.5 * M_PI / 180.0;
+  const Eigen::Vector3d toe_W = X0 * toe_F;
+  const Eigen::Isometry3d rolled =
+      Eigen::Translation3d(toe_W) * Eigen::AngleAxisd(tilt, Eigen::Vector3d::UnitY()) *
+      Eigen::Translation3d(-toe_W) * X0;
+  stand(rolled, toe_W, 250.0);
+  // The point 8 cm below the ankle, 14 cm behind the toe: 0.14 (1 - cos 7.5 deg) = 1.2 mm (the
+  // ankle itself: 11 mm).
+  EXPECT_NEAR(mon.result().foot_slip_max_m, 0.14 * (1.0 - std::cos(tilt)), 1e-12);
+  EXPECT_GT(mon.result().foot_displacement_max_m, 0.010);
+}
+
 TEST(SimScenario, FootTiltIsACriterionOnlyWhenAsked) {
   Scenario sc = parse_scenario(kInline + std::string("success: {foot_tilt_max_deg: 5}\n"),
                                fs::path(POISE_SOURCE_DIR) / "tests/simulator");

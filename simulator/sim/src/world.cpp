@@ -617,9 +617,10 @@ void ScenarioMonitor::update(const GroundTruth& g) {
     const Eigen::Vector3d cop_S = X_SW * ft.cop_W;
     const Eigen::Vector3d cop_F = X_SF.inverse() * cop_S;
     // Slip: the sole's centre point against where it was at the start. Without a sole in the
-    // robot config, the point of the sole plane (learnt from the first contact's CoP) below the
-    // foot frame's origin.
-    if (!sole_known_[fi]) {
+    // robot config, the point of the sole plane below the foot frame's origin, the plane learnt
+    // from the first contact that carries a load (a contact without one reports its CoP at the
+    // foot frame's origin, GroundTruth); until then the origin itself.
+    if (!sole_known_[fi] && ft.force_W.norm() > 0.0 && cop_F.allFinite()) {
       sole_point_F_[fi] = Eigen::Vector3d(0.0, 0.0, cop_F.z());
       sole_known_[fi] = 1;
     }
