@@ -187,13 +187,14 @@ TEST(Envelope, JitterRunsEachForceThreeTimesAndNeedsAllThree) {
       << text.str();
 }
 
-// --grid-forces: exactly the forces given, in every direction (here with the jitter), no search;
+// --grid-forces: exactly the forces given (each once: 400 is given twice), in every direction
+// (here with the jitter), no search;
 // the summary tabulates every verdict, and the boundary is the largest force all runs survived.
 TEST(Envelope, GridRunsExactlyTheForcesGivenAndTabulatesEveryVerdict) {
   const fs::path dir = work_dir("grid");
   auto [code, out] =
       run_command({bin("poise"), "envelope", "pushes", "--supports", "double", "--directions", "1",
-                   "--grid-forces", "400,100", "--jitter-deg", "0.5", "-o", dir.string()},
+                   "--grid-forces", "400,100,400", "--jitter-deg", "0.5", "-o", dir.string()},
                   240s);
   ASSERT_EQ(code, 0) << out;
   const auto runs = read_csv(dir / "runs.csv");

@@ -269,16 +269,10 @@ Boundary sweep(double step, double tol, double max, int probes,
   return b;
 }
 
-/// Runs every force of `forces` (ascending), no search: monotone = the largest force with every
-/// smaller one surviving, boundary = the largest that survived, non-monotone = survivals above
-/// the first failure.
-std::vector<double> sorted(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v;
-}
-
-Boundary grid(std::vector<double> forces, const std::function<bool(double)>& survives) {
-  std::sort(forces.begin(), forces.end());
+/// Runs every force of `forces` (ascending, each once), no search: monotone = the largest force
+/// with every smaller one surviving, boundary = the largest that survived, non-monotone =
+/// survivals above the first failure.
+Boundary grid(const std::vector<double>& forces, const std::function<bool(double)>& survives) {
   Boundary b;
   bool failed = false;
   for (const double x : forces) {
@@ -454,6 +448,11 @@ int envelope_main(int argc, char** argv) {
                "(separates the controller's limits from the estimator's)");
   app.add_flag("-q,--quiet", o.quiet, "no progress lines");
   CLI11_PARSE(app, argc, argv);
+  // The grid's forces ascending, each once (a force given twice would be run twice and its
+  // runs counted twice).
+  std::sort(o.grid_forces.begin(), o.grid_forces.end());
+  o.grid_forces.erase(std::unique(o.grid_forces.begin(), o.grid_forces.end()),
+                      o.grid_forces.end());
 
   const auto t0 = std::chrono::steady_clock::now();
   try {
@@ -744,7 +743,7 @@ int envelope_main(int argc, char** argv) {
                    ? "Scan in steps of " + fmt(o.force_step, 1) + " N, bisection to " +
                          fmt(o.force_tol, 1) + " N, " + std::to_string(o.probes) +
                          " probes above the first failure"
-                   : "A grid: every direction at " + list(sorted(o.grid_forces), 1) +
+                   : "A grid: every direction at " + list(o.grid_forces, 1) +
                          " N, no search")
            << (o.jitter_deg > 0.0
                    ? ", each force run at the direction and at -+" + fmt(o.jitter_deg, 2) +
@@ -774,14 +773,14 @@ int envelope_main(int argc, char** argv) {
         }
         md << "\n";
         if (!o.grid_forces.empty()) {
-          std::vector<double> forces = o.grid_forces;
-          std::sort(forces.begin(), forces.end());
+          const std::vector<double>& forces = o.grid_forces;
           int runs = 0, survived = 0;
           md << "Every run (" << (o.jitter_deg > 0.0 ? "at -" + fmt(o.jitter_deg, 2) +
                                                            " deg, the direction, +" +
                                                            fmt(o.jitter_deg, 2) + " deg; "
                                                      : std::string())
-             << "S survived, f fell, s slipped, t tilted, c slow recovery, e error):\n\n"
+             << "S survived, f fell, s slipped, t tilted, c slow recovery, e error, x another "
+                "criterion):\n\n"
              << "| support | direction (deg) |";
           for (double f : forces) md << ' ' << fmt(f, 1) << " N |";
           md << "\n|---|---|";
@@ -791,15 +790,15 @@ int envelope_main(int argc, char** argv) {
             md << "| " << d.support << " | " << fmt(d.direction_deg, 1) << " |";
             for (double f : forces) {
               const auto it = d.cells.find(f);
-              const std::string c = it == d.cells.end() ? "-" : it->second;
-              // runs are recorded in run order: 0, -J, +J; shown -J, 0, +J
-              const std::string shown =
-                  c.size() == 3 ? std::string{c[1], c[0], c[2]} : c;
-              md << ' ' << shown << " |";
-              for (char ch : c) {
-                ++runs;
-                survived += ch == 'S' ? 1 : 0;
+              if (it == d.cells.end()) {
+                md << " - |";
+                continue;
               }
+              // Recorded in run order (survives: 0, -J, +J), shown -J, 0, +J.
+              const std::string& c = it->second;
+              md << ' ' << (c.size() == 3 ? std::string{c[1], c[0], c[2]} : c) << " |";
+              runs += static_cast<int>(c.size());
+              survived += static_cast<int>(std::count(c.begin(), c.end(), 'S'));
             }
             md << "\n";
           }
