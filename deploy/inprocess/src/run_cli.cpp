@@ -157,8 +157,9 @@ int cli_main(int argc, char** argv) {
         "trunk pitch/roll max %.1f/%.1f deg; tick p50 %.1f us p99 %.1f us; %llu deadline misses; "
         "x%.2f real time; state %s)\n",
         r.scenario.c_str(), r.survived ? "SURVIVED" : "FAILED", why.c_str(), r.com_error_max_m,
-        r.com_error_final_m, r.foot_slip_max_m, r.foot_tilt_max_deg, r.non_foot_contacts, r.trunk_pitch_max_deg,
-        r.trunk_roll_max_deg, r.tick_latency_us.p50_us, r.tick_latency_us.p99_us,
+        r.com_error_final_m, r.foot_slip_max_m, r.foot_tilt_max_deg, r.non_foot_contacts,
+        r.trunk_pitch_max_deg, r.trunk_roll_max_deg, r.tick_latency_us.p50_us,
+        r.tick_latency_us.p99_us,
         static_cast<unsigned long long>(r.deadline_misses), r.realtime_factor,
         to_string(r.state_source));
     if (!output.empty()) {

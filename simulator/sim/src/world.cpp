@@ -574,8 +574,9 @@ ScenarioMonitor::ScenarioMonitor(const World& scenario, std::vector<int> platfor
   for (std::size_t f = 0; f < scenario.sim.robot.feet.size(); ++f) {
     const FootConfig& foot = scenario.sim.robot.feet[f];
     if (!foot.has_sole) continue;
-    sole_point_F_[f] = Eigen::Vector3d(0.5 * (foot.sole.x_min + foot.sole.x_max),
-                                       0.5 * (foot.sole.y_min + foot.sole.y_max), -foot.sole.height);
+    const SoleConfig& sole = foot.sole;
+    sole_point_F_[f] = Eigen::Vector3d(0.5 * (sole.x_min + sole.x_max),
+                                       0.5 * (sole.y_min + sole.y_max), -sole.height);
     sole_known_[f] = 1;
   }
   r_.last_recovery_time_s = std::numeric_limits<double>::infinity();
@@ -624,8 +625,9 @@ void ScenarioMonitor::update(const GroundTruth& g) {
       sole_point_F_[fi] = Eigen::Vector3d(0.0, 0.0, cop_F.z());
       sole_known_[fi] = 1;
     }
-    r_.foot_slip_max_m = std::max(
-        r_.foot_slip_max_m, (X_SF * sole_point_F_[fi] - X_SF0 * sole_point_F_[fi]).head<2>().norm());
+    const Eigen::Vector3d& sole_F = sole_point_F_[fi];
+    r_.foot_slip_max_m =
+        std::max(r_.foot_slip_max_m, (X_SF * sole_F - X_SF0 * sole_F).head<2>().norm());
     // Slide: the sole point under the CoP now, against where that point of the sole was when
     // this contact began.
     r_.foot_slide_max_m = std::max(r_.foot_slide_max_m,

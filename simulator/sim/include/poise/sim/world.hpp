@@ -64,10 +64,10 @@ World parse_world(const std::string& yaml_text, const std::filesystem::path& bas
 /// (platform or ground), horizontally, while the foot is in contact:
 ///   foot slip (the criterion): largest displacement of the sole's centre point (on the sole
 ///     plane; without a sole in the robot config, the point of the sole plane below the foot
-///     frame's origin, the plane taken from the CoP of the first contact with a load) from where it was at the
-///     start. It counts a foot sliding or twisting on its support and one lifted and set down
-///     elsewhere; a foot rolled onto an edge moves that point only by the edge's distance x
-///     (1 - cos tilt) (0.9 mm for a toe 11 cm ahead of the centre at 7.5 deg).
+///     frame's origin, the plane taken from the CoP of the first contact with a load) from
+///     where it was at the start. It counts a foot sliding or twisting on its support and one
+///     lifted and set down elsewhere; a foot rolled onto an edge moves that point only by the
+///     edge's distance x (1 - cos tilt) (0.9 mm for a toe 11 cm ahead of the centre at 7.5 deg).
 ///   foot displacement (informational): largest displacement of the foot frame (the ankle) from
 ///     where it stood: the slip criterion before 2026-12-04. A foot rolled onto its toe moves its
 ///     ankle forward by ~ ankle height x sin(tilt) without sliding (11 mm at 7.5 deg).
