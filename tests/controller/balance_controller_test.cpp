@@ -21,12 +21,20 @@ namespace {
 
 using test::humanoid;
 
+// The defaults with eq (11) as written (the ankle strategy's rule off: ankle_first_blend 0), for
+// the tests that check (10)-(11) by hand.
+ControllerConfig eq11_config() {
+  ControllerConfig cfg;
+  cfg.momentum.ankle_first_blend = 0.0;
+  return cfg;
+}
+
 BalanceController make_controller(ControllerConfig cfg = {}) {
   return BalanceController(humanoid().model, humanoid().robot, cfg);
 }
 
 TEST(BalanceController, ContactProblemMatchesKinematicsAndEquations10And11) {
-  BalanceController c = make_controller();
+  BalanceController c = make_controller(eq11_config());
   const auto& model = c.model();
   const auto& robot = c.robot();
   std::mt19937 rng(1);
@@ -78,8 +86,8 @@ TEST(BalanceController, ContactProblemMatchesKinematicsAndEquations10And11) {
         dn.com.z() - model::frame_placement(model, dn, robot.feet[0].sole_frame_id).p.z();
     const Eigen::Vector3d target = sole_mid + Eigen::Vector3d(0, 0, nominal_height);
     EXPECT_LT((c.diagnostics().com_target_W - target).norm(), 1e-9);
-    // Eqs (10)-(11) by hand with the paper's gains (Z up).
-    const ControllerConfig cfg;
+    // Eqs (10)-(11) by hand with the default gains (Z up).
+    const ControllerConfig cfg = eq11_config();
     for (int a = 0; a < 3; ++a) {
       const double k = data.hg[a];
       EXPECT_NEAR(p.k_dot_desired[a], cfg.momentum.gamma11[a] * (0.0 - k), 1e-9);
@@ -109,10 +117,10 @@ TEST(BalanceController, AcceleratingSupportsLeanTheCoMTargetAndFeedTheirAccelera
                   : Eigen::Vector3d::Zero();
     const Eigen::Vector3d v0 = test::random_vec3(rng, 0.5);
     const double hz = test::uniform(rng, 1.0, 5.0);
-    ControllerConfig cfg;
+    ControllerConfig cfg = eq11_config();
     cfg.momentum.support_acceleration_hz = hz;
     BalanceController c = make_controller(cfg);
-    ControllerConfig off_cfg;
+    ControllerConfig off_cfg = eq11_config();
     BalanceController off = make_controller(off_cfg);
     const RobotState s0 = test::standing_state(c);
     const int ticks = static_cast<int>(std::ceil(3.0 / hz / cfg.dt)) + 200;  // settled
@@ -181,7 +189,7 @@ TEST(BalanceController, AcceleratingSupportsLeanTheCoMTargetAndFeedTheirAccelera
   // the robot: 10 m/s in one tick, 1e4 m/s^2 if differenced) is clamped to 3 g for that tick, so
   // the estimate stays small (unclamped it would peak at several m/s^2).
   {
-    ControllerConfig cfg;
+    ControllerConfig cfg = eq11_config();
     cfg.momentum.support_acceleration_hz = 1.0;
     BalanceController c = make_controller(cfg);
     const RobotState s0 = test::standing_state(c);
@@ -211,7 +219,7 @@ TEST(BalanceController, AcceleratingSupportsLeanTheCoMTargetAndFeedTheirAccelera
 // a = dt / (dt + 1 / (2 pi f)), exact at the first tick and again after reset(). Checked against
 // that recurrence on the controller's own measured values over random states.
 TEST(BalanceController, FeedbackFilterIsTheFirstOrderRecurrence) {
-  ControllerConfig cfg;
+  ControllerConfig cfg = eq11_config();
   cfg.momentum.feedback_filter_hz = 30.0;
   BalanceController c = make_controller(cfg);
   const double a = cfg.dt / (cfg.dt + 1.0 / (2.0 * M_PI * 30.0));

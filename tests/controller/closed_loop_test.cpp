@@ -532,18 +532,20 @@ TEST(ClosedLoop, AfterASidewaysPushTheFeetCarryThePlannedForcesNotASqueeze) {
   // push itself, with or without the leak; on the estimator both survive.)
 }
 
-// The ankle strategy first (controller/momentum/config/ankle_first.yaml; controller/momentum/
+// The ankle strategy first (the defaults; controller/momentum/
 // README.md "Ankle strategy first"): sideways pushes of 190 and 210 N in double support, both
 // ways. With the paper's (11) the trunk rolls ~18 deg, the lifted leg runs into its joint limits
 // and that foot lands elsewhere; with the ankle's demand the robot holds them.
 TEST(ClosedLoop, HoldsSidewaysPushesInDoubleSupportWithTheAnkleFirst) {
-  const controller::ControllerConfig ankle = controller::load_controller_config(
-      std::string(POISE_SOURCE_DIR) + "/controller/momentum/config/ankle_first.yaml");
+  // The defaults put the ankle strategy first (since 2026-12-04; config/ankle_first.yaml before).
+  const controller::ControllerConfig ankle;
   ASSERT_GT(ankle.momentum.ankle_first_blend, 0.0);
-  // The paper's (11) with the lifted foot held by (36)'s kp, kd as before 2026-12-04: with the
-  // default held foot (FootGains::unloaded_kp) the defaults hold these four as well
+  // The paper's (11) (config/paper.yaml) with the lifted foot held by (36)'s kp, kd as before
+  // 2026-12-04: with the default held foot (FootGains::unloaded_kp) it holds these four as well
   // (ClosedLoop.AFootAPushLiftsIsHeldWhereItStood).
-  controller::ControllerConfig paper;
+  controller::ControllerConfig paper = controller::load_controller_config(
+      std::string(POISE_SOURCE_DIR) + "/controller/momentum/config/paper.yaml");
+  ASSERT_EQ(paper.momentum.ankle_first_blend, 0.0);
   paper.foot.unloaded_kp = paper.foot.kp;
   paper.foot.unloaded_kd = paper.foot.kd;
   int paper_failures = 0;
@@ -580,7 +582,8 @@ TEST(ClosedLoop, HoldsSidewaysPushesInDoubleSupportWithTheAnkleFirst) {
 // with (FootGains::unloaded_kp, unloaded_kd; controller/momentum/README.md "A lifted foot held
 // where it stood") keep it over the spot it left while the body rolls above it. Sideways pushes in
 // double support, both ways, on the estimator's state: 160 and 165 N with config/ankle_first.yaml
-// (its band of failures before) and 190 and 210 N with the defaults (the paper's (11)), each as
+// (its band of failures before) and 190 and 210 N with config/paper.yaml (the paper's (11), the
+// defaults before 2026-12-04), each as
 // shipped (held foot 400, 40) and with (36)'s kp, kd (100, 20) for that foot: the largest
 // horizontal distance of each foot from where it stood, in the air or on the ground (the
 // simulator's truth).
@@ -598,7 +601,11 @@ TEST(ClosedLoop, AFootAPushLiftsIsHeldWhereItStood) {
        {160.0, 165.0},
        0.008,
        0.005},
-      {"defaults", controller::ControllerConfig{}, {190.0, 210.0}, 0.035, 0.011}};
+      {"paper", controller::load_controller_config(std::string(POISE_SOURCE_DIR) +
+                                                   "/controller/momentum/config/paper.yaml"),
+       {190.0, 210.0},
+       0.035,
+       0.011}};
   for (const Case& c : cases) {
     ASSERT_GT(c.config.foot.unloaded_kp, c.config.foot.kp);
     controller::ControllerConfig loose = c.config;
@@ -711,6 +718,56 @@ TEST_P(ClosedLoopPush, SurvivesLateralPushInSingleSupport) {
   EXPECT_LT(w.max_foot_slip, 0.01);
   EXPECT_LT(w.max_foot_tilt, 0.035) << "the support foot tipped (> 2 deg)";
   EXPECT_LT(w.last_time_com_err_above_1cm, push_end + 3.0);
+}
+
+// FeedbackConfig::touchdown_follow_fraction: the step in place sets the right foot down at
+// 4.3 s (references/step_in_place.yaml: the swing from 3.7 s for 0.6 s) while the CoM is still
+// over the left foot, so the contact solution plans the landed foot no load for a while. With
+// the leg's references following its measured joints until the plan loads it, the foot stays
+// down; with the touch-down tick's reset only, the leg's PD pressed it with an unplanned load
+// that faded, the foot rose and, loaded again late, rocked on its edges (measured 2026-12-04,
+// estimator, the other defaults: 2 against 196 ticks a support in the air, largest load 390
+// against 943 N).
+TEST(ClosedLoop, ALandedFootThePlanDoesNotLoadYetStaysDown) {
+  const scenario::Scenario s = scenario("step_in_place");
+  struct Landing {
+    bool survived = false;
+    int support_in_air = 0;  // ticks the controller has it a support, not touching in the truth
+    double max_load = 0.0;   // largest true normal force on it [N]
+    double slip = 0.0;
+  };
+  auto run = [&s](double fraction) {
+    LoopOptions o;  // the estimator's state
+    controller::ControllerConfig c;
+    c.feedback.touchdown_follow_fraction = fraction;
+    o.controller = c;
+    InProcessLoop loop(s, o);
+    Landing l;
+    while (loop.time() < loop.duration() - 1e-9) {
+      loop.step();
+      if (loop.time() < 4.3) continue;
+      const auto& right = loop.truth().feet[0];
+      if (loop.controller().diagnostics().support[0] && !right.in_contact) ++l.support_in_air;
+      l.max_load = std::max(l.max_load, right.force_W.z());
+    }
+    const RunResult r = loop.result();
+    l.survived = r.survived;
+    l.slip = r.foot_slip_max_m;
+    std::printf("touchdown_follow_fraction %.3f: %s, right foot a support in the air %d ticks, "
+                "largest load %.0f N, slip %.1f mm\n",
+                fraction, r.survived ? "survived" : "FAILED", l.support_in_air, l.max_load,
+                1e3 * r.foot_slip_max_m);
+    return l;
+  };
+  const controller::ControllerConfig defaults;
+  ASSERT_GT(defaults.feedback.touchdown_follow_fraction, 0.0);
+  const Landing follow = run(defaults.feedback.touchdown_follow_fraction);
+  const Landing reset_only = run(0.0);
+  EXPECT_TRUE(follow.survived);
+  EXPECT_LT(follow.support_in_air, 30);
+  EXPECT_LT(follow.max_load, 600.0);
+  EXPECT_LT(follow.slip, 0.005);
+  EXPECT_GT(reset_only.support_in_air, 100) << "the touch-down reset alone left the foot down";
 }
 
 INSTANTIATE_TEST_SUITE_P(StateSources, ClosedLoopPush,

@@ -32,8 +32,12 @@ TEST(MomentumRate, MatchesEquations10And11ComponentWise) {
   }
 }
 
-TEST(MomentumRate, PaperDefaultsMappedToZUp) {
-  const ControllerConfig c;
+TEST(MomentumRate, PaperGainsMappedToZUp) {
+  // config/paper.yaml: the paper's controller (the defaults until 2026-12-04).
+  const ControllerConfig c = load_controller_config(
+      std::string(POISE_SOURCE_DIR) + "/controller/momentum/config/paper.yaml");
+  EXPECT_EQ(c.momentum.ankle_first_blend, 0.0);
+  EXPECT_EQ(c.feedback.touchdown_follow_fraction, 0.0);
   // Paper Sec. 4.2, Y up: Gamma21 = diag{40, 20, 40}, Gamma22 = diag{8, 3, 8}; vertical is z here.
   EXPECT_EQ(c.momentum.gamma11, Eigen::Vector3d(5, 5, 5));
   EXPECT_EQ(c.momentum.gamma21, Eigen::Vector3d(40, 40, 20));
@@ -50,7 +54,14 @@ TEST(ControllerConfig, ShippedFileLoadsWithTheDefaults) {
   const ControllerConfig d;
   EXPECT_EQ(c.momentum.gamma21, d.momentum.gamma21);
   EXPECT_EQ(c.momentum.ankle_first_blend, d.momentum.ankle_first_blend);
-  EXPECT_EQ(d.momentum.ankle_first_blend, 0.0);  // off: the paper's (11)
+  EXPECT_EQ(c.momentum.gamma22, d.momentum.gamma22);
+  EXPECT_EQ(c.feedback.touchdown_follow_fraction, d.feedback.touchdown_follow_fraction);
+  EXPECT_EQ(c.feedback.touchdown_follow_hz, d.feedback.touchdown_follow_hz);
+  // The ankle strategy first with faster CoM gains (controller_config.hpp), since 2026-12-04.
+  EXPECT_EQ(d.momentum.ankle_first_blend, 0.1);
+  EXPECT_EQ(d.momentum.gamma21, Eigen::Vector3d(20, 20, 20));
+  EXPECT_EQ(d.momentum.gamma22, Eigen::Vector3d(15, 15, 3));
+  EXPECT_GT(d.feedback.touchdown_follow_fraction, 0.0);
   EXPECT_EQ(c.acceleration.w_b, d.acceleration.w_b);
   EXPECT_EQ(c.foot.kp, d.foot.kp);
   EXPECT_EQ(c.foot.unloaded_kp, d.foot.unloaded_kp);
@@ -96,6 +107,10 @@ TEST(ControllerConfig, BadFilesNameTheProblem) {
   expect_error("contact: {torsion_limit: coupled}\n", "contact.torsion_limit");
   expect_error("momentum: {ankle_first_blend: -0.01}\n", "momentum.ankle_first_blend");
   expect_error("momentum: {ankle_first_blend: .nan}\n", "momentum.ankle_first_blend");
+  expect_error("feedback: {touchdown_follow_fraction: 1.0}\n", "feedback.touchdown_follow_fraction");
+  expect_error("feedback: {touchdown_follow_fraction: -0.1}\n",
+               "feedback.touchdown_follow_fraction");
+  expect_error("feedback: {touchdown_follow_hz: 0}\n", "feedback.touchdown_follow_hz");
   expect_error("foot: {unloaded_kp: .nan}\n", "foot.unloaded_kp");
   expect_error("foot: {unloaded_kd: .inf}\n", "foot.unloaded_kd");
   expect_error("foot: {unloaded_kp: []}\n", "foot.unloaded_kp");

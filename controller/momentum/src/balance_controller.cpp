@@ -102,6 +102,8 @@ BalanceController::BalanceController(const model::Model& model, const model::Rob
     for (const auto& leg : leg_joints_)
       for (int j : leg) leg_keep_[j] = keep;
   }
+  touchdown_follow_keep_ =
+      std::exp(-2.0 * M_PI * config_.feedback.touchdown_follow_hz * config_.dt);
   // FeedbackConfig::internal_force_leak_hz: the metrics 1/kp and 1/kd (a joint without a gain
   // makes no PD torque: it keeps its reference) and the fixed-size workspace of the split.
   if (config_.feedback.internal_force_leak_hz > 0.0)
@@ -207,6 +209,7 @@ void BalanceController::reset() noexcept {
   have_hold_ = {false, false};
   planned_off_time_ = {0.0, 0.0};
   placed_ = {false, false};
+  landed_unloaded_ = {false, false};
   rested_on_ground_ = {true, true};
   flag_off_time_ = {0.0, 0.0};
   have_hold_seen_ = false;
@@ -696,6 +699,26 @@ void BalanceController::finish_with(const contact::ContactSolution& solution, Co
     if (pr > q_max_[j]) pr = q_max_[j];
     qd_ref_[j] = vr;
     q_ref_[j] = pr;
+  }
+  // FeedbackConfig::touchdown_follow_fraction: a support touched down and not planned a load
+  // yet keeps its leg's references on the measured joints (after the integration, which the
+  // other joints keep), so the leg's PD presses the foot with nothing the plan does not know.
+  const double follow_load =
+      config_.feedback.touchdown_follow_fraction * problem_.mass * model_.gravity.norm();
+  for (int i = 0; i < kFeet; ++i) {
+    if (!problem_.feet[i].in_contact || !(config_.feedback.touchdown_follow_fraction > 0.0)) {
+      landed_unloaded_[i] = false;
+      continue;
+    }
+    if (touch_down_[i]) landed_unloaded_[i] = true;
+    const double planned = solution.feet[i].force_W.dot(X_WF_[i].R.col(2));
+    if (planned > follow_load) landed_unloaded_[i] = false;
+    if (!landed_unloaded_[i]) continue;
+    const double keep = touchdown_follow_keep_;
+    for (int j : leg_joints_[i]) {
+      q_ref_[j] = q_[7 + j] + keep * (q_ref_[j] - q_[7 + j]);
+      qd_ref_[j] = qd_joint_[j] + keep * (qd_ref_[j] - qd_joint_[j]);
+    }
   }
   diag_.reference_clamps = clamps;
   (void)nv;

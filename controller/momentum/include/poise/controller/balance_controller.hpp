@@ -169,6 +169,9 @@ class BalanceController {
   std::array<bool, 2> placed_{false, false};  // the foot has rested or followed a target
   bool both_feet_loaded_ = false;  // this tick: both supports carry support_force_fraction
   std::array<bool, 2> touch_down_{false, false};  // became a support this tick
+  // FeedbackConfig::touchdown_follow_fraction: touched down and not yet planned a load.
+  std::array<bool, 2> landed_unloaded_{false, false};
+  double touchdown_follow_keep_ = 1.0;  // per-tick factor of that following
   bool have_hold_seen_ = false;                   // a tick has been prepared (supports known)
   std::array<std::vector<int>, 2> leg_joints_;    // joints between the base and each foot
   Eigen::VectorXd leg_keep_;  // dim n: exp(-2 pi support_leg_leak_hz dt) on the legs, else 1

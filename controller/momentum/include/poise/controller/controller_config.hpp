@@ -25,8 +25,14 @@ class ConfigError : public std::runtime_error {
 /// r_G). Diagonals in world axes (x forward, y left, z up).
 struct MomentumGains {
   Eigen::Vector3d gamma11{5.0, 5.0, 5.0};     ///< angular momentum damping [1/s]
-  Eigen::Vector3d gamma21{40.0, 40.0, 20.0};  ///< CoM velocity gain [1/s] (paper {40,20,40}, Y up)
-  Eigen::Vector3d gamma22{8.0, 8.0, 3.0};     ///< CoM position gain [1/s^2] (paper {8,3,8}, Y up)
+  /// CoM velocity and position gains, [1/s] and [1/s^2]. Not the paper's ({40, 20, 40} and {8, 3,
+  /// 8} in its Y-up world, i.e. {40, 40, 20} and {8, 8, 3} here: config/paper.yaml): with the
+  /// ankle strategy first (ankle_first_blend) a push leaves a larger CoM excursion, which the
+  /// paper's over-damped pair (poles -0.2 and -39.8 /s) brought back too slowly for the pushes'
+  /// 2.5 s recovery criterion; 20 and 15 put them at -0.86 and -19.1 /s horizontally
+  /// (controller/momentum/README.md "Ankle strategy first").
+  Eigen::Vector3d gamma21{20.0, 20.0, 20.0};
+  Eigen::Vector3d gamma22{15.0, 15.0, 3.0};
   /// First-order low-pass [Hz] of what (10)-(11) feed back: the CoM velocity error (target -
   /// measured) and the centroidal angular momentum (0: none, the paper's equations as written).
   /// The base angular velocity on the wire is the gyro's, sample by sample; over the ~0.84 m from
@@ -54,8 +60,10 @@ struct MomentumGains {
   /// regions) while the capture point is inside it, the demand is replaced by the one that puts
   /// the CoP on the polygon's edge beyond the capture point, which stops the CoM without
   /// angular momentum; the paper's demand (and the hip strategy with it) returns linearly as the
-  /// capture point comes within this distance [m] of the edge. 0: off (the paper's (11)).
-  double ankle_first_blend = 0.0;
+  /// capture point comes within this distance [m] of the edge. 0: off (the paper's (11),
+  /// config/paper.yaml). On by default since 2026-12-04 (with the gains above and
+  /// FeedbackConfig::touchdown_follow_fraction).
+  double ankle_first_blend = 0.1;
 };
 
 /// Weights of the contact problem, eqs (21) and (29) (copied into the problem sent out; the
@@ -160,6 +168,20 @@ struct FeedbackConfig {
   /// monotone in all 8 directions and higher in 7 of them (controller/momentum/README.md
   /// "Joint references in a closed loop").
   double internal_force_leak_hz = 3.0;
+  /// A support that touches down (a swing foot set down, a lifted foot back on the ground) gets
+  /// its leg's references reset to the measured joints (eqs (34)-(35) restarted); after that,
+  /// while the contact solution gives that foot no more than this fraction of the weight, the
+  /// leg's references keep following the measured joint state at touchdown_follow_hz, so its
+  /// joint PD adds no load the contact problem did not plan. The first tick the solution plans
+  /// more, or the foot is no longer a support, the paper's integration resumes. Why: after the
+  /// step in place's landing the plan gave the landed foot 0 N for 0.85 s (the CoM still over
+  /// the other foot) while the leg's PD pressed it with 26-81 N; when that faded the foot rose
+  /// 1.7 mm for ~0.2 s, and the load planned later lagged the plan until the foot rocked on its
+  /// edges (943 N); with the rule the foot stays down (controller/momentum/README.md "A landed
+  /// foot the plan does not load"). 0: the reset at the touch-down tick only. In [0, 1).
+  double touchdown_follow_fraction = 0.01;
+  /// [Hz] The rate of that following (exp(-2 pi f dt) of the reference error kept per tick). > 0.
+  double touchdown_follow_hz = 300.0;
 };
 
 /// What to do when the contact solution of a tick is late or unusable.
