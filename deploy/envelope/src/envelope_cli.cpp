@@ -434,7 +434,7 @@ int envelope_main(int argc, char** argv) {
   app.add_option("--controller-config", o.controller_config,
                  "controller YAML for every run (keys of "
                  "controller/momentum/config/balance_controller.yaml, e.g. "
-                 "controller/momentum/config/ankle_first.yaml); replaces the base scenarios' "
+                 "controller/momentum/config/paper.yaml); replaces the base scenarios' "
                  "controller: sections; --priority still applies (default: those sections)")
       ->check(CLI::ExistingFile);
   app.add_option("--output-dir,-o", o.output_dir, "where the CSV, the summary and the plots go")

@@ -29,7 +29,7 @@ struct MomentumGains {
   /// 8} in its Y-up world, i.e. {40, 40, 20} and {8, 8, 3} here: config/paper.yaml): with the
   /// ankle strategy first (ankle_first_blend) a push leaves a larger CoM excursion, which the
   /// paper's over-damped pair (poles -0.2 and -39.8 /s) brought back too slowly for the pushes'
-  /// 2.5 s recovery criterion; 20 and 15 put them at -0.86 and -19.1 /s horizontally
+  /// 2.5 s recovery criterion; 20 and 15 put them at -0.78 and -19.2 /s horizontally
   /// (controller/momentum/README.md "Ankle strategy first").
   Eigen::Vector3d gamma21{20.0, 20.0, 20.0};
   Eigen::Vector3d gamma22{15.0, 15.0, 3.0};
