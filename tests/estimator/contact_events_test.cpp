@@ -263,8 +263,9 @@ TEST(ContactEvents, LateralPushLiftsAFoot) {
 TEST(ContactEvents, StepInPlace) {
   // The weight goes over the left foot, then the reference swings the right foot (FOOT_SWING,
   // the contact detector's prior: contact_detector.hpp) and sets it down. Before the swing the
-  // right foot, with the weight gone, leaves the ground by 0.3 mm (tick 3226, seed 1) and comes
-  // back down with 2 N (0.4 % of the weight, tick 3439) 0.1 s before its load grows past 1 %:
+  // right foot, with the weight gone, leaves the ground by 0.3 mm (tick 3226, seed 1; 3261 with
+  // the ankle-first controller defaults since 2026-12-04) and comes back down with 2 N (0.4 % of
+  // the weight, tick 3439; 3468) 0.1 s before its load grows past 1 %:
   // that light touch-down is flagged from the step it makes in the F/T reading (the detector's
   // light-touch rule, on here; without it +91 ms, unmatched). Every
   // true event of the run, the swing's lift-off and the landing included, is checked against
