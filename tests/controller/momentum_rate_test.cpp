@@ -107,7 +107,8 @@ TEST(ControllerConfig, BadFilesNameTheProblem) {
   expect_error("contact: {torsion_limit: coupled}\n", "contact.torsion_limit");
   expect_error("momentum: {ankle_first_blend: -0.01}\n", "momentum.ankle_first_blend");
   expect_error("momentum: {ankle_first_blend: .nan}\n", "momentum.ankle_first_blend");
-  expect_error("feedback: {touchdown_follow_fraction: 1.0}\n", "feedback.touchdown_follow_fraction");
+  expect_error("feedback: {touchdown_follow_fraction: 1.0}\n",
+               "feedback.touchdown_follow_fraction");
   expect_error("feedback: {touchdown_follow_fraction: -0.1}\n",
                "feedback.touchdown_follow_fraction");
   expect_error("feedback: {touchdown_follow_hz: 0}\n", "feedback.touchdown_follow_hz");
