@@ -905,6 +905,110 @@ TEST(BalanceController, BothLoadedLegsReferencesLeakTowardsTheMeasuredJoints) {
                         [](ControllerConfig& c, double v) { c.feedback.support_leg_leak_hz = v; });
 }
 
+// FeedbackConfig::touchdown_follow_fraction: from a support's touch-down until the contact
+// solution plans that foot more than the fraction of the weight, its leg's references are pulled
+// towards the measured joints at touchdown_follow_hz after the integration; the other leg and the
+// arms integrate as before, and once the plan has loaded the foot the leg integrates again even
+// if the plan unloads it later (only a new touch-down restarts the following). Off (0): the
+// touch-down tick's reset only, every tick the same as with it on before the touch-down.
+TEST(BalanceController, ALandedLegFollowsItsJointsUntilThePlanLoadsItsFoot) {
+  ControllerConfig cfg;
+  cfg.feedback.support_leg_leak_hz = 0.0;    // these rules alone
+  cfg.feedback.internal_force_leak_hz = 0.0;
+  ASSERT_GT(cfg.feedback.touchdown_follow_fraction, 0.0);
+  ControllerConfig off = cfg;
+  off.feedback.touchdown_follow_fraction = 0.0;
+  BalanceController a = make_controller(cfg), b = make_controller(off);
+  const model::Model& m = a.model();
+  const double weight = m.total_mass * m.gravity.norm();
+  const double keep = std::exp(-2.0 * M_PI * cfg.feedback.touchdown_follow_hz * cfg.dt);
+  std::vector<int> right_leg, others;
+  for (int j = 0; j < m.njoints; ++j) {
+    const std::string& name = m.joint_names[j];
+    const bool leg = name.rfind("r_hip", 0) == 0 || name.rfind("r_knee", 0) == 0 ||
+                     name.rfind("r_ankle", 0) == 0;
+    (leg ? right_leg : others).push_back(j);
+  }
+  ASSERT_EQ(right_leg.size(), 6u);
+  const BalanceReference ref = a.make_reference();  // automatic feet
+  RobotState s = test::standing_state(a);
+  std::mt19937 rng(31);
+  std::uniform_real_distribution<double> off_q(-0.002, 0.002), off_qd(-0.02, 0.02);
+  contact::SequentialOptimizer opt;
+  JointCommand ca = a.make_command(), cb = b.make_command();
+  // One tick of both controllers on the same state and the same solution, the right foot's
+  // planned force set to `right_load` (times its normal) when it is a support; the joints move
+  // a little every tick, so the references and the measured state differ.
+  auto tick = [&](bool right_touching, double right_load) {
+    for (int j = 0; j < m.njoints; ++j) s.q[j] += off_q(rng), s.qd[j] = off_qd(rng);
+    s.feet[0].in_contact = right_touching;
+    s.feet[0].normal_force = right_touching ? 0.001 * weight : 0.0;
+    contact::ContactProblem p;
+    contact::ContactSolution sol;
+    a.prepare(s, ref, p);
+    contact::ContactProblem pb;
+    b.prepare(s, ref, pb);
+    EXPECT_EQ(p.feet[0].in_contact, right_touching);
+    opt.solve(p, sol);
+    if (p.feet[0].in_contact) sol.feet[0].force_W = right_load * p.feet[0].R_WF.col(2);
+    a.finish(sol, ca);
+    b.finish(sol, cb);
+  };
+  // The rule by hand: the paper's integration (with FeedbackConfig's clamps), then the
+  // following when `follow`.
+  auto expect_rule = [&](const Eigen::VectorXd& q_prev, const Eigen::VectorXd& qd_prev,
+                         const JointCommand& c, const BalanceController& ctl, bool follow,
+                         const char* what) {
+    const Eigen::VectorXd qdd = ctl.generalized_acceleration().tail(ctl.num_joints());
+    for (int j : right_leg) {
+      double vr = s.qd[j] + std::clamp(qd_prev[j] - s.qd[j] + qdd[j] * cfg.dt,
+                                       -cfg.feedback.max_velocity_error,
+                                       cfg.feedback.max_velocity_error);
+      double pr = s.q[j] + std::clamp(q_prev[j] - s.q[j] + vr * cfg.dt,
+                                      -cfg.feedback.max_position_error,
+                                      cfg.feedback.max_position_error);
+      if (follow) {
+        vr = s.qd[j] + keep * (vr - s.qd[j]);
+        pr = s.q[j] + keep * (pr - s.q[j]);
+      }
+      EXPECT_NEAR(c.qd_ref[j], vr, 1e-12) << what << ", joint " << m.joint_names[j];
+      EXPECT_NEAR(c.q_ref[j], pr, 1e-12) << what << ", joint " << m.joint_names[j];
+    }
+  };
+  // The right foot in the air: no support, the same commands either way.
+  for (int k = 0; k < 5; ++k) tick(false, 0.0);
+  expect_same_commands(ca, cb);
+  // Touch-down, planned no load: the touch-down reset in both, the following in `a` only.
+  tick(true, 0.0);
+  for (int j : right_leg) {
+    EXPECT_NEAR(ca.q_ref[j] - s.q[j], keep * (cb.q_ref[j] - s.q[j]), 1e-12);
+    EXPECT_NEAR(ca.qd_ref[j] - s.qd[j], keep * (cb.qd_ref[j] - s.qd[j]), 1e-12);
+  }
+  for (int j : others) {
+    EXPECT_EQ(ca.q_ref[j], cb.q_ref[j]);
+    EXPECT_EQ(ca.qd_ref[j], cb.qd_ref[j]);
+  }
+  // Still planned no more than the fraction: it keeps following.
+  for (int k = 0; k < 3; ++k) {
+    const Eigen::VectorXd q_prev = ca.q_ref, qd_prev = ca.qd_ref;
+    tick(true, 0.9 * cfg.feedback.touchdown_follow_fraction * weight);
+    expect_rule(q_prev, qd_prev, ca, a, true, "planned below the fraction");
+  }
+  // Planned a load: integration from this tick on, also when the plan unloads it again.
+  for (const double load : {2.0 * cfg.feedback.touchdown_follow_fraction * weight, 0.0}) {
+    const Eigen::VectorXd q_prev = ca.q_ref, qd_prev = ca.qd_ref;
+    tick(true, load);
+    expect_rule(q_prev, qd_prev, ca, a, false, load > 0.0 ? "planned a load" : "unloaded again");
+  }
+  // Off: the right leg integrates from the touch-down on.
+  const Eigen::VectorXd q_prev = cb.q_ref, qd_prev = cb.qd_ref;
+  tick(true, 0.0);
+  expect_rule(q_prev, qd_prev, cb, b, false, "off");
+  expect_refused_naming("feedback.touchdown_follow_fraction", [](ControllerConfig& c, double v) {
+    c.feedback.touchdown_follow_fraction = v;
+  });
+}
+
 // FeedbackConfig::internal_force_leak_hz: while both feet bear load, the legs' reference errors
 // lose only their internal part: the part whose PD torque kp e is balanced by the two feet's
 // wrenches alone (J_q^T lambda with J_b^T lambda = 0: a squeeze, no motion). The split is

@@ -179,6 +179,9 @@ struct FeedbackConfig {
   /// 1.7 mm for ~0.2 s, and the load planned later lagged the plan until the foot rocked on its
   /// edges (943 N); with the rule the foot stays down (controller/momentum/README.md "A landed
   /// foot the plan does not load"). 0: the reset at the touch-down tick only. In [0, 1).
+  /// The planned force is that of the solution the tick uses: the contact optimiser's, or the
+  /// fallback's (a reused solution, the gravity distribution) when that one is late or unusable;
+  /// a tick refused for a bad state leaves the rule where it was, and reset() ends it.
   double touchdown_follow_fraction = 0.01;
   /// [Hz] The rate of that following (exp(-2 pi f dt) of the reference error kept per tick). > 0.
   double touchdown_follow_hz = 300.0;
