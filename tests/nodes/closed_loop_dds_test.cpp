@@ -105,7 +105,7 @@ class Recorder {
             dds::Qos::reliable(2000)),
         reference_(
             participant_, [this](const msg::BalanceReference& s) { on_reference(s); },
-            dds::Qos::latched(512)) {}
+            dds::Qos::latched(2000)) {}
 
   std::map<std::uint64_t, TruthRec> truth() const { return locked(truth_rec_); }
   std::map<std::uint64_t, StateRec> states() const { return locked(state_rec_); }
@@ -477,8 +477,12 @@ struct ReferenceRun {
 ReferenceRun run_with_reference(Recorder& rec, const std::string& reference, double duration) {
   ReferenceRun rr;
   // The player first: it waits for the robot description, then for the states.
+  // --lead-ticks 500 (the most the queues hold; the default is 200): in lockstep the loop does
+  // not wait for the player, and a player starved of CPU by other tests (seen on a loaded
+  // 2-core machine: 13-246 references late with 200) must not lag further than its lead.
   ChildProcess player({bin("poise-reference"), reference, "--dds", "cyclone", "--domain",
-                       std::to_string(domain()), "--description-timeout-ms", "60000"},
+                       std::to_string(domain()), "--description-timeout-ms", "60000",
+                       "--lead-ticks", "500"},
                       {}, false, true);
   EXPECT_TRUE(player.wait_for_output("waiting for the robot", 20000ms)) << player.output();
   rr.run = run_launcher(kSource + "/deploy/scenarios/standing.yaml",
