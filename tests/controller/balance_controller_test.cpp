@@ -21,11 +21,13 @@ namespace {
 
 using test::humanoid;
 
-// The defaults with eq (11) as written (the ankle strategy's rule off: ankle_first_blend 0), for
-// the tests that check (10)-(11) by hand.
+// The defaults with eqs (10)-(11) as written (the ankle strategy's rule and the trunk-upright
+// target off), for the tests that check (10)-(11) by hand.
 ControllerConfig eq11_config() {
   ControllerConfig cfg;
   cfg.momentum.ankle_first_blend = 0.0;
+  cfg.momentum.upright_pitch_rate = 0.0;  // (10) as written: k_d from the reference
+  cfg.momentum.upright_roll_rate = 0.0;
   return cfg;
 }
 
@@ -259,6 +261,101 @@ TEST(BalanceController, FeedbackFilterIsTheFirstOrderRecurrence) {
         bad.validate();
       }(),
       ConfigError);
+}
+
+// MomentumGains::upright_pitch_rate, upright_roll_rate: (10)'s k_d gains I_G omega_u, the
+// angular momentum of the robot turning rigidly (joints locked) with omega_u = the rates x the
+// rotation vector that brings the trunk upright, split about the robot's horizontal forward
+// (roll) and the axis across it (pitch). The robot is tilted about a horizontal axis n by theta,
+// then yawed by psi (the nominal posture has both soles flat and the base level, checked): the
+// rotation vector is -theta R_z(psi) n; the robot's forward is +x (robot.yaml), and n = its
+// lateral or forward axis gives pure pitch or roll. I_G omega_u from the model's centroidal
+// momentum of that rigid motion (not A_G); a pure yaw adds nothing; 0 is the paper's (10); bad
+// values are refused by name.
+TEST(BalanceController, TrunkUprightAddsTheLockedInertiaTimesTheTiltRate) {
+  const double r_pitch = 1.7, r_roll = 0.6;
+  ControllerConfig cfg = eq11_config();
+  cfg.momentum.upright_pitch_rate = r_pitch;
+  cfg.momentum.upright_roll_rate = r_roll;
+  BalanceController c = make_controller(cfg);
+  BalanceController off = make_controller(eq11_config());
+  const auto& model = c.model();
+  const auto& robot = c.robot();
+  {  // premises
+    model::Data dn(model);
+    model::forward_kinematics(model, dn, robot.q_nominal);
+    for (int i = 0; i < 2; ++i)
+      ASSERT_NEAR(model::frame_placement(model, dn, robot.feet[i].frame_id).R(2, 2), 1.0, 1e-9);
+    ASSERT_LT((model::base_pose(robot.q_nominal).R - Eigen::Matrix3d::Identity()).norm(), 1e-9);
+    ASSERT_EQ(robot.forward_axis, Eigen::Vector3d::UnitX());
+  }
+  std::mt19937 rng(23);
+  for (int trial = 0; trial < 16; ++trial) {
+    RobotState s = test::random_state(c, rng);
+    const double phi = trial == 1 ? M_PI / 2 : trial == 2 ? 0.0 : test::uniform(rng, -M_PI, M_PI);
+    const Eigen::Vector3d n(std::cos(phi), std::sin(phi), 0.0);  // trial 1: pitch, 2: roll
+    const double theta = trial == 0 ? 0.0 : test::uniform(rng, -0.8, 0.8);  // trial 0: yaw only
+    const double psi = test::uniform(rng, -M_PI, M_PI);
+    const Eigen::Matrix3d Rz = Eigen::AngleAxisd(psi, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    s.X_WB = model::SE3(Rz * Eigen::AngleAxisd(theta, n).toRotationMatrix(), s.X_WB.p);
+    BalanceReference ref = c.make_reference();
+    contact::ContactProblem p, p_off;
+    c.prepare(s, ref, p);
+    off.prepare(s, ref, p_off);
+
+    // The expected rate: the tilt's rotation vector, its component along the robot's forward
+    // made horizontal at r_roll, the rest at r_pitch.
+    const Eigen::Vector3d tilt = -theta * (Rz * n);
+    Eigen::Vector3d f = s.X_WB.R * Eigen::Vector3d::UnitX();
+    f.z() = 0.0;
+    f.normalize();
+    const Eigen::Vector3d omega_u = r_roll * tilt.dot(f) * f + r_pitch * (tilt - tilt.dot(f) * f);
+    if (trial == 1) {
+      EXPECT_LT((omega_u - r_pitch * tilt).norm(), 1e-12);
+    }
+    if (trial == 2) {
+      EXPECT_LT((omega_u - r_roll * tilt).norm(), 1e-12);
+    }
+
+    Eigen::VectorXd q(model.nq), v(model.nv), v_locked = Eigen::VectorXd::Zero(model.nv);
+    q.head<3>() = s.X_WB.p;
+    q.segment<4>(3) = Eigen::Quaterniond(s.X_WB.R).coeffs();
+    q.tail(model.njoints) = s.q;
+    v.head<3>() = s.X_WB.R.transpose() * s.v_WB;
+    v.segment<3>(3) = s.X_WB.R.transpose() * s.omega_WB;
+    v.tail(model.njoints) = s.qd;
+    model::Data data(model);
+    model::centroidal_momentum(model, data, q, v);
+    const Eigen::Vector3d k = data.hg.head<3>();
+    v_locked.segment<3>(3) = s.X_WB.R.transpose() * omega_u;
+    model::centroidal_momentum(model, data, q, v_locked);
+    const Eigen::Vector3d k_u = data.hg.head<3>();
+    if (trial == 0) {
+      EXPECT_EQ(k_u.norm(), 0.0);
+    } else {
+      // the tilt's rate is of the order of the trunk's inertia: the check is not vacuous
+      EXPECT_GT(k_u.norm(), 0.05 * std::abs(theta)) << trial;
+    }
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_NEAR(p.k_dot_desired[a], cfg.momentum.gamma11[a] * (k_u[a] - k[a]), 1e-9) << trial;
+      EXPECT_NEAR(p_off.k_dot_desired[a], cfg.momentum.gamma11[a] * (0.0 - k[a]), 1e-9) << trial;
+      EXPECT_NEAR(p.l_dot_desired[a], p_off.l_dot_desired[a], 1e-9) << trial;
+    }
+  }
+  for (const double bad : {-0.1, 101.0, std::nan("")}) {
+    for (const bool pitch : {true, false}) {
+      ControllerConfig b;
+      (pitch ? b.momentum.upright_pitch_rate : b.momentum.upright_roll_rate) = bad;
+      const std::string key =
+          pitch ? "momentum.upright_pitch_rate" : "momentum.upright_roll_rate";
+      try {
+        b.validate();
+        ADD_FAILURE() << "accepted " << bad;
+      } catch (const ConfigError& e) {
+        EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
+      }
+    }
+  }
 }
 
 TEST(BalanceController, SupportsFollowModesAndMeasuredContacts) {

@@ -770,6 +770,48 @@ TEST(ClosedLoop, ALandedFootThePlanDoesNotLoadYetStaysDown) {
   EXPECT_GT(reset_only.support_in_air, 100) << "the touch-down reset alone left the foot down";
 }
 
+// MomentumGains::upright_pitch_rate: (10) as written damps the angular momentum and brings
+// nothing back, so a push the hip strategy holds leaves the trunk pitched for good. Forward and
+// backward pushes in double support (inside the envelope either way), on the estimator's state:
+// the trunk's largest tilt over the run's last 0.5 s (2.4-2.9 s after the push), the simulator's
+// truth, with the default rate and with it off.
+TEST(ClosedLoop, TheTrunkComesBackUprightAfterThePush) {
+  const controller::ControllerConfig defaults;
+  ASSERT_GT(defaults.momentum.upright_pitch_rate, 0.0);
+  for (const double force : {200.0, -230.0}) {
+    scenario::Scenario s = scenario("forward_push_double_support");
+    ASSERT_EQ(s.sim.pushes.size(), 1u);
+    s.sim.pushes[0].force_W = Eigen::Vector3d(force, 0.0, 0.0);
+    auto run = [&s](double rate, double& late_tilt_deg) {
+      LoopOptions o;  // the estimator's state
+      controller::ControllerConfig c;
+      c.momentum.upright_pitch_rate = rate;
+      o.controller = c;
+      InProcessLoop loop(s, o);
+      late_tilt_deg = 0.0;
+      while (loop.time() < loop.duration() - 1e-9) {
+        loop.step();
+        if (loop.time() < loop.duration() - 0.5) continue;
+        const double c22 = std::clamp(loop.truth().X_WB.rotation()(2, 2), -1.0, 1.0);
+        late_tilt_deg = std::max(late_tilt_deg, std::acos(c22) * 180.0 / M_PI);
+      }
+      return loop.result();
+    };
+    double upright = 0.0, left = 0.0;
+    const RunResult a = run(defaults.momentum.upright_pitch_rate, upright);
+    const RunResult b = run(0.0, left);
+    std::printf("%+.0f N: upright pitch rate %.1f /s: %s, trunk pitch max %.1f deg, last 0.5 s %.1f deg; "
+                "off: %s, %.1f deg, last 0.5 s %.1f deg\n",
+                force, defaults.momentum.upright_pitch_rate, a.survived ? "survived" : "FAILED",
+                a.trunk_pitch_max_deg, upright, b.survived ? "survived" : "FAILED",
+                b.trunk_pitch_max_deg, left);
+    EXPECT_TRUE(a.survived) << force << " N";
+    EXPECT_GT(a.trunk_pitch_max_deg, 10.0) << "the hip strategy was used";
+    EXPECT_LT(upright, 6.0) << force << " N";
+    EXPECT_GT(left, 12.0) << force << " N: without it the trunk stays pitched";
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(StateSources, ClosedLoopPush,
                          ::testing::Values(StateSource::kGroundTruth, StateSource::kEstimator),
                          [](const auto& info) { return std::string(to_string(info.param)); });

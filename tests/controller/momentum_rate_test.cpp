@@ -37,6 +37,8 @@ TEST(MomentumRate, PaperGainsMappedToZUp) {
   const ControllerConfig c = load_controller_config(
       std::string(POISE_SOURCE_DIR) + "/controller/momentum/config/paper.yaml");
   EXPECT_EQ(c.momentum.ankle_first_blend, 0.0);
+  EXPECT_EQ(c.momentum.upright_pitch_rate, 0.0);
+  EXPECT_EQ(c.momentum.upright_roll_rate, 0.0);
   EXPECT_EQ(c.feedback.touchdown_follow_fraction, 0.0);
   // Paper Sec. 4.2, Y up: Gamma21 = diag{40, 20, 40}, Gamma22 = diag{8, 3, 8}; vertical is z here.
   EXPECT_EQ(c.momentum.gamma11, Eigen::Vector3d(5, 5, 5));
@@ -54,6 +56,8 @@ TEST(ControllerConfig, ShippedFileLoadsWithTheDefaults) {
   const ControllerConfig d;
   EXPECT_EQ(c.momentum.gamma21, d.momentum.gamma21);
   EXPECT_EQ(c.momentum.ankle_first_blend, d.momentum.ankle_first_blend);
+  EXPECT_EQ(c.momentum.upright_pitch_rate, d.momentum.upright_pitch_rate);
+  EXPECT_EQ(c.momentum.upright_roll_rate, d.momentum.upright_roll_rate);
   EXPECT_EQ(c.momentum.gamma22, d.momentum.gamma22);
   EXPECT_EQ(c.feedback.touchdown_follow_fraction, d.feedback.touchdown_follow_fraction);
   EXPECT_EQ(c.feedback.touchdown_follow_hz, d.feedback.touchdown_follow_hz);
@@ -62,6 +66,8 @@ TEST(ControllerConfig, ShippedFileLoadsWithTheDefaults) {
   EXPECT_EQ(d.momentum.gamma21, Eigen::Vector3d(20, 20, 20));
   EXPECT_EQ(d.momentum.gamma22, Eigen::Vector3d(15, 15, 3));
   EXPECT_GT(d.feedback.touchdown_follow_fraction, 0.0);
+  EXPECT_EQ(d.momentum.upright_pitch_rate, 1.0);  // the trunk's pitch back, since 2026-12-05
+  EXPECT_EQ(d.momentum.upright_roll_rate, 0.0);
   EXPECT_EQ(c.acceleration.w_b, d.acceleration.w_b);
   EXPECT_EQ(c.foot.kp, d.foot.kp);
   EXPECT_EQ(c.foot.unloaded_kp, d.foot.unloaded_kp);
@@ -107,6 +113,10 @@ TEST(ControllerConfig, BadFilesNameTheProblem) {
   expect_error("contact: {torsion_limit: coupled}\n", "contact.torsion_limit");
   expect_error("momentum: {ankle_first_blend: -0.01}\n", "momentum.ankle_first_blend");
   expect_error("momentum: {ankle_first_blend: .nan}\n", "momentum.ankle_first_blend");
+  expect_error("momentum: {upright_pitch_rate: -1}\n", "momentum.upright_pitch_rate");
+  expect_error("momentum: {upright_pitch_rate: fast}\n", "momentum.upright_pitch_rate");
+  expect_error("momentum: {upright_roll_rate: 101}\n", "momentum.upright_roll_rate");
+  expect_error("momentum: {upright_rate: 1}\n", "momentum.upright_rate");
   expect_error("feedback: {touchdown_follow_fraction: 1.0}\n",
                "feedback.touchdown_follow_fraction");
   expect_error("feedback: {touchdown_follow_fraction: -0.1}\n",
@@ -136,6 +146,10 @@ TEST(ControllerConfig, BadFilesNameTheProblem) {
   const std::string a = write_temp("controller_config_ankle.yaml",
                                    "momentum: {ankle_first_blend: 0.02}\n");
   EXPECT_EQ(load_controller_config(a).momentum.ankle_first_blend, 0.02);
+  const std::string up = write_temp("controller_config_upright.yaml",
+                                   "momentum: {upright_pitch_rate: 0.5, upright_roll_rate: 2}\n");
+  EXPECT_EQ(load_controller_config(up).momentum.upright_pitch_rate, 0.5);
+  EXPECT_EQ(load_controller_config(up).momentum.upright_roll_rate, 2.0);
   const std::string u = write_temp("controller_config_unloaded.yaml",
                                    "foot: {unloaded_kp: 250, unloaded_kd: 30}\n");
   EXPECT_EQ(load_controller_config(u).foot.unloaded_kp, 250.0);

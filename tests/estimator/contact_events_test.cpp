@@ -133,8 +133,11 @@ int match(const std::vector<std::uint8_t>& truth, const std::vector<std::uint8_t
 
 using Reference = std::function<void(InProcessLoop&, double)>;
 
+/// controller_file: a controller YAML for the run (empty: the defaults;
+/// POISE_CONTACT_EVENTS_CONTROLLER=FILE another one for every run).
 Result run(const std::string& file, double duration, const Reference& reference = {},
-           double push_scale = 1.0, std::uint64_t seed = 0) {
+           double push_scale = 1.0, std::uint64_t seed = 0,
+           const std::string& controller_file = {}) {
   scenario::Scenario sc =
       scenario::load_scenario(std::string(POISE_SOURCE_DIR) + "/deploy/scenarios/" + file);
   for (sim::Push& p : sc.sim.pushes)
@@ -146,6 +149,8 @@ Result run(const std::string& file, double duration, const Reference& reference 
   sc.estimator.contact_ft_noise = ft_noise ? std::atof(ft_noise) : 0.5;
   LoopOptions opt;
   opt.duration = duration;
+  opt.controller_config_file = controller_file;
+  if (const char* c = std::getenv("POISE_CONTACT_EVENTS_CONTROLLER")) opt.controller_config_file = c;
   InProcessLoop loop(sc, opt);
   const double weight = loop.controller().model().total_mass * loop.controller().model().gravity.norm();
   const model::RobotConfig rc = model::load_robot_config(sc.robot_config);
@@ -261,6 +266,11 @@ TEST(ContactEvents, LateralPushLiftsAFoot) {
 }
 
 TEST(ContactEvents, StepInPlace) {
+  // The controller of 2026-12-04 (config/ankle_first.yaml: the defaults then, the trunk's pitch
+  // left as (10) leaves it), on which this run's events were characterised: with the defaults
+  // since 2026-12-05 (the trunk's pitch brought back) the weight leaves the right foot more
+  // gently, and its load fades below 1 % of W ~0.1 s before the swing lifts it, with no
+  // separation before the swing (StepInPlaceWithTheDefaults; idl/README.md "Contact flags").
   // The weight goes over the left foot, then the reference swings the right foot (FOOT_SWING,
   // the contact detector's prior: contact_detector.hpp) and sets it down. Before the swing the
   // right foot, with the weight gone, leaves the ground by 0.3 mm (tick 3226, seed 1; 3261 with
@@ -271,7 +281,9 @@ TEST(ContactEvents, StepInPlace) {
   // true event of the run, the swing's lift-off and the landing included, is checked against
   // the 5 ms target, on seed 1; other seeds: the DISABLED_ measurement below and idl/README.md
   // "Contact flags".
-  const Result r = run("step_in_place.yaml", 8.0);
+  const Result r = run("step_in_place.yaml", 8.0, {}, 1.0, 0,
+                       std::string(POISE_SOURCE_DIR) +
+                           "/controller/momentum/config/ankle_first.yaml");
   EXPECT_TRUE(r.survived);
   ASSERT_GE(r.swing_start, 0);
   int swing_lift_offs = 0, landings = 0, before_swing = 0;
@@ -288,6 +300,29 @@ TEST(ContactEvents, StepInPlace) {
   EXPECT_EQ(before_swing, 2);     // the separation and the light touch-down
   EXPECT_EQ(swing_lift_offs, 1);  // the right foot leaves the ground once after the swing began
   EXPECT_EQ(landings, 1);         // and lands once
+  EXPECT_LE(r.est_transitions, chatter_bound(r));
+}
+
+// The step in place with the controller's defaults (seed 1): the right foot's load fades below
+// 1 % of W before the swing lifts it (the flag, meaning "loaded above 1 % of W", drops then;
+// the true lift-off, with 0-5 N on the foot, is not matched: the documented limit below the
+// F/T's noise and unknown offset, idl/README.md "Contact flags"); the landing is flagged within
+// 5 ms, and the flags do not chatter.
+TEST(ContactEvents, StepInPlaceWithTheDefaults) {
+  const Result r = run("step_in_place.yaml", 8.0);
+  EXPECT_TRUE(r.survived);
+  ASSERT_GE(r.swing_start, 0);
+  int landings = 0;
+  for (const Matched& m : r.all) {
+    if (m.true_tick < r.swing_start || !m.touch_down) continue;
+    ++landings;
+    EXPECT_TRUE(m.matched) << "landing at tick " << m.true_tick;
+    if (!m.matched) continue;
+    EXPECT_LE(m.delay_ms, 5.0) << "tick " << m.true_tick;
+    EXPECT_GE(m.delay_ms, -5.0) << "tick " << m.true_tick;
+  }
+  EXPECT_EQ(landings, 1);
+  EXPECT_GE(r.est_transitions, 2);  // the swing's lift-off and the landing are flagged
   EXPECT_LE(r.est_transitions, chatter_bound(r));
 }
 

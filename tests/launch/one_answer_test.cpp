@@ -291,17 +291,19 @@ void check_case(const Case& c) {
 }
 
 // The pushes (at 1.0-1.1 s) and 2 s of recovery; the platforms from rest through their 2 s ramp
-// and 1 s at full amplitude (the whole test: ~35 s of wall time on 2 busy cores).
+// and 1 s at full amplitude (the whole test: ~35 s of wall time on 2 busy cores). The forward
+// push moves the pelvis 0.9-1.4 cm with the trunk brought back upright (the defaults since
+// 2026-12-05; 2 cm and more before, the trunk staying pitched): min_travel 8 and 6 mm.
 TEST(OneAnswer, ForwardPushCyclone) {
-  check_case({"forward_push_double_support", 3.0, false, "cyclone", 0.02});
+  check_case({"forward_push_double_support", 3.0, false, "cyclone", 0.008});
 }
 
 TEST(OneAnswer, ForwardPushFastdds) {
-  check_case({"forward_push_double_support", 3.0, false, "fastdds", 0.02});
+  check_case({"forward_push_double_support", 3.0, false, "fastdds", 0.008});
 }
 
 TEST(OneAnswer, ForwardPushGroundTruthState) {
-  check_case({"forward_push_double_support", 3.0, true, "cyclone", 0.02});
+  check_case({"forward_push_double_support", 3.0, true, "cyclone", 0.008});
 }
 
 // A robot at 500 Hz (`solver: {dt: 0.002}`): the tick period reaches every component from
@@ -309,7 +311,7 @@ TEST(OneAnswer, ForwardPushGroundTruthState) {
 // (measured then: base and CoM 0.30 m and 0.38 m apart from tick 12 on).
 TEST(OneAnswer, ForwardPushAt500HzCyclone) {
   derive_scenario("forward_push_double_support", "forward_push_500hz", "solver: {dt: 0.002}\n");
-  check_case({"forward_push_500hz", 2.0, false, "cyclone", 0.01, 0.002});
+  check_case({"forward_push_500hz", 2.0, false, "cyclone", 0.006, 0.002});
 }
 
 TEST(OneAnswer, LateralPushSingleSupportFastdds) {

@@ -88,6 +88,18 @@ BalanceController::BalanceController(const model::Model& model, const model::Rob
     is_upper_[j] = 1.0;
   }
   q_nominal_ = robot_.q_nominal.tail(n);
+  {
+    // MomentumGains::upright_pitch_rate: the base's up = the soles' normal (the foot frames'
+    // z, eq (36)'s convention) in the base frame, in the nominal posture.
+    model::forward_kinematics(model_, data_, robot_.q_nominal);
+    model::update_frame_placements(model_, data_);
+    const model::SE3 X_WB = model::base_pose(robot_.q_nominal);
+    Eigen::Vector3d up = Eigen::Vector3d::Zero();
+    for (int side = 0; side < kFeet; ++side)
+      up += X_WB.R.transpose() *
+            model::frame_placement(model_, data_, robot_.feet[side].frame_id).R.col(2);
+    if (up.norm() > 1e-9) base_up_B_ = up.normalized();
+  }
   for (int side = 0; side < kFeet; ++side) {
     leg_joints_[side].clear();
     const int body = model_.frames[robot_.feet[side].frame_id].body;
@@ -466,8 +478,35 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
     k_filtered_ = data_.hg.head<3>();
   }
   have_feedback_ = true;
+  // MomentumGains::upright_pitch_rate, upright_roll_rate: k_d += I_G omega_u (the locked
+  // inertia from the base's angular columns of A_G, whose velocity is in the base frame).
+  k_upright_.setZero();
+  const double r_pitch = config_.momentum.upright_pitch_rate;
+  const double r_roll = config_.momentum.upright_roll_rate;
+  if (r_pitch > 0.0 || r_roll > 0.0) {
+    const Eigen::Matrix3d R_WB = model::base_pose(q_).R;
+    const Eigen::Vector3d z = -model_.gravity.normalized();
+    const Eigen::Vector3d a = R_WB * base_up_B_;
+    const Eigen::Vector3d axis = a.cross(z);
+    const double s = axis.norm();
+    if (s > 1e-12) {
+      const Eigen::Vector3d tilt = std::atan2(s, a.dot(z)) / s * axis;  // a to z, horizontal
+      // The robot's own forward (robot.yaml forward_axis) made horizontal: roll about it, pitch
+      // about the horizontal axis across it; a trunk pitched to the vertical has no forward:
+      // the pitch rate about every axis.
+      Eigen::Vector3d f = R_WB * robot_.forward_axis;
+      f -= f.dot(z) * z;
+      Eigen::Vector3d omega_u = r_pitch * tilt;
+      if (f.norm() > 1e-6) {
+        f.normalize();
+        omega_u += (r_roll - r_pitch) * tilt.dot(f) * f;
+      }
+      k_upright_.noalias() = data_.Ag.block<3, 3>(0, 3) * (R_WB.transpose() * omega_u);
+    }
+  }
   diag_.hdot_desired =
-      desired_momentum_rate(config_.momentum, mass, k_filtered_, reference.k_W, data_.com,
+      desired_momentum_rate(config_.momentum, mass, k_filtered_, reference.k_W + k_upright_,
+                            data_.com,
                             diag_.com_target_W, Eigen::Vector3d::Zero(), vcom_error_filtered_);
   // MomentumGains::ankle_first_blend (support_polygon.hpp): the ankle strategy before the hip's.
   diag_.ankle_first_beta = 1.0;

@@ -94,6 +94,12 @@ void ControllerConfig::validate() const {
   require(std::isfinite(momentum.ankle_first_blend) && momentum.ankle_first_blend >= 0.0 &&
               momentum.ankle_first_blend <= 1.0,
           "momentum.ankle_first_blend", "must be in [0, 1] m (0: off)");
+  require(std::isfinite(momentum.upright_pitch_rate) && momentum.upright_pitch_rate >= 0.0 &&
+              momentum.upright_pitch_rate <= 100.0,
+          "momentum.upright_pitch_rate", "must be in [0, 100] 1/s (0: off)");
+  require(std::isfinite(momentum.upright_roll_rate) && momentum.upright_roll_rate >= 0.0 &&
+              momentum.upright_roll_rate <= 100.0,
+          "momentum.upright_roll_rate", "must be in [0, 100] 1/s (0: off)");
   require(contact.w_k >= 0.0 && contact.eps_f >= 0.0 && contact.eps_cop >= 0.0, "contact",
           "weights must be >= 0");
   require(foot.kp >= 0.0 && foot.kd >= 0.0, "foot", "gains must be >= 0");
@@ -162,7 +168,9 @@ ControllerConfig from_yaml(const YAML::Node& root, const std::string& file) {
   if (const auto m = root["momentum"]) {
     r.keys(m, "momentum",
            {"gamma11", "gamma21", "gamma22", "feedback_filter_hz", "support_acceleration_hz",
-            "ankle_first_blend"});
+            "ankle_first_blend", "upright_pitch_rate", "upright_roll_rate"});
+    r.number(m, "upright_pitch_rate", "momentum.", c.momentum.upright_pitch_rate);
+    r.number(m, "upright_roll_rate", "momentum.", c.momentum.upright_roll_rate);
     r.number(m, "feedback_filter_hz", "momentum.", c.momentum.feedback_filter_hz);
     r.number(m, "ankle_first_blend", "momentum.", c.momentum.ankle_first_blend);
     r.number(m, "support_acceleration_hz", "momentum.", c.momentum.support_acceleration_hz);

@@ -64,6 +64,24 @@ struct MomentumGains {
   /// config/paper.yaml). On by default since 2026-12-04 (with the gains above and
   /// FeedbackConfig::touchdown_follow_fraction).
   double ankle_first_blend = 0.1;
+  /// Trunk upright (not in the paper: (10) damps the angular momentum to the reference's k_d
+  /// and nothing brings the trunk back, so after a push the hip strategy leaves it pitched).
+  /// > 0 [1/s]: k_d += I_G omega_u, omega_u = these rates x the rotation vector that takes the
+  /// base's "up" (its direction when both soles lie flat in the nominal posture) to the world's
+  /// up, split into pitch (about the horizontal axis across the robot's forward, robot.yaml
+  /// forward_axis) and roll (about that forward); I_G the locked centroidal inertia; the trunk's
+  /// yaw is left as the paper's. With (10)'s Gamma11 a tilt then follows theta'' + Gamma11
+  /// theta' + Gamma11 r theta = 0. Angular momentum comes after the linear in the contact
+  /// optimiser's priority, so the hip strategy still takes what the linear rate leaves.
+  /// 0: off (the paper's (10), config/paper.yaml). Pitch 1 /s by default since 2026-12-05
+  /// (poles -1.4 and -3.6 /s with Gamma11 5): after a push the trunk comes back from 26-61 deg
+  /// of pitch instead of staying there. Roll 0 by default: in double support a roll moment is a
+  /// difference of the feet's normal forces, and bringing the roll back took the load off a
+  /// foot the CoM was moving away from (the step in place: < 1 % of the weight on it for
+  /// 0.3-0.6 s before its swing, below what the contact flags resolve) (controller/momentum/
+  /// README.md "Trunk upright").
+  double upright_pitch_rate = 1.0;
+  double upright_roll_rate = 0.0;
 };
 
 /// Weights of the contact problem, eqs (21) and (29) (copied into the problem sent out; the
