@@ -40,12 +40,21 @@ struct Setup {
                                              c.feedback.internal_force_leak_hz = 0.0;
                                              return c;
                                            }()};
-  /// The same with MomentumGains::ankle_first_blend (support polygon and the ankle's demand).
-  controller::BalanceController ankle_first{model, robot, [] {
-                                              controller::ControllerConfig c;
-                                              c.momentum.ankle_first_blend = 0.1;
-                                              return c;
-                                            }()};
+  /// The same without MomentumGains::upright_pitch_rate (the paired cost of the trunk-upright
+  /// target), and without it and ankle_first_blend (the paper's (10)-(11): the cost of both).
+  controller::BalanceController no_upright{model, robot, [] {
+                                             controller::ControllerConfig c;
+                                             c.momentum.upright_pitch_rate = 0.0;
+                                             c.momentum.upright_roll_rate = 0.0;
+                                             return c;
+                                           }()};
+  controller::BalanceController paper_eq{model, robot, [] {
+                                           controller::ControllerConfig c;
+                                           c.momentum.upright_pitch_rate = 0.0;
+                                           c.momentum.upright_roll_rate = 0.0;
+                                           c.momentum.ankle_first_blend = 0.0;
+                                           return c;
+                                         }()};
   std::vector<controller::RobotState> states;
   std::vector<contact::ContactSolution> solutions;
   controller::BalanceReference ref = ctrl.make_reference();
@@ -123,17 +132,19 @@ void BM_ControllerTick_NoContactOptimiser(benchmark::State& st) {
 }
 BENCHMARK(BM_ControllerTick_NoContactOptimiser)->Unit(benchmark::kMicrosecond);
 
-// Arg 0: the defaults; 1: with momentum.ankle_first_blend (its support polygon every tick).
+// Arg 0: the defaults (the ankle strategy's support polygon and the trunk-upright target every
+// tick); 1: without the upright target; 2: without either (the paper's (10)-(11)).
 void BM_PhaseA_ContactProblem(benchmark::State& st) {
   Setup& s = setup();
-  controller::BalanceController& c = st.range(0) == 0 ? s.ctrl : s.ankle_first;
+  controller::BalanceController& c =
+      st.range(0) == 0 ? s.ctrl : st.range(0) == 1 ? s.no_upright : s.paper_eq;
   std::size_t k = 0;
   for (auto _ : st) {
     c.prepare(s.states[k++ % s.states.size()], s.ref, s.problem);
     benchmark::DoNotOptimize(s.problem.l_dot_desired.data());
   }
 }
-BENCHMARK(BM_PhaseA_ContactProblem)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_PhaseA_ContactProblem)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMicrosecond);
 
 void BM_PhaseB_Eq33_InverseDynamics(benchmark::State& st) {
   Setup& s = setup();
