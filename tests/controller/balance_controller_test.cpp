@@ -31,6 +31,19 @@ ControllerConfig eq11_config() {
   return cfg;
 }
 
+// The model's q, v of a state (the base velocity in the base frame, model.hpp).
+void configuration_of(const model::Model& model, const RobotState& s, Eigen::VectorXd& q,
+                      Eigen::VectorXd& v) {
+  q.resize(model.nq);
+  v.resize(model.nv);
+  q.head<3>() = s.X_WB.p;
+  q.segment<4>(3) = Eigen::Quaterniond(s.X_WB.R).coeffs();
+  q.tail(model.njoints) = s.q;
+  v.head<3>() = s.X_WB.R.transpose() * s.v_WB;
+  v.segment<3>(3) = s.X_WB.R.transpose() * s.omega_WB;
+  v.tail(model.njoints) = s.qd;
+}
+
 BalanceController make_controller(ControllerConfig cfg = {}) {
   return BalanceController(humanoid().model, humanoid().robot, cfg);
 }
@@ -47,13 +60,8 @@ TEST(BalanceController, ContactProblemMatchesKinematicsAndEquations10And11) {
     c.prepare(s, ref, p);
 
     // Independent kinematics: configuration from the state, model FK and CoM.
-    Eigen::VectorXd q(model.nq), v(model.nv);
-    q.head<3>() = s.X_WB.p;
-    q.segment<4>(3) = Eigen::Quaterniond(s.X_WB.R).coeffs();
-    q.tail(model.njoints) = s.q;
-    v.head<3>() = s.X_WB.R.transpose() * s.v_WB;
-    v.segment<3>(3) = s.X_WB.R.transpose() * s.omega_WB;
-    v.tail(model.njoints) = s.qd;
+    Eigen::VectorXd q, v;
+    configuration_of(model, s, q, v);
     model::Data data(model);
     model::centroidal_momentum(model, data, q, v);
     double mass = 0.0;
@@ -317,13 +325,8 @@ TEST(BalanceController, TrunkUprightAddsTheLockedInertiaTimesTheTiltRate) {
       EXPECT_LT((omega_u - r_roll * tilt).norm(), 1e-12);
     }
 
-    Eigen::VectorXd q(model.nq), v(model.nv), v_locked = Eigen::VectorXd::Zero(model.nv);
-    q.head<3>() = s.X_WB.p;
-    q.segment<4>(3) = Eigen::Quaterniond(s.X_WB.R).coeffs();
-    q.tail(model.njoints) = s.q;
-    v.head<3>() = s.X_WB.R.transpose() * s.v_WB;
-    v.segment<3>(3) = s.X_WB.R.transpose() * s.omega_WB;
-    v.tail(model.njoints) = s.qd;
+    Eigen::VectorXd q, v, v_locked = Eigen::VectorXd::Zero(model.nv);
+    configuration_of(model, s, q, v);
     model::Data data(model);
     model::centroidal_momentum(model, data, q, v);
     const Eigen::Vector3d k = data.hg.head<3>();
