@@ -32,6 +32,40 @@ TEST(MomentumRate, MatchesEquations10And11ComponentWise) {
   }
 }
 
+// upright_angular_momentum's edges, with a diagonal locked inertia I (so the answer is
+// I R^T omega_u) and the rotation vector written by hand: upright and upside down give nothing
+// (no unique axis); a pitch of theta about the lateral axis gives -r_pitch theta y, a roll about
+// the forward -r_roll theta x, each rate only about its own axis; a trunk pitched to the vertical
+// (its forward vertical) gets the pitch rate; the base's up need not be its z.
+TEST(MomentumRate, UprightTargetAtItsEdges) {
+  const Eigen::Matrix3d I = Eigen::Vector3d(2.0, 3.0, 4.0).asDiagonal();
+  const Eigen::Vector3d z = Eigen::Vector3d::UnitZ(), x = Eigen::Vector3d::UnitX(),
+                        y = Eigen::Vector3d::UnitY();
+  auto rot = [](double angle, const Eigen::Vector3d& axis) {
+    return Eigen::AngleAxisd(angle, axis).toRotationMatrix();
+  };
+  auto k = [&](const Eigen::Matrix3d& R, double rp, double rr,
+               const Eigen::Vector3d& up_B = Eigen::Vector3d::UnitZ()) {
+    return upright_angular_momentum(R, up_B, x, z, I, rp, rr);
+  };
+  EXPECT_EQ(k(Eigen::Matrix3d::Identity(), 1.0, 1.0), Eigen::Vector3d::Zero());
+  EXPECT_EQ(k(rot(M_PI, x), 1.0, 1.0), Eigen::Vector3d::Zero());
+  const double th = 0.3;
+  const Eigen::Matrix3d P = rot(th, y), Rl = rot(th, x);
+  EXPECT_LT((k(P, 1.5, 0.7) - I * P.transpose() * (-1.5 * th * y)).norm(), 1e-12);
+  EXPECT_LT((k(Rl, 1.5, 0.7) - I * Rl.transpose() * (-0.7 * th * x)).norm(), 1e-12);
+  EXPECT_LT(k(P, 0.0, 0.7).norm(), 1e-12);   // roll only: a pitch is left
+  EXPECT_LT(k(Rl, 1.5, 0.0).norm(), 1e-12);  // pitch only: a roll is left
+  const Eigen::Matrix3d V = rot(M_PI / 2, y);  // forward pointing down
+  EXPECT_LT((k(V, 1.5, 0.0) - I * V.transpose() * (-1.5 * (M_PI / 2) * y)).norm(), 1e-12);
+  // A base whose up is its x axis, turned so that axis is vertical: upright, nothing.
+  EXPECT_LT(k(rot(-M_PI / 2, y), 1.0, 1.0, x).norm(), 1e-12);
+  // Yaw changes only the axes: a pitch after a 90 deg yaw is about the world's -x.
+  const Eigen::Matrix3d Y = rot(M_PI / 2, z) * P;
+  EXPECT_LT((k(Y, 1.5, 0.7) - I * Y.transpose() * (-1.5 * th * (rot(M_PI / 2, z) * y))).norm(),
+            1e-12);
+}
+
 TEST(MomentumRate, PaperGainsMappedToZUp) {
   // config/paper.yaml: the paper's controller (the defaults until 2026-12-04).
   const ControllerConfig c = load_controller_config(

@@ -28,6 +28,14 @@ namespace {
 
 using namespace poise;
 
+controller::ControllerConfig without_upright(bool nor_ankle_first) {
+  controller::ControllerConfig c;
+  c.momentum.upright_pitch_rate = 0.0;
+  c.momentum.upright_roll_rate = 0.0;
+  if (nor_ankle_first) c.momentum.ankle_first_blend = 0.0;
+  return c;
+}
+
 struct Setup {
   model::RobotConfig robot = model::load_robot_config(std::string(POISE_SOURCE_DIR) +
                                                       "/deploy/robots/poise_humanoid/robot.yaml");
@@ -42,19 +50,8 @@ struct Setup {
                                            }()};
   /// The same without MomentumGains::upright_pitch_rate (the paired cost of the trunk-upright
   /// target), and without it and ankle_first_blend (the paper's (10)-(11): the cost of both).
-  controller::BalanceController no_upright{model, robot, [] {
-                                             controller::ControllerConfig c;
-                                             c.momentum.upright_pitch_rate = 0.0;
-                                             c.momentum.upright_roll_rate = 0.0;
-                                             return c;
-                                           }()};
-  controller::BalanceController paper_eq{model, robot, [] {
-                                           controller::ControllerConfig c;
-                                           c.momentum.upright_pitch_rate = 0.0;
-                                           c.momentum.upright_roll_rate = 0.0;
-                                           c.momentum.ankle_first_blend = 0.0;
-                                           return c;
-                                         }()};
+  controller::BalanceController no_upright{model, robot, without_upright(false)};
+  controller::BalanceController paper_eq{model, robot, without_upright(true)};
   std::vector<controller::RobotState> states;
   std::vector<contact::ContactSolution> solutions;
   controller::BalanceReference ref = ctrl.make_reference();

@@ -478,35 +478,16 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
     k_filtered_ = data_.hg.head<3>();
   }
   have_feedback_ = true;
-  // MomentumGains::upright_pitch_rate, upright_roll_rate: k_d += I_G omega_u (the locked
-  // inertia from the base's angular columns of A_G, whose velocity is in the base frame).
-  k_upright_.setZero();
+  // MomentumGains::upright_pitch_rate, upright_roll_rate: k_d += I_G omega_u.
+  Eigen::Vector3d k_d = reference.k_W;
   const double r_pitch = config_.momentum.upright_pitch_rate;
   const double r_roll = config_.momentum.upright_roll_rate;
-  if (r_pitch > 0.0 || r_roll > 0.0) {
-    const Eigen::Matrix3d R_WB = model::base_pose(q_).R;
-    const Eigen::Vector3d z = -model_.gravity.normalized();
-    const Eigen::Vector3d a = R_WB * base_up_B_;
-    const Eigen::Vector3d axis = a.cross(z);
-    const double s = axis.norm();
-    if (s > 1e-12) {
-      const Eigen::Vector3d tilt = std::atan2(s, a.dot(z)) / s * axis;  // a to z, horizontal
-      // The robot's own forward (robot.yaml forward_axis) made horizontal: roll about it, pitch
-      // about the horizontal axis across it; a trunk pitched to the vertical has no forward:
-      // the pitch rate about every axis.
-      Eigen::Vector3d f = R_WB * robot_.forward_axis;
-      f -= f.dot(z) * z;
-      Eigen::Vector3d omega_u = r_pitch * tilt;
-      if (f.norm() > 1e-6) {
-        f.normalize();
-        omega_u += (r_roll - r_pitch) * tilt.dot(f) * f;
-      }
-      k_upright_.noalias() = data_.Ag.block<3, 3>(0, 3) * (R_WB.transpose() * omega_u);
-    }
-  }
+  if (r_pitch > 0.0 || r_roll > 0.0)
+    k_d += upright_angular_momentum(R_WB, base_up_B_, robot_.forward_axis,
+                                    -model_.gravity.normalized(), data_.Ag.block<3, 3>(0, 3),
+                                    r_pitch, r_roll);
   diag_.hdot_desired =
-      desired_momentum_rate(config_.momentum, mass, k_filtered_, reference.k_W + k_upright_,
-                            data_.com,
+      desired_momentum_rate(config_.momentum, mass, k_filtered_, k_d, data_.com,
                             diag_.com_target_W, Eigen::Vector3d::Zero(), vcom_error_filtered_);
   // MomentumGains::ankle_first_blend (support_polygon.hpp): the ankle strategy before the hip's.
   diag_.ankle_first_beta = 1.0;

@@ -198,9 +198,8 @@ class BalanceController {
   Eigen::Vector3d vcom_error_filtered_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d k_filtered_ = Eigen::Vector3d::Zero();
   /// MomentumGains::upright_pitch_rate: the base's "up" in its own frame (both soles flat in the
-  /// nominal posture), and the angular momentum target it adds this tick.
+  /// nominal posture).
   Eigen::Vector3d base_up_B_ = Eigen::Vector3d::UnitZ();
-  Eigen::Vector3d k_upright_ = Eigen::Vector3d::Zero();
   bool have_feedback_ = false;
   std::array<model::Motion, 2> V_WF_previous_;  // foot velocity of the previous tick
   std::array<model::Motion, 2> A_WF_filtered_;  // low-pass filtered measured foot acceleration

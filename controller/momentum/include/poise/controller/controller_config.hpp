@@ -74,12 +74,14 @@ struct MomentumGains {
   /// theta' + Gamma11 r theta = 0. Angular momentum comes after the linear in the contact
   /// optimiser's priority, so the hip strategy still takes what the linear rate leaves.
   /// 0: off (the paper's (10), config/paper.yaml). Pitch 1 /s by default since 2026-12-05
-  /// (poles -1.4 and -3.6 /s with Gamma11 5): after a push the trunk comes back from 26-61 deg
-  /// of pitch instead of staying there. Roll 0 by default: in double support a roll moment is a
-  /// difference of the feet's normal forces, and bringing the roll back took the load off a
-  /// foot the CoM was moving away from (the step in place: < 1 % of the weight on it for
-  /// 0.3-0.6 s before its swing, below what the contact flags resolve) (controller/momentum/
-  /// README.md "Trunk upright").
+  /// (poles -1.4 and -3.6 /s with Gamma11 5): without it the trunk stayed pitched 13-49 deg
+  /// 1.5-3 s after pushes of 150-265 N; with it, 3-4 deg. Roll 0 by default: in double support a
+  /// roll moment is a difference of the feet's normal forces, and bringing the roll back took
+  /// the load off a foot the CoM was moving away from (the step in place: 2.5-5 N on it for the
+  /// 0.65 s before its swing, below what the contact flags resolve) (controller/momentum/
+  /// README.md "Trunk upright"). The tilt is the state's base orientation: an attitude estimate
+  /// off by e leans the trunk by e (the estimator's attitude error, estimator/README.md); no
+  /// state of its own (nothing to go stale or to reset).
   double upright_pitch_rate = 1.0;
   double upright_roll_rate = 0.0;
 };

@@ -171,8 +171,6 @@ class InProcessLoop {
   /// the estimator.
   controller::BalanceReference& reference() { return reference_; }
   const controller::BalanceController& controller() const { return *controller_; }
-  /// The controller's command of the last tick (its references, gains and feed-forward).
-  const controller::JointCommand& last_command() const { return command_; }
   sim::Simulator& simulator() { return *sim_; }
   const sim::GroundTruth& truth() const { return truth_; }
   const controller::RobotState& state() const { return state_; }
