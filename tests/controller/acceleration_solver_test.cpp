@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/LU>
+#include <algorithm>
 #include <cstdio>
 #include <random>
 
@@ -165,6 +166,74 @@ TEST(AccelerationSolver, WoodburyEqualsDenseAndKktOnHumanoidTicks) {
     ++compared;
   }
   EXPECT_EQ(compared, 40);
+}
+
+// Dependent equality rows (the feet of legs with five joints: twelve rows of rank eleven; a bound
+// on a joint the feet fix): with a consistent right-hand side the solution is that of the problem
+// without the dependent rows, which a full-pivot LU of the reduced KKT system gives independently.
+// A plain Cholesky of the Schur complement takes a round-off pivot there and returns noise.
+TEST(AccelerationSolver, DependentEqualityRowsGiveTheReducedProblemsSolution) {
+  std::mt19937 rng(37);
+  std::normal_distribution<double> N(0.0, 1.0);
+  int checked = 0, fast = 0, with_bounds = 0;
+  for (int trial = 0; trial < 120; ++trial) {
+    const int nv = 25, independent = 9 + trial % 4, dependent = 1 + trial % 3;
+    const int m = independent + dependent;
+    // Bounds far away in half the trials (the equality path), tight in the others.
+    RandomEq33 p = make_problem(rng, nv, independent, trial % 2 ? 1e9 : 20.0);
+    // Rows of C0 scaled like foot Jacobians (metres and radians mixed).
+    const Eigen::MatrixXd C0 = p.C;
+    const Eigen::VectorXd d0 = p.d;
+    Eigen::MatrixXd C(m, nv);
+    Eigen::VectorXd d(m);
+    // The dependent rows are combinations of the others, put at random places among them.
+    std::vector<int> order(static_cast<std::size_t>(m));
+    for (int i = 0; i < m; ++i) order[static_cast<std::size_t>(i)] = i;
+    std::shuffle(order.begin(), order.end(), rng);
+    for (int i = 0; i < independent; ++i) {
+      C.row(order[static_cast<std::size_t>(i)]) = C0.row(i);
+      d[order[static_cast<std::size_t>(i)]] = d0[i];
+    }
+    for (int k = 0; k < dependent; ++k) {
+      const Eigen::VectorXd a = Eigen::VectorXd::NullaryExpr(independent, [&] { return N(rng); });
+      C.row(order[static_cast<std::size_t>(independent + k)]) = a.transpose() * C0;
+      d[order[static_cast<std::size_t>(independent + k)]] = a.dot(d0);
+    }
+    for (const bool dense : {false, true}) {
+      AccelerationSolver s(nv, 16);
+      s.set_dense_equality_path(dense);
+      Eigen::VectorXd x(nv);
+      const auto r = s.solve(p.A, p.b, p.w_b, p.w, p.t, C, d, p.lo, p.hi, x);
+      ASSERT_EQ(r.status, contact::SolverStatus::kOptimal) << trial << (dense ? " dense" : "");
+      EXPECT_LT((C * x - d).lpNorm<Eigen::Infinity>(), 1e-8 * (1.0 + d.norm())) << trial;
+      // Reference: the reduced problem (C0 only), independently.
+      Eigen::VectorXd ref(nv);
+      if (r.active_bounds == 0 && !r.used_dual_qp) {
+        EXPECT_EQ(r.dependent_rows, dependent) << trial << (dense ? " dense" : "");
+        Eigen::MatrixXd KKT = Eigen::MatrixXd::Zero(nv + independent, nv + independent);
+        KKT.topLeftCorner(nv, nv) = p.w_b * p.A.transpose() * p.A;
+        KKT.topLeftCorner(nv, nv).diagonal() += p.w;
+        KKT.topRightCorner(nv, independent) = C0.transpose();
+        KKT.bottomLeftCorner(independent, nv) = C0;
+        Eigen::VectorXd rhs(nv + independent);
+        rhs << p.w_b * p.A.transpose() * p.b + p.w.cwiseProduct(p.t), d0;
+        ref = KKT.fullPivLu().solve(rhs).head(nv);
+        fast += 1;
+      } else {
+        AccelerationSolver reduced(nv, 16);
+        reduced.set_fast_path(false);  // DualQp on the independent rows
+        ASSERT_EQ(reduced.solve(p.A, p.b, p.w_b, p.w, p.t, C0, d0, p.lo, p.hi, ref).status,
+                  contact::SolverStatus::kOptimal);
+        with_bounds += 1;
+      }
+      EXPECT_LT((x - ref).norm(), 1e-7 * (1.0 + ref.norm())) << trial << (dense ? " dense" : "");
+      ++checked;
+    }
+  }
+  std::printf("%d solves with dependent rows: %d equality-only, %d with active bounds\n", checked,
+              fast, with_bounds);
+  EXPECT_GT(fast, 80);
+  EXPECT_GT(with_bounds, 40);
 }
 
 TEST(AccelerationSolver, InfeasibleBoundsAreDroppedNotViolatedSilently) {

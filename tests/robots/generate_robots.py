@@ -126,7 +126,8 @@ def build(p, outdir):
     fr = dict(pelvis=0.15, head=0.06, hipl=0.012, thigh=0.10, shank=0.045, ankl=0.006, foot=0.022,
               uarm=0.025, farm=0.016)
     wrist_m, hand_m, finger_m = p.get("wrist_mass", 0.02), p.get("hand_mass", 0.06), 0.008
-    legs = 2 * M * (fr["hipl"] * 2 + fr["thigh"] + fr["shank"] + fr["ankl"] + fr["foot"])
+    legs = 2 * M * (fr["hipl"] * (len(p["hip_order"]) - 1) + fr["thigh"] + fr["shank"] +
+                    fr["ankl"] * (len(p["ankle_order"]) - 1) + fr["foot"])
     arms = 2 * (M * (fr["uarm"] + fr["farm"]) + wrist_m + hand_m + 2 * finger_m)
     torso_m = M - legs - arms - M * (fr["pelvis"] + fr["head"])
     P = p["pelvis"]
@@ -318,6 +319,11 @@ def names_suffix(s, role):  # hip_yaw_left, knee_left, ...
     return "%s_%s" % (role, "left" if s == "l" else "right")
 
 
+def names_joint(s, role):  # left_hip_yaw_joint, right_knee_joint, ... (links: left_thigh_link)
+    side = "left" if s == "l" else "right"
+    return "%s_%s" % (side, role) if role.endswith("_link") else "%s_%s_joint" % (side, role)
+
+
 def names_camel(s, role):  # LeftHipYaw, RightKnee, ...
     return ("Left" if s == "l" else "Right") + "".join(w.capitalize() for w in role.split("_"))
 
@@ -367,6 +373,15 @@ ROBOTS = [
          toe=0.62, upper_arm=0.26, forearm=0.24, arm_r=0.04, hip_order=["yaw", "roll", "pitch"],
          ankle_order=["pitch", "roll"], facing=-1, fingers=True,
          part_order=[("leg", "l"), ("arm", "l"), ("leg", "r"), ("arm", "r")]),
+    dict(name="ibis", comment="Test robot ibis: 50 kg, five-joint legs (hip yaw, roll, pitch, knee, "
+         "ankle pitch: no ankle roll) and long narrow feet; with both feet down the pelvis cannot "
+         "move sideways and the feet's twelve constraint rows are dependent (rank 11).",
+         mass=50.0, names=names_joint, base="pelvis", torso_link="torso_link", waist="torso_joint",
+         link_suffix="_link", pelvis=(0.16, 0.26, 0.12), torso=(0.18, 0.32, 0.40), head_r=0.09,
+         hip_y=0.10, thigh=0.38, shank=0.38, thigh_r=0.045, ankle_h=0.06, foot=(0.24, 0.05, 0.03),
+         toe=0.65, upper_arm=0.26, forearm=0.24, arm_r=0.035, hip_order=["yaw", "roll", "pitch"],
+         ankle_order=["pitch"], imu_on_torso=True,
+         part_order=[("leg", "l"), ("leg", "r"), ("arm", "l"), ("arm", "r")]),
 ]
 
 

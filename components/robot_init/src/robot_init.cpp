@@ -323,6 +323,13 @@ int run_init(const Options& opt) {
     if (legs[s].joints.size() < 3)
       checks.push_back("the " + legs[s].side + " leg has only " +
                        std::to_string(legs[s].joints.size()) + " joints of its own");
+    else if (legs[s].joints.size() < 6)
+      checks.push_back("the " + legs[s].side + " leg has " +
+                       std::to_string(legs[s].joints.size()) +
+                       " joints: its foot cannot take every pose under the hip (with both feet "
+                       "flat the pelvis cannot move in every direction, e.g. sideways without "
+                       "ankle rolls); the controller drops the feet's dependent constraint rows "
+                       "(controller/momentum/README.md, \"Legs with fewer than six joints\")");
   }
 
   // ---- feet and soles ---------------------------------------------------------------------------

@@ -45,6 +45,85 @@ void AccelerationSolver::resize(int nv, int max_eq) {
   rg_.setZero(nv);
   rd_.setZero(max_rows);
   lambda_corr_.setZero(max_rows);
+  perm_.assign(static_cast<std::size_t>(max_rows), 0);
+  S_saved_.setZero(max_rows, max_rows);
+  schur_diag_.setZero(max_rows);
+  C_kept_.setZero(max_eq, nv);
+  d_kept_.setZero(max_eq);
+  schur_work_.setZero(max_rows);
+  schur_m_ = schur_rank_ = 0;
+}
+
+// Cholesky of the Schur complement, rank-revealing. S is first factorised with symmetric
+// pivoting (the largest remaining diagonal first) until the largest remaining pivot is below
+// kDependentPivot x the largest diagonal. Rows left over then are (to round-off) dependent on the
+// kept ones: the feet of a leg with fewer than six joints (both feet fixed leave one relative
+// motion no joint makes: rank 11 of 12 rows; nearly so when its hip yaws are not zero), or a
+// bound on a joint the feet fix. A plain Cholesky "succeeds" on such a matrix with a round-off
+// pivot, and the multipliers, hence x, come out as noise (seen: 1e4 N of momentum-rate error on
+// a five-joint-leg humanoid); the left-over rows get zero multipliers instead, which is exact
+// when their right-hand side is consistent (they then hold with the kept rows). When no row is
+// left over, S is factorised again by Eigen's plain Cholesky, so that a well-posed tick keeps
+// the round-off it always had (closed-loop runs are sensitive to it; the pivot order is decided
+// by the same test either way).
+void AccelerationSolver::factor_schur(Eigen::Index m) {
+  // Left-looking, on the lower triangle only: column k of L is finished at step k from the
+  // original entries below it; diag_[i] holds S(i, i) minus the squares of row i's finished part.
+  auto S = S_.topLeftCorner(m, m);
+  auto saved = S_saved_.topLeftCorner(m, m);
+  saved.triangularView<Eigen::Lower>() = S;
+  auto diag = schur_diag_.head(m);
+  diag = S.diagonal();
+  const double tol = kDependentPivot * diag.maxCoeff();
+  for (Eigen::Index i = 0; i < m; ++i) perm_[static_cast<std::size_t>(i)] = static_cast<int>(i);
+  Eigen::Index k = 0;
+  for (; k < m; ++k) {
+    Eigen::Index p = k;
+    for (Eigen::Index i = k + 1; i < m; ++i)
+      if (diag[i] > diag[p]) p = i;
+    if (!(diag[p] > tol)) break;  // also stops on NaN
+    if (p != k) {  // symmetric swap of rows and columns k < p, in lower-triangle storage
+      S.row(k).head(k).swap(S.row(p).head(k));
+      std::swap(S(k, k), S(p, p));
+      for (Eigen::Index i = k + 1; i < p; ++i) std::swap(S(i, k), S(p, i));
+      for (Eigen::Index i = p + 1; i < m; ++i) std::swap(S(i, k), S(i, p));
+      std::swap(diag[k], diag[p]);
+      std::swap(perm_[static_cast<std::size_t>(k)], perm_[static_cast<std::size_t>(p)]);
+    }
+    const double pivot = std::sqrt(diag[k]);
+    S(k, k) = pivot;
+    // plain loops: at these sizes (m <= ~30) Eigen's GEMV costs more in set-up than in work
+    const double inv = 1.0 / pivot;
+    for (Eigen::Index i = k + 1; i < m; ++i) {
+      double v = S(i, k);
+      for (Eigen::Index j = 0; j < k; ++j) v -= S(i, j) * S(k, j);
+      v *= inv;
+      S(i, k) = v;
+      diag[i] -= v * v;
+    }
+  }
+  schur_m_ = m;
+  schur_rank_ = k;
+  if (k < m) return;
+  S.triangularView<Eigen::Lower>() = saved;
+  Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(S);
+  if (llt.info() == Eigen::Success) {
+    for (Eigen::Index i = 0; i < m; ++i) perm_[static_cast<std::size_t>(i)] = static_cast<int>(i);
+    return;
+  }
+  schur_rank_ = 0;  // not positive definite after all (round-off at the bound): give up this path
+}
+
+void AccelerationSolver::solve_schur(Eigen::Ref<Eigen::VectorXd> v) {
+  const Eigen::Index m = schur_m_, r = schur_rank_;
+  auto w = schur_work_.head(m);
+  for (Eigen::Index i = 0; i < m; ++i) w[i] = v[perm_[static_cast<std::size_t>(i)]];
+  const auto L = S_.topLeftCorner(r, r).triangularView<Eigen::Lower>();
+  auto head = w.head(r);
+  L.solveInPlace(head);
+  L.transpose().solveInPlace(head);
+  w.tail(m - r).setZero();
+  for (Eigen::Index i = 0; i < m; ++i) v[perm_[static_cast<std::size_t>(i)]] = w[i];
 }
 
 void AccelerationSolver::form_hessian(const Eigen::Ref<const Eigen::MatrixXd>& A, double w_b,
@@ -87,9 +166,7 @@ void AccelerationSolver::woodbury_kkt_solve(const Eigen::Ref<const Eigen::Matrix
   for (int k = 0; k < ncols_; ++k)
     lambda.segment(row0_[k], rows_[k]) +=
         C.col(cols_[k]).segment(row0_[k], rows_[k]) * u_[cols_[k]];
-  const auto L = S_.topLeftCorner(m, m).triangularView<Eigen::Lower>();
-  L.solveInPlace(lambda);
-  L.transpose().solveInPlace(lambda);
+  solve_schur(lambda);
   y_ = -g_rhs;
   for (int k = 0; k < ncols_; ++k)
     y_[cols_[k]] +=
@@ -152,8 +229,8 @@ bool AccelerationSolver::solve_equality_woodbury(const Eigen::Ref<const Eigen::M
     for (Eigen::Index r = 0; r < 6; ++r)
       for (Eigen::Index col = 0; col < m; ++col)
         S.col(col).tail(m - col) -= FtKinv(col, r) * Ft.col(r).tail(m - col);
-    Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt_s(S);
-    if (llt_s.info() != Eigen::Success) return false;
+    factor_schur(m);
+    if (schur_rank_ == 0) return false;
   }
   woodbury_kkt_solve(C, g_, d, x, lambda);
   // One step of iterative refinement on the KKT system: the Woodbury form subtracts two large
@@ -245,6 +322,7 @@ bool AccelerationSolver::solve_bounds_woodbury(
       }
       if (!(res <= 1e-9 * scale)) return false;
       r.active_bounds = k;
+      r.dependent_rows = static_cast<int>(schur_m_ - schur_rank_);
       return true;
     }
     side_[add] = add_side;
@@ -281,9 +359,9 @@ bool AccelerationSolver::solve_equality_dense(const Eigen::Ref<const Eigen::Matr
     auto lambda = lambda_.head(m);
     lambda = d;
     lambda.noalias() += Y.transpose() * u_;
-    Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt_s(S);
-    if (llt_s.info() != Eigen::Success) return false;
-    llt_s.solveInPlace(lambda);
+    factor_schur(m);
+    if (schur_rank_ == 0) return false;
+    solve_schur(lambda);
     x.noalias() = Y * lambda;
     x -= u_;
   } else {
@@ -324,7 +402,23 @@ AccelerationSolver::Result AccelerationSolver::solve(
       solved = solve_equality_dense(C, d, x);
     }
   }
+  // The rows of C kept by the equality solve's factorisation (all when none was dependent):
+  // DualQp below is given only these (Goldfarb-Idnani needs independent equalities).
+  Eigen::Index kept = C.rows();
+  if (solved && C.rows() > 0 && schur_rank_ < schur_m_) {
+    kept = schur_rank_;
+    for (Eigen::Index i = 0; i < kept; ++i) {
+      C_kept_.row(i) = C.row(perm_[static_cast<std::size_t>(i)]);
+      d_kept_[i] = d[perm_[static_cast<std::size_t>(i)]];
+    }
+  } else {
+    C_kept_.topRows(C.rows()) = C;
+    d_kept_.head(C.rows()) = d;
+  }
+  const auto Ck = C_kept_.topRows(kept);
+  const auto dk = d_kept_.head(kept);
   if (solved) {
+    r.dependent_rows = static_cast<int>(C.rows() - kept);
     bool inside = true;
     for (int j = 0; j < n && inside; ++j) {
       const double tol = 1e-9 * (1.0 + std::abs(x[6 + j]));
@@ -345,15 +439,15 @@ AccelerationSolver::Result AccelerationSolver::solve(
   r.iterations = 0;
   r.active_bounds = 0;
   if (!have_g) form_hessian(A, w_b, w);
-  r.status = qp_.solve(G_, g_, C, d, A_in_, b_in_, x);
+  r.status = qp_.solve(G_, g_, Ck, dk, A_in_, b_in_, x);
   r.iterations = qp_.iterations();
   if (r.status == contact::SolverStatus::kInfeasible) {
     r.bounds_dropped = true;
-    r.status = qp_.solve(G_, g_, C, d, A_in_.topRows(0), b_in_.head(0), x);
+    r.status = qp_.solve(G_, g_, Ck, dk, A_in_.topRows(0), b_in_.head(0), x);
     r.iterations += qp_.iterations();
     return r;
   }
-  r.active_bounds = qp_.active_set_size() - static_cast<int>(C.rows());
+  r.active_bounds = qp_.active_set_size() - static_cast<int>(kept);
   return r;
 }
 

@@ -631,6 +631,7 @@ void BalanceController::finish_with(const contact::ContactSolution& solution, Co
   diag_.qp_status = r.status;
   diag_.qp_iterations = r.iterations;
   diag_.active_bounds = r.active_bounds;
+  diag_.dependent_rows = r.dependent_rows;
   diag_.bounds_dropped = r.bounds_dropped;
   if (r.status != contact::SolverStatus::kOptimal || r.bounds_dropped) ++diag_.qp_failures;
   if (!qdd_.allFinite() || r.status == contact::SolverStatus::kInvalidInput ||

@@ -49,6 +49,9 @@ class AccelerationSolver {
     bool bounds_dropped = false;  ///< infeasible with bounds: this is the bound-free solution
     int iterations = 0;
     int active_bounds = 0;
+    /// Equality rows found dependent on the others (rank-revealing Cholesky of the Schur
+    /// complement) and dropped: their multipliers are zero; they hold when consistent.
+    int dependent_rows = 0;
     /// A bound was violated by the equality-only solution (then the primal active set or DualQp).
     bool used_active_set = false;
     bool used_dual_qp = false;  ///< DualQp solved the problem (the primal active set did not)
@@ -107,11 +110,18 @@ class AccelerationSolver {
   void apply_g_inverse(const Eigen::Ref<const Eigen::VectorXd>& v, Eigen::Ref<Eigen::VectorXd> y);
   // (x, lambda) of G x + g_rhs = C^T lambda, C x = d_rhs from the Woodbury factors (S_ holds the
   // Cholesky factor of the Schur complement).
+  // Rank-revealing Cholesky of S_'s leading m x m block (lower triangle given), in place:
+  // schur_rank_ kept rows, perm_ their order; see the .cpp.
+  void factor_schur(Eigen::Index m);
+  // v = S^+ v on the kept rows, zero on the dependent ones (after factor_schur).
+  void solve_schur(Eigen::Ref<Eigen::VectorXd> v);
   void woodbury_kkt_solve(const Eigen::Ref<const Eigen::MatrixXd>& C,
                           const Eigen::Ref<const Eigen::VectorXd>& g_rhs,
                           const Eigen::Ref<const Eigen::VectorXd>& d_rhs,
                           Eigen::Ref<Eigen::VectorXd> x, Eigen::Ref<Eigen::VectorXd> lambda);
 
+  /// Pivot below this fraction of S's largest diagonal: a dependent equality row (see the .cpp).
+  static constexpr double kDependentPivot = 1e-7;
   int nv_ = 0;
   int max_eq_ = 0;
   bool fast_path_ = true;
@@ -134,6 +144,13 @@ class AccelerationSolver {
   Eigen::MatrixXd Y_;  // L^-1 C^T (nv x max_eq)
   Eigen::MatrixXd S_;  // Schur complement Y^T Y (max_eq x max_eq), factorised in place
   Eigen::VectorXd u_, lambda_;
+  std::vector<int> perm_;        // factor_schur's pivot order
+  Eigen::MatrixXd S_saved_;      // S as given (lower triangle), for the plain Cholesky
+  Eigen::VectorXd schur_diag_;   // factor_schur's remaining diagonal
+  Eigen::MatrixXd C_kept_;       // C without its dependent rows (for DualQp), max_eq x nv
+  Eigen::VectorXd d_kept_;
+  Eigen::VectorXd schur_work_;
+  Eigen::Index schur_m_ = 0, schur_rank_ = 0;
   Eigen::MatrixXd G_;  // formed only for the dense and active-set paths
   Eigen::VectorXd g_;
   // Primal active set: [C; active bound rows] and its right-hand side, the active joints and

@@ -47,6 +47,7 @@ struct TickDiagnostics {
   contact::SolverStatus qp_status = contact::SolverStatus::kOptimal;  ///< eq (33) solve
   int qp_iterations = 0;
   int active_bounds = 0;              ///< joint-acceleration bounds active in eq (33)
+  int dependent_rows = 0;  ///< eq (33) equality rows dependent on the others (dropped; see solver)
   bool bounds_dropped = false;        ///< eq (33) infeasible with bounds: solved without them
   double momentum_residual = 0.0;     ///< |A qdd + A_dot qd - hdot_a|
   double constraint_residual = 0.0;   ///< |J qdd + J_dot qd - a_d| (max over rows)
