@@ -67,7 +67,7 @@ std::string init_and_stand(const fs::path& urdf, const fs::path& dir, bool expec
   EXPECT_EQ(cfg.leg_joints.size(), 12u);
   EXPECT_EQ(cfg.feet[poise::model::kLeft].frame, "l_foot");
   EXPECT_EQ(cfg.feet[poise::model::kRight].frame, "r_foot");
-  EXPECT_EQ(cfg.imu_frame, "pelvis");
+  EXPECT_EQ(cfg.imu_frame, "imu_link");  // the URDF's IMU link on the pelvis, as the shipped robot.yaml
   for (const auto& f : cfg.feet) {
     EXPECT_NEAR(f.sole.x_min, -0.08, 1e-6);
     EXPECT_NEAR(f.sole.x_max, 0.14, 1e-6);

@@ -151,6 +151,9 @@ def build(p, outdir):
     if p.get("imu_on_torso"):
         u.joint("imu_mount", "fixed", torso_link, "imu", (0.03, 0, 0.12))
         u.link("imu")
+    if p.get("imu_on_base"):  # a second IMU link, on the pelvis, off its origin
+        u.joint("imu_in_pelvis_joint", "fixed", p["base"], "imu_in_pelvis", turn((-0.04, 0.01, -0.02)))
+        u.link("imu_in_pelvis")
     mh = M * fr["head"]
     rh = p["head_r"]
     head_mimic = (p["waist"], 1, 0) if p.get("mimic_on_fixed") else None
@@ -375,12 +378,13 @@ ROBOTS = [
          part_order=[("leg", "l"), ("arm", "l"), ("leg", "r"), ("arm", "r")]),
     dict(name="ibis", comment="Test robot ibis: 50 kg, five-joint legs (hip yaw, roll, pitch, knee, "
          "ankle pitch: no ankle roll) and long narrow feet; with both feet down the pelvis cannot "
-         "move sideways and the feet's twelve constraint rows are dependent (rank 11).",
+         "move sideways and the feet's twelve constraint rows are dependent (rank 11); IMU links on "
+         "the torso and on the pelvis (off its origin).",
          mass=50.0, names=names_joint, base="pelvis", torso_link="torso_link", waist="torso_joint",
          link_suffix="_link", pelvis=(0.16, 0.26, 0.12), torso=(0.18, 0.32, 0.40), head_r=0.09,
          hip_y=0.10, thigh=0.38, shank=0.38, thigh_r=0.045, ankle_h=0.06, foot=(0.24, 0.05, 0.03),
          toe=0.65, upper_arm=0.26, forearm=0.24, arm_r=0.035, hip_order=["yaw", "roll", "pitch"],
-         ankle_order=["pitch"], imu_on_torso=True,
+         ankle_order=["pitch"], imu_on_torso=True, imu_on_base=True,
          part_order=[("leg", "l"), ("leg", "r"), ("arm", "l"), ("arm", "r")]),
 ]
 

@@ -240,6 +240,36 @@ int run_init(const Options& opt) {
         break;
       }
   }
+  // An IMU link the URDF names (a link whose name contains "imu", any case): one fixed to the
+  // floating base is the IMU frame (its lever arm then counts in the simulated IMU and the
+  // estimator); one on another body is reported (only a base-mounted IMU is supported).
+  {
+    std::vector<std::string> on_base, elsewhere;
+    for (const auto& [name, link] : u->links_) {
+      std::string lower = name;
+      std::transform(lower.begin(), lower.end(), lower.begin(),
+                     [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+      if (lower.find("imu") == std::string::npos || !m.has_frame(name)) continue;
+      (m.frames[m.frame_id(name)].body == 0 ? on_base : elsewhere).push_back(name);
+    }
+    std::sort(on_base.begin(), on_base.end());
+    std::sort(elsewhere.begin(), elsewhere.end());
+    if (!on_base.empty()) {
+      imu = on_base.front();
+      if (on_base.size() > 1) {
+        std::string all;
+        for (const std::string& n : on_base) all += (all.empty() ? "" : ", ") + n;
+        checks.push_back("IMU links on the floating base: " + all + "; '" + imu +
+                         "' taken (imu_frame)");
+      }
+    }
+    for (const std::string& name : elsewhere) {
+      const int body = m.frames[m.frame_id(name)].body;
+      checks.push_back("the URDF's IMU link '" + name + "' is on '" + m.body_name[body] +
+                       "', not on the floating base '" + m.body_name[0] +
+                       "': only a base-mounted IMU is supported, the IMU frame is '" + imu + "'");
+    }
+  }
 
   // ---- collision geometry per body, in the body frame ------------------------------------------
   std::vector<BodyGeometry> geo(m.nbodies);
@@ -809,7 +839,8 @@ int run_init(const Options& opt) {
   std::cout << "check:\n"
             << "  - the feet, soles and leg joints above; the sole rectangle is the bottom face of "
                "the foot collision shapes\n"
-            << "  - the IMU frame: the floating base is assumed to carry it\n"
+            << "  - the IMU frame '" << imu
+            << "': on the floating base (an IMU link the URDF names there is taken)\n"
             << "  - the gains: each joint a " << fmt(opt.wn, 0)
             << " rad/s loop on the inertia it meets in swing, critically damped on the inertia it "
                "carries in stance where that is larger, within the 1 kHz explicit-PD bound; tune "
