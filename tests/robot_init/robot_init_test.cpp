@@ -2,6 +2,7 @@
 // accepted by `poise model info` and stands 10 s in process; the user's URDF is never modified;
 // URDFs it cannot read as a humanoid get an error naming the problem, never a crash.
 #include <gtest/gtest.h>
+#include <urdf_parser/urdf_parser.h>
 
 #include <Eigen/Eigenvalues>
 
@@ -179,6 +180,33 @@ TEST(RobotInit, AUrdfWithoutSoleLinksGetsSoleOffsetsAndStands) {
   const int w = m.joint_index("l_wrist");
   EXPECT_LE(cfg.gains[static_cast<std::size_t>(w)].kp, 5.0);
   EXPECT_LE(cfg.gains[static_cast<std::size_t>(w)].kd, 0.05);
+}
+
+// A visual <material> without a name (exported that way by some tools; Unitree's H1-2 URDF):
+// urdfdom 3.0 then drops the link's collisions too, and init found no feet ("no movable link
+// carries collision geometry"). Poise gives urdfdom its URDFs without visuals
+// (model::urdf_for_urdfdom): init, the model, the simulator and the stand all work.
+TEST(RobotInit, AVisualMaterialWithoutANameIsIgnored) {
+  const fs::path dir = work_dir("nameless_material");
+  std::string xml = read(fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/poise_humanoid.urdf");
+  xml = std::regex_replace(xml, std::regex("</visual>"),
+                           "  <material><color rgba=\"0.1 0.1 0.1 1\"/></material>\n    </visual>");
+  ASSERT_NE(xml.find("<material><color"), std::string::npos);
+  const fs::path urdf = dir / "nameless_material.urdf";
+  std::ofstream(urdf) << xml;
+  // urdfdom alone: the links lose their collisions (what the strip avoids).
+  {
+    const auto raw = urdf::parseURDF(xml);
+    const bool collisions_lost = !raw || !raw->getLink("l_foot") || !raw->getLink("l_foot")->collision;
+    EXPECT_TRUE(collisions_lost) << "urdfdom accepts nameless materials now: the strip is moot";
+    const auto stripped = urdf::parseURDF(poise::model::urdf_for_urdfdom(xml));
+    ASSERT_TRUE(stripped);
+    ASSERT_TRUE(stripped->getLink("l_foot"));
+    EXPECT_TRUE(stripped->getLink("l_foot")->collision);
+    EXPECT_TRUE(stripped->getLink("l_foot")->visual_array.empty());
+  }
+  const std::string text = init_and_stand(urdf, dir, false);
+  EXPECT_NE(text.find("foot l_foot"), std::string::npos) << text;
 }
 
 // Mesh-only feet (a binary STL box, found through package://): the sole comes from the mesh.

@@ -502,6 +502,16 @@ std::string precheck_xml(const std::string& xml, const std::string& origin) {
   if (!ck.errors.empty()) throw ModelError(join_lines(ck.errors));
 
   bool stripped = false;
+  // <visual> elements: Poise draws nothing, and urdfdom 3.0 refuses some that other tools accept
+  // (a <material> without a name: the link is then dropped with its collisions; Unitree's H1-2).
+  // Their geometry was checked above.
+  for (TiXmlElement* e = doc.FirstChildElement("robot")->FirstChildElement("link"); e != nullptr;
+       e = e->NextSiblingElement("link")) {
+    while (TiXmlElement* v = e->FirstChildElement("visual")) {
+      e->RemoveChild(v);
+      stripped = true;
+    }
+  }
   for (TiXmlElement* e = doc.FirstChildElement("robot")->FirstChildElement("joint"); e != nullptr;
        e = e->NextSiblingElement("joint")) {
     const char* type = e->Attribute("type");
@@ -717,6 +727,16 @@ struct Builder {
 };
 
 }  // namespace
+
+std::string urdf_for_urdfdom(const std::string& xml, const std::string& origin) {
+  if (xml.size() > kMaxFileBytes)
+    throw ModelError("URDF " + origin + ": " + std::to_string(xml.size()) +
+                     " bytes, larger than the limit of " + std::to_string(kMaxFileBytes) +
+                     " bytes");
+  if (xml.find('\0') != std::string::npos)
+    throw ModelError("URDF " + origin + ": contains a NUL byte (binary data, not XML)");
+  return precheck_xml(xml, origin);
+}
 
 Model build_model_from_urdf_string(const std::string& xml, const std::string& origin) {
   if (xml.size() > kMaxFileBytes)

@@ -182,7 +182,7 @@ double lowest_z(const urdf::Geometry& g, const SE3& X_SG) {
 // difference beyond 1 mm is a warning with both heights (the simulator places and collides
 // the robot by the collision geometry, the controller by the sole plane).
 void collision_bottoms(const Model& model, RobotConfig& cfg, const Reader& r) {
-  const urdf::ModelInterfaceSharedPtr u = urdf::parseURDF(cfg.urdf_xml);
+  const urdf::ModelInterfaceSharedPtr u = urdf::parseURDF(urdf_for_urdfdom(cfg.urdf_xml));
   if (!u) return;  // the model was built from it: not expected
   const char* side_name[2] = {"right", "left"};
   for (int side = 0; side < 2; ++side) {

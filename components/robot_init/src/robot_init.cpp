@@ -209,7 +209,8 @@ int run_init(const Options& opt) {
   if (!fs::is_regular_file(urdf_path)) throw InitError("not a regular file: " + opt.urdf);
   const std::string xml = model::read_text_file_limited(urdf_path, "URDF");
   const model::Model m = model::build_model_from_urdf_string(xml, urdf_path.string());
-  const urdf::ModelInterfaceSharedPtr u = urdf::parseURDF(xml);
+  const urdf::ModelInterfaceSharedPtr u =
+      urdf::parseURDF(model::urdf_for_urdfdom(xml, urdf_path.string()));
   if (!u) throw InitError(urdf_path.string() + ": urdfdom could not parse the URDF");
 
   const std::string robot_name = !opt.name.empty() ? opt.name : m.name;

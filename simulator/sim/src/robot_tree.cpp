@@ -1,6 +1,9 @@
 #include "robot_tree.hpp"
 
 #include <urdf_parser/urdf_parser.h>
+#if POISE_SIM_HAVE_MODEL
+#include "poise/model/model.hpp"
+#endif
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -180,7 +183,12 @@ const FrameSpec* RobotTree::find_frame(const std::string& name) const {
 }
 
 RobotTree parse_robot_tree(const std::string& urdf_xml, const std::string& what) {
+#if POISE_SIM_HAVE_MODEL
+  // The text the model library checked and stripped of visuals (model.hpp urdf_for_urdfdom).
+  urdf::ModelInterfaceSharedPtr model = urdf::parseURDF(poise::model::urdf_for_urdfdom(urdf_xml, what));
+#else
   urdf::ModelInterfaceSharedPtr model = urdf::parseURDF(urdf_xml);
+#endif
   if (!model) fail(what, "could not be parsed (see the urdfdom message above)");
   const urdf::LinkConstSharedPtr root = model->getRoot();
   if (!root) fail(what, "has no root link");

@@ -138,6 +138,11 @@ std::string read_text_file_limited(const std::filesystem::path& path, const std:
 Model build_model_from_urdf_file(const std::filesystem::path& path);
 /// Same from URDF text; `origin` is used in error messages.
 Model build_model_from_urdf_string(const std::string& xml, const std::string& origin = "<string>");
+/// The URDF text Poise gives urdfdom (every parse of a URDF goes through it): checked as
+/// build_model_from_urdf_string does (throws ModelError naming each problem) and without what
+/// Poise does not use and urdfdom may refuse: <visual> elements (urdfdom 3.0 drops a link whose
+/// visual <material> has no name, collisions included) and <mimic> on fixed joints.
+std::string urdf_for_urdfdom(const std::string& xml, const std::string& origin = "<string>");
 
 // ---- configuration helpers (dims: q nq, v nv)
 // ----------------------------------------------------
