@@ -7,6 +7,8 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <sstream>
+#include <fstream>
 #include <vector>
 
 #include "poise/scenario/scenario.hpp"
@@ -103,6 +105,56 @@ TEST(SimScenario, SchemaErrorsNameTheKey) {
 }
 
 #ifdef POISE_SIM_TEST_HAVE_MODEL
+// initial.support names one foot: the start must be one the robot can stand in. The shipped
+// single-support scenario loads; the same with both legs in the nominal posture (the other sole
+// on the ground too) and with the leg folded but the CoM not leaned over the sole are refused,
+// naming the key and the figure, before anything runs (with the nominal posture the robot fell:
+// the controller held the right foot as lifted while it stood on the ground).
+TEST(SimScenario, ASingleSupportStartTheRobotCannotStandInIsRefused) {
+  const fs::path file = kScenarios / "lateral_push_single_support.yaml";
+  std::ifstream in(file);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string shipped = ss.str();
+  EXPECT_NO_THROW(parse_scenario(shipped, kScenarios, "single.yaml"));
+  const auto error = [&](const std::string& yaml) {
+    try {
+      parse_scenario(yaml, kScenarios, "single.yaml");
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  // Both legs as in double support.
+  std::string both = shipped;
+  const std::size_t j0 = both.find("  joints:"), j1 = both.find("world:");
+  ASSERT_NE(j0, std::string::npos);
+  ASSERT_NE(j1, std::string::npos);
+  both.erase(j0, j1 - j0);
+  std::string e = error(both);
+  EXPECT_NE(e.find("initial.support: 'left', but in the initial posture the right sole is 0.0 mm "
+                   "above the left one"),
+            std::string::npos)
+      << e;
+  // Right leg folded, no lean: the CoM stays between the feet.
+  std::string nolean = shipped;
+  for (const char* key : {"    l_hip_roll: -0.15\n", "    l_ankle_roll: 0.15\n",
+                          "    r_hip_roll: -0.15\n", "    r_ankle_roll: 0.15\n"}) {
+    const std::size_t at = nolean.find(key);
+    ASSERT_NE(at, std::string::npos) << key;
+    nolean.erase(at, std::string(key).size());
+  }
+  e = error(nolean);
+  EXPECT_NE(e.find("initial.support: 'left', but in the initial posture the CoM is 35.0 mm "
+                   "outside the left sole"),
+            std::string::npos)
+      << e;
+  // Double support with the same folded leg is not checked here (the monitor's business).
+  std::string dbl = nolean;
+  dbl.replace(dbl.find("support: left"), 13, "support: double");
+  EXPECT_EQ(error(dbl), "");
+}
+
 // The ground's finite broadphase box (solver.ground_aabb_band) only drops link/ground pairs the
 // narrowphase would not have given a contact point: the pushed humanoid (held by PD only) moves
 // the same as with Bullet's infinite plane box, contacts and non-foot contacts included.

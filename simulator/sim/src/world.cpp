@@ -9,12 +9,15 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <set>
 #include <sstream>
 #include <stdexcept>
 
 #ifdef POISE_SIM_HAVE_MODEL
+#include "poise/model/centroidal.hpp"
+#include "poise/model/kinematics.hpp"
 #include "poise/model/model.hpp"
 #include "poise/model/robot_config.hpp"
 #endif
@@ -65,6 +68,87 @@ Sinusoid sinusoid(const Ctx& c, const YAML::Node& n, const std::string& key, boo
   s.phase = c.num(n, "phase_deg", key, 0.0) * kDeg;
   return s;
 }
+
+#ifdef POISE_SIM_HAVE_MODEL
+// A single-support start (initial.support: a foot) the robot cannot stand in: the other sole
+// touching the ground too (it would carry the robot while the controller plans it as lifted), or
+// the CoM outside the support sole (the robot starts falling). Both found from the initial
+// posture with the model, before anything runs; the shipped lateral_push_single_support.yaml
+// shows how initial.joints fold the other leg and lean the CoM over the sole.
+void check_single_support(const Ctx& c, const World& sc) {
+  model::RobotConfig rc;
+  model::Model m;
+  try {
+    rc = model::load_robot_config(sc.robot_config);
+    m = model::load_robot_model(rc);
+  } catch (const std::exception&) {
+    return;  // reported where the robot is loaded
+  }
+  const InitialState& ini = sc.sim.initial;
+  Eigen::VectorXd q = m.neutral();
+  const Eigen::Quaterniond qb = Eigen::Quaterniond(
+      ini.base_orientation_wxyz[0], ini.base_orientation_wxyz[1], ini.base_orientation_wxyz[2],
+      ini.base_orientation_wxyz[3]).normalized();
+  q.segment<4>(3) << qb.x(), qb.y(), qb.z(), qb.w();
+  for (std::size_t k = 0; k < ini.joint_names.size(); ++k)
+    if (m.has_joint(ini.joint_names[k]))
+      q[7 + m.joint_index(ini.joint_names[k])] = ini.joint_positions[k];
+  model::Data d(m);
+  model::forward_kinematics(m, d, q);
+  model::update_frame_placements(m, d);
+  model::center_of_mass(m, d, q);
+  int support = -1;
+  const char* side_name[2] = {"right", "left"};
+  for (int s = 0; s < 2; ++s)
+    if (sc.support == side_name[s]) support = s;
+  if (support < 0) return;
+  const auto lowest = [&](int s) {
+    const model::FootConfig& f = rc.feet[static_cast<std::size_t>(s)];
+    const model::SE3 X = model::frame_placement(m, d, f.sole_frame_id);
+    double z = std::numeric_limits<double>::infinity();
+    for (double x : {f.sole.x_min, f.sole.x_max})
+      for (double y : {f.sole.y_min, f.sole.y_max})
+        z = std::min(z, X.act(model::Vector3(x, y, 0.0)).z());
+    return z;
+  };
+  const int other = 1 - support;
+  bool other_on_platform = false;
+  for (const auto& p : sc.sim.world.platforms) other_on_platform |= p.foot == side_name[other];
+  const double gap = lowest(other) - lowest(support);
+  if (!other_on_platform && sc.sim.world.platforms.empty() && gap < 1e-3) {
+    std::ostringstream os;
+    os.setf(std::ios::fixed);
+    os.precision(1);
+    os << "'" << sc.support << "', but in the initial posture the " << side_name[other]
+       << " sole is " << gap * 1000.0 << " mm above the " << sc.support
+       << " one: it would stand on the ground too while the controller holds it lifted (use "
+          "support: double, or lift it with initial.joints as "
+          "deploy/scenarios/lateral_push_single_support.yaml does)";
+    c.fail("initial.support", os.str());
+  }
+  const model::FootConfig& f = rc.feet[static_cast<std::size_t>(support)];
+  const model::SE3 X_WS = model::frame_placement(m, d, f.sole_frame_id);
+  // The CoM in the sole frame, along the world vertical onto the sole plane.
+  const model::Vector3 up_S = X_WS.R.transpose() * model::Vector3::UnitZ();
+  model::Vector3 c_S = X_WS.R.transpose() * (d.com - X_WS.p);
+  if (std::abs(up_S.z()) > 1e-6) c_S -= up_S * (c_S.z() / up_S.z());
+  const double dx = std::max({f.sole.x_min - c_S.x(), c_S.x() - f.sole.x_max, 0.0});
+  const double dy = std::max({f.sole.y_min - c_S.y(), c_S.y() - f.sole.y_max, 0.0});
+  if (dx > 0.0 || dy > 0.0) {
+    std::ostringstream os;
+    os.setf(std::ios::fixed);
+    os.precision(1);
+    os << "'" << sc.support << "', but in the initial posture the CoM is "
+       << std::hypot(dx, dy) * 1000.0 << " mm outside the " << sc.support << " sole (at x "
+       << c_S.x() * 1000.0 << ", y " << c_S.y() * 1000.0 << " mm in the sole frame; the sole "
+       << "spans x " << f.sole.x_min * 1000.0 << ".." << f.sole.x_max * 1000.0 << ", y "
+       << f.sole.y_min * 1000.0 << ".." << f.sole.y_max * 1000.0
+       << " mm): the robot would start falling (lean it over the sole with initial.joints, as "
+          "deploy/scenarios/lateral_push_single_support.yaml does)";
+    c.fail("initial.support", os.str());
+  }
+}
+#endif
 
 void load_robot(const Ctx& c, const YAML::Node& n, World& sc,
                 std::vector<std::pair<std::string, double>>& nominal,
@@ -518,6 +602,9 @@ World parse_world(const std::string& yaml_text, const fs::path& base_dir,
       c.fail("world.platforms[" + std::to_string(i) + "].foot",
              "'" + foot + "' is not a foot of the robot");
   }
+#ifdef POISE_SIM_HAVE_MODEL
+  if (sc.support != "double" && !sc.robot_config.empty()) check_single_support(c, sc);
+#endif
   return sc;
 }
 
