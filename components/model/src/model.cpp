@@ -739,13 +739,7 @@ std::string urdf_for_urdfdom(const std::string& xml, const std::string& origin) 
 }
 
 Model build_model_from_urdf_string(const std::string& xml, const std::string& origin) {
-  if (xml.size() > kMaxFileBytes)
-    throw ModelError("URDF " + origin + ": " + std::to_string(xml.size()) +
-                     " bytes, larger than the limit of " + std::to_string(kMaxFileBytes) +
-                     " bytes");
-  if (xml.find('\0') != std::string::npos)
-    throw ModelError("URDF " + origin + ": contains a NUL byte (binary data, not XML)");
-  const std::string checked = precheck_xml(xml, origin);
+  const std::string checked = urdf_for_urdfdom(xml, origin);
 
   urdf::ModelInterfaceSharedPtr urdf_model;
   std::string messages;
