@@ -68,7 +68,7 @@ void AccelerationSolver::resize(int nv, int max_eq) {
 // by the same test either way).
 void AccelerationSolver::factor_schur(Eigen::Index m) {
   // Left-looking, on the lower triangle only: column k of L is finished at step k from the
-  // original entries below it; diag_[i] holds S(i, i) minus the squares of row i's finished part.
+  // original entries below it; schur_diag_[i] holds S(i, i) minus the squares of row i's finished part.
   auto S = S_.topLeftCorner(m, m);
   auto saved = S_saved_.topLeftCorner(m, m);
   saved.triangularView<Eigen::Lower>() = S;
@@ -107,15 +107,18 @@ void AccelerationSolver::factor_schur(Eigen::Index m) {
   if (k < m) return;
   S.triangularView<Eigen::Lower>() = saved;
   Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(S);
-  if (llt.info() == Eigen::Success) {
-    for (Eigen::Index i = 0; i < m; ++i) perm_[static_cast<std::size_t>(i)] = static_cast<int>(i);
-    return;
-  }
+  if (llt.info() == Eigen::Success) return;  // solve_schur: rows in their order
   schur_rank_ = 0;  // not positive definite after all (round-off at the bound): give up this path
 }
 
 void AccelerationSolver::solve_schur(Eigen::Ref<Eigen::VectorXd> v) {
   const Eigen::Index m = schur_m_, r = schur_rank_;
+  if (r == m) {  // full rank: the plain Cholesky factor, rows in their order
+    const auto L = S_.topLeftCorner(m, m).triangularView<Eigen::Lower>();
+    L.solveInPlace(v);
+    L.transpose().solveInPlace(v);
+    return;
+  }
   auto w = schur_work_.head(m);
   for (Eigen::Index i = 0; i < m; ++i) w[i] = v[perm_[static_cast<std::size_t>(i)]];
   const auto L = S_.topLeftCorner(r, r).triangularView<Eigen::Lower>();
@@ -402,8 +405,9 @@ AccelerationSolver::Result AccelerationSolver::solve(
       solved = solve_equality_dense(C, d, x);
     }
   }
-  // The rows of C kept by the equality solve's factorisation (all when none was dependent):
-  // DualQp below is given only these (Goldfarb-Idnani needs independent equalities).
+  // Rows of C the equality solve found dependent: DualQp below gets only the kept ones
+  // (Goldfarb-Idnani needs independent equalities). Copied now, while perm_ still holds them
+  // (the active set refactorises); the usual tick has none and copies nothing.
   Eigen::Index kept = C.rows();
   if (solved && C.rows() > 0 && schur_rank_ < schur_m_) {
     kept = schur_rank_;
@@ -411,12 +415,12 @@ AccelerationSolver::Result AccelerationSolver::solve(
       C_kept_.row(i) = C.row(perm_[static_cast<std::size_t>(i)]);
       d_kept_[i] = d[perm_[static_cast<std::size_t>(i)]];
     }
-  } else {
-    C_kept_.topRows(C.rows()) = C;
-    d_kept_.head(C.rows()) = d;
   }
-  const auto Ck = C_kept_.topRows(kept);
-  const auto dk = d_kept_.head(kept);
+  const bool reduced = kept < C.rows();
+  const Eigen::Ref<const Eigen::MatrixXd> Ck =
+      reduced ? Eigen::Ref<const Eigen::MatrixXd>(C_kept_.topRows(kept)) : C;
+  const Eigen::Ref<const Eigen::VectorXd> dk =
+      reduced ? Eigen::Ref<const Eigen::VectorXd>(d_kept_.head(kept)) : d;
   if (solved) {
     r.dependent_rows = static_cast<int>(C.rows() - kept);
     bool inside = true;

@@ -185,7 +185,8 @@ const FrameSpec* RobotTree::find_frame(const std::string& name) const {
 RobotTree parse_robot_tree(const std::string& urdf_xml, const std::string& what) {
 #if POISE_SIM_HAVE_MODEL
   // The text the model library checked and stripped of visuals (model.hpp urdf_for_urdfdom).
-  urdf::ModelInterfaceSharedPtr model = urdf::parseURDF(poise::model::urdf_for_urdfdom(urdf_xml, what));
+  urdf::ModelInterfaceSharedPtr model =
+      urdf::parseURDF(poise::model::urdf_for_urdfdom(urdf_xml, what));
 #else
   urdf::ModelInterfaceSharedPtr model = urdf::parseURDF(urdf_xml);
 #endif

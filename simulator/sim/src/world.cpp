@@ -11,6 +11,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -69,21 +70,25 @@ Sinusoid sinusoid(const Ctx& c, const YAML::Node& n, const std::string& key, boo
   return s;
 }
 
+// The robot configuration and model load_robot read (robot.config), for the checks that need
+// the robot's kinematics; empty for a robot given as urdf + feet.
+#ifdef POISE_SIM_HAVE_MODEL
+struct LoadedRobot {
+  std::optional<model::RobotConfig> config;
+  std::optional<model::Model> model;
+};
+#else
+struct LoadedRobot {};
+#endif
+
 #ifdef POISE_SIM_HAVE_MODEL
 // A single-support start (initial.support: a foot) the robot cannot stand in: the other sole
 // touching the ground too (it would carry the robot while the controller plans it as lifted), or
 // the CoM outside the support sole (the robot starts falling). Both found from the initial
 // posture with the model, before anything runs; the shipped lateral_push_single_support.yaml
 // shows how initial.joints fold the other leg and lean the CoM over the sole.
-void check_single_support(const Ctx& c, const World& sc) {
-  model::RobotConfig rc;
-  model::Model m;
-  try {
-    rc = model::load_robot_config(sc.robot_config);
-    m = model::load_robot_model(rc);
-  } catch (const std::exception&) {
-    return;  // reported where the robot is loaded
-  }
+void check_single_support(const Ctx& c, const World& sc, const model::RobotConfig& rc,
+                          const model::Model& m) {
   const InitialState& ini = sc.sim.initial;
   Eigen::VectorXd q = m.neutral();
   const Eigen::Quaterniond qb = Eigen::Quaterniond(
@@ -152,7 +157,7 @@ void check_single_support(const Ctx& c, const World& sc) {
 
 void load_robot(const Ctx& c, const YAML::Node& n, World& sc,
                 std::vector<std::pair<std::string, double>>& nominal,
-                std::map<std::string, std::pair<double, double>>& limits) {
+                std::map<std::string, std::pair<double, double>>& limits, LoadedRobot& loaded) {
   const std::string key = "robot";
   if (!n) c.fail(key, "is required");
   c.allow(n, key, {"config", "urdf", "feet", "imu_frame", "self_collision", "damping_mode_kd"});
@@ -195,11 +200,12 @@ void load_robot(const Ctx& c, const YAML::Node& n, World& sc,
       }
     }
     // nominal posture: joint entries of q_nominal (q = [p (3); quat (4); joints])
-    const model::Model m = model::load_robot_model(rc);
+    const model::Model& m = loaded.model.emplace(model::load_robot_model(rc));
     for (std::size_t j = 0; j < m.joint_names.size(); ++j) {
       nominal.emplace_back(m.joint_names[j], rc.q_nominal[7 + static_cast<Eigen::Index>(j)]);
       limits[m.joint_names[j]] = {m.limits[j].lower, m.limits[j].upper};
     }
+    loaded.config = std::move(rc);
 #else
     c.fail(key + ".config",
            "this build has no robot-configuration loader (poise_model); use "
@@ -329,7 +335,8 @@ World parse_world(const std::string& yaml_text, const fs::path& base_dir,
 
   std::vector<std::pair<std::string, double>> nominal;
   std::map<std::string, std::pair<double, double>> limits;  // joint -> (lower, upper)
-  load_robot(c, root["robot"], sc, nominal, limits);
+  LoadedRobot robot;
+  load_robot(c, root["robot"], sc, nominal, limits, robot);
   load_world(c, root["world"], sc);
 
   // initial state
@@ -603,7 +610,8 @@ World parse_world(const std::string& yaml_text, const fs::path& base_dir,
              "'" + foot + "' is not a foot of the robot");
   }
 #ifdef POISE_SIM_HAVE_MODEL
-  if (sc.support != "double" && !sc.robot_config.empty()) check_single_support(c, sc);
+  if (sc.support != "double" && robot.config)
+    check_single_support(c, sc, *robot.config, *robot.model);
 #endif
   return sc;
 }

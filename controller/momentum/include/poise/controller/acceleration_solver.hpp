@@ -108,13 +108,14 @@ class AccelerationSolver {
                              Eigen::Ref<Eigen::VectorXd> x, Result& r);
   // y = G^-1 v by the Woodbury form (P_, K factor and winv_ of the current solve).
   void apply_g_inverse(const Eigen::Ref<const Eigen::VectorXd>& v, Eigen::Ref<Eigen::VectorXd> y);
-  // (x, lambda) of G x + g_rhs = C^T lambda, C x = d_rhs from the Woodbury factors (S_ holds the
-  // Cholesky factor of the Schur complement).
   // Rank-revealing Cholesky of S_'s leading m x m block (lower triangle given), in place:
-  // schur_rank_ kept rows, perm_ their order; see the .cpp.
+  // schur_rank_ kept rows; with fewer than m, perm_[0, schur_rank_) are the kept rows, else the
+  // factor is the plain Cholesky of S in its own order. See the .cpp.
   void factor_schur(Eigen::Index m);
-  // v = S^+ v on the kept rows, zero on the dependent ones (after factor_schur).
+  // v = S^-1 v (full rank), or the kept rows' solution with zero on the dependent ones.
   void solve_schur(Eigen::Ref<Eigen::VectorXd> v);
+  // (x, lambda) of G x + g_rhs = C^T lambda, C x = d_rhs from the Woodbury factors (S_ holds the
+  // factor_schur factor of the Schur complement).
   void woodbury_kkt_solve(const Eigen::Ref<const Eigen::MatrixXd>& C,
                           const Eigen::Ref<const Eigen::VectorXd>& g_rhs,
                           const Eigen::Ref<const Eigen::VectorXd>& d_rhs,
@@ -147,7 +148,7 @@ class AccelerationSolver {
   std::vector<int> perm_;        // factor_schur's pivot order
   Eigen::MatrixXd S_saved_;      // S as given (lower triangle), for the plain Cholesky
   Eigen::VectorXd schur_diag_;   // factor_schur's remaining diagonal
-  Eigen::MatrixXd C_kept_;       // C without its dependent rows (for DualQp), max_eq x nv
+  Eigen::MatrixXd C_kept_;       // C's kept rows when some were dependent (for DualQp)
   Eigen::VectorXd d_kept_;
   Eigen::VectorXd schur_work_;
   Eigen::Index schur_m_ = 0, schur_rank_ = 0;
