@@ -23,20 +23,24 @@ namespace {
 
 struct Errors {
   double v_rms = 0.0;          ///< base velocity RMS error [m/s]
+  double omega_rms = 0.0;      ///< base angular velocity RMS error [rad/s]
   double angle_max_deg = 0.0;  ///< total orientation error, max [deg]
   double com_drift = 0.0;      ///< max change of the CoM position error since t0 [m]
 };
 
 struct Accumulator {
-  double sq = 0.0;
+  double sq = 0.0, sq_omega = 0.0;
   int n = 0;
   Errors e;
   bool have_ref = false;
   Vector3 com_err0 = Vector3::Zero();
-  void add(const Matrix3& R, const Vector3& v, const Vector3& com, const sim::GroundTruth& t) {
+  void add(const Matrix3& R, const Vector3& v, const Vector3& omega, const Vector3& com,
+           const sim::GroundTruth& t) {
     sq += (v - t.v_WB).squaredNorm();
+    sq_omega += (omega - t.omega_WB).squaredNorm();
     ++n;
     e.v_rms = std::sqrt(sq / n);
+    e.omega_rms = std::sqrt(sq_omega / n);
     const double a = model::so3_log(R * t.X_WB.linear().transpose()).norm() * 180 / M_PI;
     e.angle_max_deg = std::max(e.angle_max_deg, a);
     const Vector3 err = com - t.com_W;
@@ -60,20 +64,34 @@ std::string scenario_path(const std::string& name) {
   return std::string(POISE_SOURCE_DIR) + "/deploy/scenarios/" + name + ".yaml";
 }
 
-/// Runs `duration` seconds of the scenario with the estimator in the loop.
+/// A joint the hold command swings: q_ref = q0 + amplitude sin(2 pi frequency t).
+struct Swing {
+  std::string joint;
+  double amplitude = 0.0;  ///< [rad]
+  double frequency = 0.0;  ///< [Hz]
+};
+
+/// Runs `duration` seconds of the scenario with the estimator in the loop. `imu_link`: the IMU
+/// frame for the simulator and the estimator instead of the robot's (empty: the robot's).
 RunResult run(const std::string& scenario_name, double duration, bool add_biases,
-              bool remove_pushes = false) {
+              bool remove_pushes = false, const std::string& imu_link = "",
+              const std::vector<Swing>& swings = {}) {
   scenario::Scenario sc = scenario::load_scenario(scenario_path(scenario_name));
   if (remove_pushes) sc.sim.pushes.clear();
+  if (!imu_link.empty()) sc.sim.robot.imu_frame = imu_link;
   if (add_biases) {
     sc.sim.imu.gyro_bias = Eigen::Vector3d(0.002, -0.0015, 0.001);
     sc.sim.imu.accel_bias = Eigen::Vector3d(0.02, -0.015, 0.05);
   }
-  const model::RobotConfig rc = model::load_robot_config(
+  model::RobotConfig rc = model::load_robot_config(
       sc.robot_config.empty()
           ? std::string(POISE_SOURCE_DIR) + "/deploy/robots/poise_humanoid/robot.yaml"
           : sc.robot_config.string());
   const model::Model model = model::load_robot_model(rc);
+  if (!imu_link.empty()) {
+    rc.imu_frame = imu_link;
+    rc.imu_frame_id = model.frame_id(imu_link);
+  }
   sim::Simulator sim(sc.sim);
   const int n = model.njoints;
   const std::vector<int> sim_to_model = sim::joint_index_map(sim.joint_names(), model.joint_names);
@@ -130,7 +148,9 @@ RunResult run(const std::string& scenario_name, double duration, bool add_biases
     cmd.kd[s] = 2.0 * rc.gains[j].kd;
   }
 
-  Estimator est(model, rc);
+  EstimatorConfig ecfg;  // the scenario's IMU latency, as poise run configures it
+  ecfg.imu_delay_ticks = scenario::estimator_imu_delay_ticks(sc);
+  Estimator est(model, rc, ecfg);
   SensorFrame frame = est.make_sensor_frame();
   EstimatorState state = est.make_state();
 
@@ -138,8 +158,20 @@ RunResult run(const std::string& scenario_name, double duration, bool add_biases
   Accumulator acc_f, acc_b;
   const int steps = static_cast<int>(duration / sim.dt());
   double min_height = 1e9;
+  std::vector<std::pair<int, Swing>> swung;  // simulator joint index, swing
+  for (const Swing& w : swings) {
+    const int j = model.joint_index(w.joint);
+    EXPECT_GE(j, 0) << w.joint;
+    if (j >= 0) swung.emplace_back(model_to_sim[j], w);
+  }
+  const Eigen::VectorXd q_ref0 = cmd.q_ref;
   for (int k = 0; k < steps; ++k) {
     cmd.tick = sensors.tick;
+    const double t = k * sim.dt(), two_pi = 2.0 * M_PI;
+    for (const auto& [s, w] : swung) {
+      cmd.q_ref[s] = q_ref0[s] + w.amplitude * std::sin(two_pi * w.frequency * t);
+      cmd.qd_ref[s] = w.amplitude * two_pi * w.frequency * std::cos(two_pi * w.frequency * t);
+    }
     sim.step(cmd, sensors, truth);
     inprocess::to_estimator_frame(sensors, sim_to_model, sim_foot, frame);
     const StatusFlags flags = est.update(frame, state);
@@ -151,25 +183,24 @@ RunResult run(const std::string& scenario_name, double duration, bool add_biases
     for (int f = 0; f < 2; ++f)
       if (state.feet[f].in_contact != truth.feet[sim_foot[f]].in_contact) ++r.contacts_wrong;
     if (flags & kInitializing) continue;
-    acc_f.add(state.X_WB.R, state.v_WB, state.com_W, truth);
+    acc_f.add(state.X_WB.R, state.v_WB, state.omega_WB, state.com_W, truth);
     // The baseline's CoM: the model CoM at the baseline base pose (same joints).
     Eigen::VectorXd qb = state.q_model;
     const SE3& Xb = est.leg_odometry().X_WB();
     qb.head<3>() = Xb.p;
     qb.segment<4>(3) = Eigen::Quaterniond(Xb.R).coeffs();
     model::center_of_mass(model, data, qb);
-    acc_b.add(Xb.R, est.leg_odometry().v_WB(), data.com, truth);
+    acc_b.add(Xb.R, est.leg_odometry().v_WB(), truth.omega_WB /* not compared */, data.com,
+              truth);
   }
   r.filter = acc_f.e;
   r.baseline = acc_b.e;
   r.sim_fell_height = min_height;
   std::printf(
-      "%-28s %5.1f s | IEKF: v RMS %.4f m/s, angle max %.3f deg, CoM drift %.4f m | "
-      "leg odometry: v RMS %.4f m/s, angle max %.3f deg, CoM drift %.4f m | "
-      "base z min %.3f, contact mismatch ticks %d\n",
-      scenario_name.c_str(), duration, r.filter.v_rms, r.filter.angle_max_deg, r.filter.com_drift,
-      r.baseline.v_rms, r.baseline.angle_max_deg, r.baseline.com_drift, min_height,
-      r.contacts_wrong);
+      "%-28s %5.1f s IMU on %s | IEKF: v RMS %.4f m/s, omega RMS %.4f rad/s, angle max %.3f deg, "
+      "CoM drift %.4f m | leg odometry: v RMS %.4f m/s, angle max %.3f deg, CoM drift %.4f m | base z min %.3f, contact mismatch ticks %d\n",
+      scenario_name.c_str(), duration, rc.imu_frame.c_str(), r.filter.v_rms, r.filter.omega_rms,
+      r.filter.angle_max_deg, r.filter.com_drift, r.baseline.v_rms, r.baseline.angle_max_deg, r.baseline.com_drift, min_height, r.contacts_wrong);
   return r;
 }
 
@@ -188,6 +219,38 @@ TEST(EstimatorSim, ForwardPushOfThePaper) {
   EXPECT_LT(r.filter.v_rms, 0.02);
   EXPECT_LT(r.filter.angle_max_deg, 0.5);
   EXPECT_LT(r.filter.com_drift, 0.01);
+}
+
+// An IMU behind joints (a torso's behind a waist: Unitree's H1, PAL's TALOS): the estimator
+// takes the IMU's pose and motion relative to the base from the joint encoders. Here the IMU sits
+// on the left upper arm, behind the waist yaw and the shoulder's pitch and roll, and those three
+// joints swing (0.3-0.4 rad at 0.7-1.3 Hz: the IMU turns about every axis at up to ~3 rad/s and
+// its origin moves relative to the base at up to ~1 m/s) while the held robot stands, with the
+// scenario's sensors (the IMU 1 ms late, encoder velocities low-passed at 100 Hz, biases added).
+// The base's attitude, angular velocity and velocity must stay close to those of the same run
+// with the IMU on the base. Measured 2026-12-05: attitude max 0.42 deg (base IMU 0.16), rate RMS
+// 13 mrad/s (1.9), velocity RMS 7.6 mm/s (0.8), CoM drift 5.9 mm (0.8). With the IMU's 1 ms
+// latency not allowed for (imu_delay_ticks 0) 1.6 deg, 19 mrad/s, 34 mm/s, 28 mm; the IMU's
+// motion taken for the base's would be errors of ~0.4 rad and ~3 rad/s.
+TEST(EstimatorSim, AnImuBehindSwingingJointsGivesTheBaseMotion) {
+  const std::vector<Swing> swings = {
+      {"torso_yaw", 0.3, 0.7}, {"l_shoulder_pitch", 0.4, 1.3}, {"l_shoulder_roll", 0.3, 0.9}};
+  const RunResult base =
+      run("forward_push_double_support", 6.0, true, /*remove_pushes=*/true, "", swings);
+  const RunResult arm = run("forward_push_double_support", 6.0, true, /*remove_pushes=*/true,
+                            "l_upper_arm", swings);
+  for (const RunResult* r : {&base, &arm}) {
+    EXPECT_TRUE(r->finite);
+    EXPECT_GT(r->sim_fell_height, 0.5);
+  }
+  EXPECT_LT(base.filter.angle_max_deg, 0.3);
+  EXPECT_LT(arm.filter.angle_max_deg, 0.6);
+  EXPECT_LT(arm.filter.omega_rms, 0.02);
+  EXPECT_LT(arm.filter.v_rms, 0.015);
+  EXPECT_LT(arm.filter.com_drift, 0.01);
+  // Leg odometry takes its attitude from the IMU's own filter, which the arm's accelerations
+  // disturb (1.7 deg: the simulated AHRS, SENSORS.md); its velocity still follows the base.
+  EXPECT_LT(arm.baseline.v_rms, 0.02);
 }
 
 }  // namespace

@@ -69,6 +69,13 @@ TEST(EstimatorStart, ScenarioKeysAndDefaults) {
                    0.8);
   EXPECT_TRUE(std::isnan(scenario::estimator_contact_ft_noise(
       parse("sensors: {foot_ft: {force_noise_std: 0}}\n"))));
+  // The IMU latency allowed for with an IMU behind joints: the key, else the simulated IMU's.
+  EXPECT_EQ(plain.estimator.imu_delay_ticks, -1);
+  EXPECT_EQ(scenario::estimator_imu_delay_ticks(plain), plain.sim.imu.delay_ticks);
+  EXPECT_EQ(scenario::estimator_imu_delay_ticks(parse("sensors: {imu: {delay_ticks: 3}}\n")), 3);
+  EXPECT_EQ(scenario::estimator_imu_delay_ticks(
+                parse("estimator: {imu_delay_ticks: 0}\nsensors: {imu: {delay_ticks: 3}}\n")),
+            0);
 }
 
 TEST(EstimatorStart, BadValuesAreRefusedNamingTheKey) {
@@ -96,6 +103,11 @@ TEST(EstimatorStart, BadValuesAreRefusedNamingTheKey) {
             std::string::npos);
   EXPECT_NE(message("estimator: {contact_ft_noise: .nan}\n").find("estimator.contact_ft_noise"),
             std::string::npos);
+  for (const char* bad : {"-1", "1.5", "101", "late"})
+    EXPECT_NE(message(std::string("estimator: {imu_delay_ticks: ") + bad + "}\n")
+                  .find("estimator.imu_delay_ticks"),
+              std::string::npos)
+        << bad;
   EXPECT_THROW(estimator::parse_estimator_kind("kalman"), estimator::EstimatorError);
 }
 

@@ -27,14 +27,23 @@ void operator delete(void* p, std::size_t) noexcept {
 namespace poise::estimator {
 namespace {
 
-class EstimatorNoMalloc : public ::testing::TestWithParam<SupportModel> {};
+/// The IMU on the base, or on the torso (behind the waist joint) with a 2-tick latency (the
+/// kinematics of the delayed joint positions run every tick).
+class EstimatorNoMalloc : public ::testing::TestWithParam<std::tuple<SupportModel, bool>> {};
 
 TEST_P(EstimatorNoMalloc, EveryKindOfTickIsAllocationFree) {
   test::StandingRobot robot;
   EstimatorConfig config;
-  config.supports = GetParam();
+  config.supports = std::get<0>(GetParam());
   config.moving_support_calibration = 0.05;  // within the warm-up
-  Estimator est(robot.model, robot.config, config);
+  model::RobotConfig rc = robot.config;
+  if (std::get<1>(GetParam())) {
+    rc.imu_frame = "torso";
+    rc.imu_frame_id = robot.model.frame_id("torso");
+    config.imu_delay_ticks = 2;
+  }
+  Estimator est(robot.model, rc, config);
+  ASSERT_EQ(est.imu_on_base(), !std::get<1>(GetParam()));
   SensorFrame frame = est.make_sensor_frame();
   EstimatorState state = est.make_state();
   std::int64_t k = 0;
@@ -78,9 +87,14 @@ TEST_P(EstimatorNoMalloc, EveryKindOfTickIsAllocationFree) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Supports, EstimatorNoMalloc,
-                         ::testing::Values(SupportModel::kFixed, SupportModel::kMoving,
-                                           SupportModel::kTranslating),
-                         [](const auto& info) { return std::string(to_string(info.param)); });
+                         ::testing::Combine(::testing::Values(SupportModel::kFixed,
+                                                              SupportModel::kMoving,
+                                                              SupportModel::kTranslating),
+                                            ::testing::Bool()),
+                         [](const auto& info) {
+                           return std::string(to_string(std::get<0>(info.param))) +
+                                  (std::get<1>(info.param) ? "_torso_imu" : "");
+                         });
 
 }  // namespace
 }  // namespace poise::estimator

@@ -572,11 +572,10 @@ TEST(MutatedRobotYaml, UnknownAndDuplicatedKeysAreErrors) {
   }
 }
 
-TEST(MutatedRobotYaml, ImuOffTheBaseIsRefusedAtLoad) {
+TEST(MutatedRobotYaml, ImuOnALinkTheUrdfLacksIsRefusedAtLoad) {
   const std::string y = std::regex_replace(yaml_text(), std::regex("imu_frame: imu_link"),
-                                           "imu_frame: torso");
-  expect_names(config_error(y), {"imu_frame", "'torso'", "not to the floating base"},
-               "IMU on the torso");
+                                           "imu_frame: imu_lnik");
+  expect_names(config_error(y), {"imu_frame", "'imu_lnik'"}, "IMU on an unknown link");
 }
 
 TEST(MutatedRobotYaml, EveryDefectReportedInOneRun) {
@@ -584,11 +583,11 @@ TEST(MutatedRobotYaml, EveryDefectReportedInOneRun) {
   y = yaml_with(y, "r_elbow: {kp: 40.0", "-1");
   y = yaml_with(y, "friction_mu: 0.8", ".nan");
   y += "colour: blue\n";
-  y = std::regex_replace(y, std::regex("imu_frame: imu_link"), "imu_frame: torso");
+  y = std::regex_replace(y, std::regex("imu_frame: imu_link"), "imu_frame: imu_lnik");
   const std::string msg = config_error(y);
   expect_names(msg,
                {"nominal_posture.l_knee", "pd_gains.r_elbow.kp", "contact.friction_mu", "colour",
-                "not to the floating base"},
+                "'imu_lnik'"},
                "five robot.yaml defects");
   EXPECT_GE(std::count(msg.begin(), msg.end(), '\n'), 4) << msg;
   // a URDF defect and a robot.yaml defect together

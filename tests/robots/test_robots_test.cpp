@@ -59,8 +59,9 @@ const std::vector<Robot>& robots() {
        30.0,
        "L_FOOT_LINK",
        "R_FOOT_LINK",
-       {"sole frame L_FOOT_LINK_sole_poise (added)", "IMU frame: PELVIS",
-        "the URDF's IMU link 'imu' is on 'CHEST', not on the floating base 'PELVIS'",
+       {"sole frame L_FOOT_LINK_sole_poise (added)", "IMU frame: imu",
+        "the IMU frame 'imu' is not on the floating base 'PELVIS' but on 'CHEST', behind "
+        "WAIST_YAW",
         "joint 'L_FINGER_B' mimics 'L_FINGER_A': frozen"}},
       {"auroch",
        90.0,
@@ -72,7 +73,9 @@ const std::vector<Robot>& robots() {
        55.0,
        "foot_link_left",
        "foot_link_right",
-       {"left sole comes from the mesh", "IMU frame: pelvis"}},
+       {"left sole comes from the mesh", "IMU frame: imu",
+        "the IMU frame 'imu' is not on the floating base 'pelvis' but on 'trunk', behind "
+        "waist_yaw"}},
       // Its URDF sole links are 10 mm above the foot boxes: the sole plane is the boxes' bottom
       // (0.07 m ankle height + 10 mm), not the URDF's l_sole.
       // Until init damped the ankles for the inertia they carry in stance (2 December 2026,
@@ -108,7 +111,8 @@ const std::vector<Robot>& robots() {
        "right_foot_link",
        {"the left leg has 5 joints: its foot cannot take every pose under the hip",
         "IMU frame: imu_in_pelvis",
-        "the URDF's IMU link 'imu' is on 'torso_link', not on the floating base 'pelvis'"},
+        "the URDF's IMU link 'imu' (on 'torso_link') is not used: the IMU frame is "
+        "'imu_in_pelvis'"},
        nullptr,
        nullptr,
        nullptr,

@@ -238,12 +238,7 @@ void read_config_body(const YAML::Node& root, const Reader& r, Model& model,
 
   r.attempt([&] {
     cfg.imu_frame = r.text(r.child(root, "", "imu_frame"), "imu_frame");
-    cfg.imu_frame_id = frame(cfg.imu_frame, "imu_frame");
-    const int body = model.frames[cfg.imu_frame_id].body;
-    if (body != 0)
-      r.fail("imu_frame", "IMU frame '" + cfg.imu_frame + "' is attached to body '" +
-                              model.body_name[body] + "', not to the floating base '" +
-                              model.body_name[0] + "' (only a base-mounted IMU is supported)");
+    cfg.imu_frame_id = frame(cfg.imu_frame, "imu_frame");  // on any body (estimator.hpp)
   });
 
   // ---- feet -----------------------------------------------------------------------------------

@@ -243,7 +243,10 @@ int run_init(const Options& opt) {
   }
   // An IMU link the URDF names (a link whose name contains "imu", any case): one fixed to the
   // floating base is the IMU frame (its lever arm then counts in the simulated IMU and the
-  // estimator); one on another body is reported (only a base-mounted IMU is supported).
+  // estimator); without one, the IMU link nearest the base (fewest joints between: a torso's
+  // behind a waist) is, and the estimator takes its motion relative to the base from those
+  // joints' encoders.
+  std::string imu_where = "on the floating base";
   {
     std::vector<std::string> on_base, elsewhere;
     for (const auto& [name, link] : u->links_) {
@@ -254,7 +257,16 @@ int run_init(const Options& opt) {
       (m.frames[m.frame_id(name)].body == 0 ? on_base : elsewhere).push_back(name);
     }
     std::sort(on_base.begin(), on_base.end());
-    std::sort(elsewhere.begin(), elsewhere.end());
+    const auto joints_to_base = [&](const std::string& name) {
+      std::vector<int> js;  // base to the link
+      for (int b = m.frames[m.frame_id(name)].body; b > 0; b = m.parent[static_cast<std::size_t>(b)])
+        js.insert(js.begin(), b - 1);
+      return js;
+    };
+    std::stable_sort(elsewhere.begin(), elsewhere.end(), [&](const auto& a, const auto& b) {
+      const std::size_t da = joints_to_base(a).size(), db = joints_to_base(b).size();
+      return da != db ? da < db : a < b;
+    });
     if (!on_base.empty()) {
       imu = on_base.front();
       if (on_base.size() > 1) {
@@ -263,12 +275,24 @@ int run_init(const Options& opt) {
         checks.push_back("IMU links on the floating base: " + all + "; '" + imu +
                          "' taken (imu_frame)");
       }
+    } else if (!elsewhere.empty()) {
+      imu = elsewhere.front();
+      const std::vector<int> js = joints_to_base(imu);
+      std::string via;
+      for (int j : js) via += (via.empty() ? "" : ", ") + m.joint_names[static_cast<std::size_t>(j)];
+      imu_where = "on '" + m.body_name[static_cast<std::size_t>(m.frames[m.frame_id(imu)].body)] +
+                  "', behind " + via;
+      checks.push_back("the IMU frame '" + imu + "' is not on the floating base '" +
+                       m.body_name[0] + "' but " + imu_where + ": the estimator takes its motion "
+                       "relative to the base from " + (js.size() == 1 ? "that joint's" : "those "
+                       "joints'") + " encoders (their errors become attitude and velocity errors); "
+                       "imu_frame: " + m.body_name[0] + " simulates an IMU on the base instead");
     }
     for (const std::string& name : elsewhere) {
+      if (name == imu) continue;
       const int body = m.frames[m.frame_id(name)].body;
-      checks.push_back("the URDF's IMU link '" + name + "' is on '" + m.body_name[body] +
-                       "', not on the floating base '" + m.body_name[0] +
-                       "': only a base-mounted IMU is supported, the IMU frame is '" + imu + "'");
+      checks.push_back("the URDF's IMU link '" + name + "' (on '" + m.body_name[body] +
+                       "') is not used: the IMU frame is '" + imu + "'");
     }
   }
 
@@ -742,7 +766,7 @@ int run_init(const Options& opt) {
        "deploy/robots/README.md).\n"
     << "name: " << robot_name << "\n"
     << "urdf: " << urdf_entry << "\n"
-    << "imu_frame: " << imu << "             # on the floating base\n\n"
+    << "imu_frame: " << imu << "             # " << imu_where << "\n\n"
     << "feet:\n";
   for (int s : {0, 1}) {
     const Leg& L = legs[s];
@@ -841,7 +865,8 @@ int run_init(const Options& opt) {
             << "  - the feet, soles and leg joints above; the sole rectangle is the bottom face of "
                "the foot collision shapes\n"
             << "  - the IMU frame '" << imu
-            << "': on the floating base (an IMU link the URDF names there is taken)\n"
+            << "': " << imu_where
+            << " (an IMU link the URDF names is taken, one on the base first)\n"
             << "  - the gains: each joint a " << fmt(opt.wn, 0)
             << " rad/s loop on the inertia it meets in swing, critically damped on the inertia it "
                "carries in stance where that is larger, within the 1 kHz explicit-PD bound; tune "

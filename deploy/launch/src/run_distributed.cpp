@@ -374,6 +374,8 @@ int run_distributed(int argc, char** argv) {
       est_args.insert(est_args.end(), {"--stance-rate-hz", exact(scenario.estimator.stance_rate_hz)});
     if (const double n = scenario::estimator_contact_ft_noise(scenario); std::isfinite(n))
       est_args.insert(est_args.end(), {"--contact-ft-noise", exact(n)});
+    if (const int d = scenario::estimator_imu_delay_ticks(scenario); d > 0)
+      est_args.insert(est_args.end(), {"--imu-delay-ticks", std::to_string(d)});
     if (recording_run) est_args.insert(est_args.end(), {"--output-readers", output_readers});
     // Lockstep: a tick takes as long as the slowest process needs, and a loaded machine stalls
     // the loop for 100+ ms now and then (171 ms in a CI run); the nodes' 50 ms wall-clock

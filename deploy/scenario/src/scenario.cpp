@@ -70,7 +70,16 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
   if (const YAML::Node e = root["estimator"]) {
     c.allow(e, "estimator",
             {"type", "supports", "ground_height", "support_height", "stance_rate_hz",
-             "contact_ft_noise"});
+             "contact_ft_noise", "imu_delay_ticks"});
+    if (e["imu_delay_ticks"]) {
+      const double d = c.num(e["imu_delay_ticks"], "estimator.imu_delay_ticks");
+      if (!(d >= 0.0 && d <= 100.0) || d != std::floor(d))
+        c.fail("estimator.imu_delay_ticks",
+               "must be a whole number of ticks within 0..100 (the IMU's latency, used with an "
+               "IMU behind joints)");
+      else
+        sc.estimator.imu_delay_ticks = static_cast<int>(d);
+    }
     if (e["contact_ft_noise"]) {
       sc.estimator.contact_ft_noise = c.num(e["contact_ft_noise"], "estimator.contact_ft_noise");
       if (!(sc.estimator.contact_ft_noise >= 0.0) || !std::isfinite(sc.estimator.contact_ft_noise))
@@ -158,6 +167,11 @@ double estimator_contact_ft_noise(const Scenario& sc) {
   if (std::isfinite(sc.estimator.contact_ft_noise)) return sc.estimator.contact_ft_noise;
   if (sc.sim.foot_ft.force_noise_std > 0.0) return sc.sim.foot_ft.force_noise_std;
   return std::numeric_limits<double>::quiet_NaN();
+}
+
+int estimator_imu_delay_ticks(const Scenario& sc) {
+  return sc.estimator.imu_delay_ticks >= 0 ? sc.estimator.imu_delay_ticks
+                                            : std::clamp(sc.sim.imu.delay_ticks, 0, 100);
 }
 
 EstimatorStart estimator_start(const Scenario& sc) {

@@ -128,6 +128,13 @@ int run(int argc, char** argv) {
                  "simulator's F/T, an industrial strain-gauge class); 0: the rule is off [N]")
       ->check(CLI::Range(0.0, 1.0e4))
       ->capture_default_str();
+  int imu_delay_ticks = estimator::EstimatorConfig{}.imu_delay_ticks;
+  app.add_option("--imu-delay-ticks", imu_delay_ticks,
+                 "the IMU's output latency in ticks (its filters and transfer), used when the IMU "
+                 "sits behind joints (a torso IMU behind a waist): its pose relative to the base "
+                 "is then taken from the encoders of that many ticks earlier (estimator/README.md)")
+      ->check(CLI::Range(0, 100))
+      ->capture_default_str();
   double stance_rate_hz = estimator::EstimatorConfig{}.stance_rate_filter_hz;
   app.add_option("--stance-rate-hz", stance_rate_hz,
                  "cut-off of the complementary filter of the gyro and the stance feet's "
@@ -152,6 +159,7 @@ int run(int argc, char** argv) {
   config.frozen_imu_ticks = frozen_imu_ticks;
   config.contact_rest_time = contact_rest_time;
   config.contact_ft_noise = contact_ft_noise;
+  config.imu_delay_ticks = imu_delay_ticks;
   config.stance_rate_filter_hz = stance_rate_hz;
   config.kind = estimator::parse_estimator_kind(kind);
   config.ground_height = ground_height;
@@ -318,7 +326,7 @@ int run(int argc, char** argv) {
                 "\"filter_resets\": %llu, "
                 "\"rejected_frames\": %llu, \"dropped_frames\": %llu, \"frozen_imu_ticks\": %llu, "
                 "\"orientation_rejections\": %llu, \"stance_rate_hz\": %g, \"stance_rate_gated_ticks\": %llu, "
-                "\"contact_ft_noise\": %g, "
+                "\"contact_ft_noise\": %g, \"imu_delay_ticks\": %d, "
                 "\"out_of_sequence\": %llu, \"stream_restarts\": %llu, "
                 "\"stale_events\": %llu, \"plans_received\": %llu, \"plan_overflows\": %llu}",
                 ground_truth_state ? "ground_truth" : "estimator",
@@ -329,7 +337,7 @@ int run(int argc, char** argv) {
                 static_cast<unsigned long long>(d.orientation_rejections),
                 config.stance_rate_filter_hz,
                 static_cast<unsigned long long>(d.stance_rate_gated_ticks),
-                config.contact_ft_noise,
+                config.contact_ft_noise, config.imu_delay_ticks,
                 static_cast<unsigned long long>(sequencer.rejected()),
                 static_cast<unsigned long long>(sequencer.restarts()),
                 static_cast<unsigned long long>(node.stale_events()),

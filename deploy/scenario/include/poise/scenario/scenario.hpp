@@ -43,6 +43,9 @@ struct EstimatorHints {
   /// `contact_ft_noise: N`: the contact detector's light-touch rule, the F/T normal-force noise
   /// (EstimatorConfig::contact_ft_noise; 0: off); NaN: not given (estimator_contact_ft_noise()).
   double contact_ft_noise = std::numeric_limits<double>::quiet_NaN();
+  /// `imu_delay_ticks: N`: the IMU's latency the estimator allows for with an IMU behind joints
+  /// (EstimatorConfig::imu_delay_ticks); -1: not given (estimator_imu_delay_ticks()).
+  int imu_delay_ticks = -1;
 };
 
 /// A scenario: the simulator's world (name, duration, robot_config, sim, success, support...)
@@ -103,5 +106,10 @@ EstimatorStart estimator_start(const Scenario& scenario);
 /// (an estimator configured with its sensor's figure, as on hardware); else NaN: the estimator's
 /// own default (EstimatorConfig::contact_ft_noise).
 double estimator_contact_ft_noise(const Scenario& scenario);
+
+/// The IMU latency the estimator is given for this scenario, in both modes: the estimator
+/// section's imu_delay_ticks; without it the simulated IMU's delay_ticks (an estimator
+/// configured with its sensor's figure, as on hardware).
+int estimator_imu_delay_ticks(const Scenario& scenario);
 
 }  // namespace poise::scenario
