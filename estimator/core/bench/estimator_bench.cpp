@@ -18,21 +18,34 @@ struct Setup {
   model::RobotConfig config = model::load_robot_config(std::string(POISE_SOURCE_DIR) +
                                                        "/deploy/robots/poise_humanoid/robot.yaml");
   model::Model model = model::load_robot_model(config);
+  model::RobotConfig run_config;  ///< config with the IMU where the benchmark puts it
   estimator::Estimator est;
   std::vector<estimator::SensorFrame> frames;
 
-  static estimator::EstimatorConfig with_supports(estimator::SupportModel supports) {
+  static estimator::EstimatorConfig with_supports(estimator::SupportModel supports,
+                                                  int imu_delay_ticks) {
     estimator::EstimatorConfig c;
     c.supports = supports;
     c.moving_support_calibration = 0.1;  // the free-contact path from tick 100 on
+    c.imu_delay_ticks = imu_delay_ticks;
+    return c;
+  }
+  /// imu 0: the robot's (on the pelvis); 1: on the torso, behind the waist joint; 2: the same
+  /// with a 1-tick IMU latency allowed for (the kinematics of the delayed joint positions).
+  static model::RobotConfig with_imu(model::RobotConfig c, const model::Model& m, int imu) {
+    if (imu > 0) {
+      c.imu_frame = "torso";
+      c.imu_frame_id = m.frame_id("torso");
+    }
     return c;
   }
 
-  explicit Setup(estimator::SupportModel supports = estimator::SupportModel::kFixed)
-      : est(model, config, with_supports(supports)) {
+  explicit Setup(estimator::SupportModel supports = estimator::SupportModel::kFixed, int imu = 0)
+      : run_config(with_imu(config, model, imu)),
+        est(model, run_config, with_supports(supports, imu == 2 ? 1 : 0)) {
     model::Data data(model);
     model::forward_kinematics(model, data, config.q_nominal);
-    const model::SE3 X_WI = model::frame_placement(model, data, config.imu_frame_id);
+    const model::SE3 X_WI = model::frame_placement(model, data, run_config.imu_frame_id);
     std::mt19937 rng(3);
     std::normal_distribution<double> n(0.0, 1.0);
     for (int i = 0; i < 1000; ++i) {
@@ -51,9 +64,10 @@ struct Setup {
   }
 };
 
-// Argument: support model (0 fixed = the default, 1 moving, 2 translating).
+// Arguments: support model (0 fixed = the default, 1 moving, 2 translating); IMU (Setup: 0 on
+// the pelvis, 1 on the torso behind the waist, 2 the same with a 1-tick latency allowed for).
 void BM_EstimatorTick(benchmark::State& st) {
-  Setup s(static_cast<estimator::SupportModel>(st.range(0)));
+  Setup s(static_cast<estimator::SupportModel>(st.range(0)), static_cast<int>(st.range(1)));
   estimator::EstimatorState out = s.est.make_state();
   std::int64_t k = 0;
   for (auto _ : st) {
@@ -63,7 +77,14 @@ void BM_EstimatorTick(benchmark::State& st) {
   }
   st.counters["joints"] = s.model.njoints;
 }
-BENCHMARK(BM_EstimatorTick)->Arg(0)->Arg(1)->Arg(2)->Repetitions(5)->ReportAggregatesOnly(true);
+BENCHMARK(BM_EstimatorTick)
+    ->Args({0, 0})
+    ->Args({1, 0})
+    ->Args({2, 0})
+    ->Args({0, 1})
+    ->Args({0, 2})
+    ->Repetitions(5)
+    ->ReportAggregatesOnly(true);
 
 void BM_FilterPropagate(benchmark::State& st) {
   estimator::InvariantEkf ekf(estimator::ImuNoise{}, Vector3(0, 0, -9.81));
