@@ -1201,6 +1201,108 @@ TEST(BalanceController, InternalForceLeakRemovesOnlyTheLegsSqueeze) {
                         [](ControllerConfig& c, double v) { c.feedback.internal_force_leak_hz = v; });
 }
 
+// A fallen robot (FallConfig): from the tick whose base has turned more than fall.tilt_deg from
+// standing, or whose CoM has sunk below fall.com_height_fraction of its standing height above
+// the lowest sole, the controller damps the joints, offers the optimiser no support and says
+// so; latched until reset().
+TEST(BalanceController, AFallenRobotIsDampedUntilReset) {
+  std::mt19937 rng(17);
+  const auto tilted = [&](const BalanceController& c, double deg) {
+    RobotState s = test::standing_state(c);
+    const double a = test::uniform(rng, 0.0, 2.0 * M_PI);  // a horizontal axis, seeded
+    const Eigen::Vector3d axis(std::cos(a), std::sin(a), 0.0);
+    s.X_WB.R = Eigen::AngleAxisd(deg * M_PI / 180.0, axis).toRotationMatrix() * s.X_WB.R;
+    return s;
+  };
+  BalanceController c = make_controller();
+  BalanceReference ref = c.make_reference();
+  contact::ContactProblem p;
+  contact::ContactSolution sol;
+  contact::SequentialOptimizer opt;
+  JointCommand cmd = c.make_command();
+  const auto tick = [&](const RobotState& s) {
+    c.prepare(s, ref, p);
+    opt.solve(p, sol);
+    c.finish(sol, cmd);
+  };
+  for (double deg : {0.0, 30.0, 55.0}) {  // balancing, however hard
+    tick(tilted(c, deg));
+    EXPECT_FALSE(c.diagnostics().fallen) << deg;
+    EXPECT_NE(cmd.mode, CommandMode::kDamping) << deg;
+  }
+  RobotState s = tilted(c, 65.0);
+  s.tick = 42;
+  tick(s);
+  const TickDiagnostics& d = c.diagnostics();
+  ASSERT_TRUE(d.fallen);
+  EXPECT_EQ(d.fall_reason, FallReason::kTilt);
+  EXPECT_EQ(d.fall_tick, 42);
+  EXPECT_NEAR(d.fall_tilt_deg, 65.0, 0.5);  // the base stands upright in the nominal posture
+  EXPECT_EQ(cmd.mode, CommandMode::kDamping);
+  EXPECT_TRUE(cmd.tau_ff.isZero());
+  EXPECT_FALSE(p.feet[0].in_contact || p.feet[1].in_contact);
+  EXPECT_EQ(describe_fall(d, 60.0, 0.5), "base tilt 65.0 deg > 60.0 deg");
+  // Latched: upright again, still damped; the fall's figures kept.
+  s = test::standing_state(c);
+  s.tick = 43;
+  tick(s);
+  EXPECT_TRUE(c.diagnostics().fallen);
+  EXPECT_EQ(c.diagnostics().fall_tick, 42);
+  EXPECT_EQ(cmd.mode, CommandMode::kDamping);
+  c.finish_fallback(cmd);
+  EXPECT_EQ(cmd.mode, CommandMode::kDamping);
+  c.reset();
+  tick(s);
+  EXPECT_FALSE(c.diagnostics().fallen);
+  EXPECT_EQ(describe_fall(c.diagnostics(), 60.0, 0.5), "");
+  EXPECT_NE(cmd.mode, CommandMode::kDamping);
+
+  // 180: never by tilt (upside down is still "balancing").
+  ControllerConfig never;
+  never.fall.tilt_deg = 180.0;
+  never.fall.com_height_fraction = 0.0;
+  BalanceController n = make_controller(never);
+  n.prepare(tilted(n, 170.0), ref, p);
+  EXPECT_FALSE(n.diagnostics().fallen);
+
+  // The CoM rule: knees bent 0.6 rad more (hips and ankles taking half each, soles flat). Its
+  // height fraction computed here from the model: CoM z minus the lowest sole's z, over the
+  // same at the nominal posture.
+  ControllerConfig low;
+  low.fall.com_height_fraction = 0.97;
+  BalanceController k = make_controller(low);
+  const auto& model = k.model();
+  const auto& robot = k.robot();
+  const auto height = [&](const Eigen::VectorXd& q) {
+    model::Data data(model);
+    model::forward_kinematics(model, data, q);
+    model::center_of_mass(model, data, q);
+    const Eigen::Vector3d com = data.com;
+    double sole = 1e9;
+    for (const auto& f : robot.feet)
+      sole = std::min(sole, model::frame_placement(model, data, f.frame_id)
+                                .act(Eigen::Vector3d(0.5 * (f.sole.x_min + f.sole.x_max),
+                                                     0.5 * (f.sole.y_min + f.sole.y_max),
+                                                     -f.sole.height))
+                                .z());
+    return com.z() - sole;
+  };
+  RobotState crouch = test::standing_state(k);
+  for (const char* side : {"l_", "r_"}) {
+    crouch.q[model.joint_index(std::string(side) + "knee")] += 0.6;
+    crouch.q[model.joint_index(std::string(side) + "hip_pitch")] -= 0.3;
+    crouch.q[model.joint_index(std::string(side) + "ankle_pitch")] -= 0.3;
+  }
+  Eigen::VectorXd qc = robot.q_nominal;
+  qc.tail(model.njoints) = crouch.q;
+  const double expected = height(qc) / height(robot.q_nominal);
+  ASSERT_LT(expected, 0.97);
+  k.prepare(crouch, ref, p);
+  EXPECT_TRUE(k.diagnostics().fallen);
+  EXPECT_EQ(k.diagnostics().fall_reason, FallReason::kComHeight);
+  EXPECT_NEAR(k.diagnostics().fall_com_height_fraction, expected, 1e-9);
+}
+
 TEST(BalanceController, BadInputGivesDampingAndBadConfigThrows) {
   BalanceController c = make_controller();
   RobotState s = test::standing_state(c);

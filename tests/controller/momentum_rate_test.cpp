@@ -114,6 +114,8 @@ TEST(ControllerConfig, ShippedFileLoadsWithTheDefaults) {
   EXPECT_EQ(c.contact.priority, d.contact.priority);
   EXPECT_EQ(c.contact.torsion_limit, d.contact.torsion_limit);
   EXPECT_EQ(d.contact.torsion_limit, contact::TorsionLimit::kFrictionCoupled);
+  EXPECT_EQ(c.fall.tilt_deg, d.fall.tilt_deg);
+  EXPECT_EQ(c.fall.com_height_fraction, d.fall.com_height_fraction);
 }
 
 std::string write_temp(const std::string& name, const std::string& text) {
@@ -162,6 +164,11 @@ TEST(ControllerConfig, BadFilesNameTheProblem) {
   expect_error("foot: {unloaded_kp: -1}\n", "foot.unloaded_kp");
   expect_error("foot: {unloaded_kd: -0.5}\n", "foot.unloaded_kd");
   expect_error("contact: {torsion_limit: [independent]}\n", "contact.torsion_limit");
+  expect_error("fall: {tilt_deg: 0}\n", "fall.tilt_deg");
+  expect_error("fall: {tilt_deg: 181}\n", "fall.tilt_deg");
+  expect_error("fall: {com_height_fraction: 1}\n", "fall.com_height_fraction");
+  expect_error("fall: {com_height_fraction: -0.1}\n", "fall.com_height_fraction");
+  expect_error("fall: {tilt: 45}\n", "fall.tilt");
   try {
     load_controller_config("/nonexistent/controller.yaml");
     ADD_FAILURE();
@@ -192,6 +199,10 @@ TEST(ControllerConfig, BadFilesNameTheProblem) {
   const std::string t = write_temp("controller_config_torsion.yaml",
                                    "contact: {torsion_limit: independent}\n");
   EXPECT_EQ(load_controller_config(t).contact.torsion_limit, contact::TorsionLimit::kIndependent);
+  const std::string f = write_temp("controller_config_fall.yaml",
+                                   "fall: {tilt_deg: 45, com_height_fraction: 0}\n");
+  EXPECT_EQ(load_controller_config(f).fall.tilt_deg, 45.0);
+  EXPECT_EQ(load_controller_config(f).fall.com_height_fraction, 0.0);
 }
 
 }  // namespace

@@ -84,6 +84,23 @@ TEST_P(NoMallocTick, ControllerTickPhasesAndFallbacks) {
   }
   EXPECT_EQ(c.diagnostics().ticks, 40u);
   EXPECT_EQ(cmd.mode, CommandMode::kTorque);
+
+  // The fall (FallConfig) and the damped ticks after it allocate nothing either.
+  RobotState fallen = states[0];
+  fallen.X_WB.R = Eigen::AngleAxisd(1.3, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  Eigen::internal::set_is_malloc_allowed(false);
+  const long before_fall = g_news.load();
+  for (const RobotState* s : {&fallen, &states[1]}) {
+    c.prepare(*s, ref, p);
+    opt.solve(p, sol);
+    c.finish(sol, cmd);
+    c.finish_fallback(cmd);
+  }
+  const long after_fall = g_news.load();
+  Eigen::internal::set_is_malloc_allowed(true);
+  EXPECT_EQ(after_fall, before_fall) << "operator new called by a fall";
+  EXPECT_TRUE(c.diagnostics().fallen);
+  EXPECT_EQ(cmd.mode, CommandMode::kDamping);
 }
 
 INSTANTIATE_TEST_SUITE_P(SupportAccelerationFeedForward, NoMallocTick,

@@ -172,6 +172,9 @@ int run(int argc, char** argv) {
   bool answered_once = false;
   std::uint64_t startup_skipped = 0;  // ticks replaced by a newer state before the first answer
   const std::int64_t start_wait_ns = std::int64_t{contact_wait_ms} * 1'000'000;
+  static constexpr const char* kFallen =
+      "the robot has fallen (fall.tilt_deg / fall.com_height_fraction): joints damped until the "
+      "controller restarts";
   static constexpr const char* kSilent =
       "contact optimiser silent (no poise/contact_solution for --contact-stale-ticks ticks): no "
       "joint command sent, the robot holds";
@@ -193,6 +196,7 @@ int run(int argc, char** argv) {
     msg::Header header;
   } pending;
   bool started = false;  // setup complete: states are handled
+  bool fall_reported = false;  // the fall (FallConfig) has been logged
   // A state that cannot be handled yet (before the start, or while another tick is pending in
   // real time): the newest is kept and handled as soon as possible.
   auto held_state = std::make_unique<msg::State>();
@@ -242,6 +246,7 @@ int run(int argc, char** argv) {
         return;
       case node::TickSequencer::Verdict::kRestart:
         ctrl.reset();
+        fall_reported = false;
         have_last = false;
         reference_applier.restart();
         node.error("state stream restarted at tick %llu (previous %llu): controller reset",
@@ -284,7 +289,7 @@ int run(int argc, char** argv) {
     if (answer) {
       answered_once = true;
       contact_misses = 0;
-      node.set_condition(msg::HEALTH_OK, nullptr);
+      if (!ctrl.diagnostics().fallen) node.set_condition(msg::HEALTH_OK, nullptr);
       contact_node::from_msg(*answer, solution);
       const std::int64_t t_lib = node::now_ns();
       ctrl.finish(solution, command);
@@ -302,6 +307,21 @@ int run(int argc, char** argv) {
                    static_cast<unsigned long long>(pending.k), deadline_us);
         ctrl.finish_fallback(command);
       }
+    }
+    if (ctrl.diagnostics().fallen) {
+      // Latched until the controller restarts: the joints are damped (FallConfig).
+      if (!fall_reported) {
+        const controller::TickDiagnostics& d = ctrl.diagnostics();
+        node.error("tick %lld: the robot has fallen (%s %.2f; fall.tilt_deg %.1f, "
+                   "fall.com_height_fraction %.2f): balance stopped, joints damped until the "
+                   "controller restarts",
+                   static_cast<long long>(d.fall_tick), controller::to_string(d.fall_reason),
+                   d.fall_reason == controller::FallReason::kTilt ? d.fall_tilt_deg
+                                                                   : d.fall_com_height_fraction,
+                   ctrl.config().fall.tilt_deg, ctrl.config().fall.com_height_fraction);
+        fall_reported = true;
+      }
+      node.set_condition(msg::HEALTH_FAULT, kFallen);
     }
     if (send) {
       controller_node::to_msg(command, pending.header, model_to_wire, out);
@@ -376,7 +396,8 @@ int run(int argc, char** argv) {
                 "\"references_received\": %llu, \"references_applied\": %llu, "
                 "\"late_references\": %llu, \"reference_overflows\": %llu, \"out_of_sequence\": %llu, "
                 "\"stream_restarts\": %llu, \"commands_withheld\": %llu, \"stale_events\": %llu, "
-                "\"problems_resent\": %llu, \"startup_skipped\": %llu}",
+                "\"problems_resent\": %llu, \"startup_skipped\": %llu, \"fall_tick\": %lld, "
+                "\"fall\": \"%s\"}",
                 static_cast<unsigned long long>(d.late_solutions),
                 static_cast<unsigned long long>(d.qp_failures),
                 static_cast<unsigned long long>(d.ticks),
@@ -389,7 +410,11 @@ int run(int argc, char** argv) {
                 static_cast<unsigned long long>(commands_withheld),
                 static_cast<unsigned long long>(node.stale_events()),
                 static_cast<unsigned long long>(problems_resent),
-                static_cast<unsigned long long>(startup_skipped));
+                static_cast<unsigned long long>(startup_skipped),
+                static_cast<long long>(d.fallen ? d.fall_tick : -1),
+                controller::describe_fall(d, ctrl.config().fall.tilt_deg,
+                                          ctrl.config().fall.com_height_fraction)
+                    .c_str());
   node.write_summary(extra);
   return 0;
 }

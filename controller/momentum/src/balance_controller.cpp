@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <string>
 
 #include "poise/controller/contact_fallback.hpp"
@@ -44,6 +46,32 @@ const char* to_string(ContactSource s) {
       return "gravity_distribution";
   }
   return "unknown";
+}
+
+const char* to_string(FallReason r) {
+  switch (r) {
+    case FallReason::kNone:
+      return "none";
+    case FallReason::kTilt:
+      return "tilt";
+    case FallReason::kComHeight:
+      return "com_height";
+  }
+  return "unknown";
+}
+
+std::string describe_fall(const TickDiagnostics& d, double tilt_limit_deg,
+                          double com_height_fraction_limit) {
+  if (!d.fallen) return "";
+  char text[160];
+  if (d.fall_reason == FallReason::kTilt)
+    std::snprintf(text, sizeof text, "base tilt %.2f deg > %.1f deg", d.fall_tilt_deg,
+                  tilt_limit_deg);
+  else
+    std::snprintf(text, sizeof text,
+                  "CoM %.2f of its standing height above the lowest sole < %.2f",
+                  d.fall_com_height_fraction, com_height_fraction_limit);
+  return text;
 }
 
 BalanceController::BalanceController(const model::Model& model, const model::RobotConfig& robot,
@@ -217,6 +245,9 @@ JointCommand BalanceController::make_command() const {
 }
 
 void BalanceController::reset() noexcept {
+  diag_.fallen = false;
+  diag_.fall_reason = FallReason::kNone;
+  diag_.fall_tick = -1;
   have_references_ = false;
   have_hold_ = {false, false};
   planned_off_time_ = {0.0, 0.0};
@@ -268,6 +299,15 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
   diag_.com_W = data_.com;
   diag_.com_velocity_W = data_.vcom;
   diag_.h_W = data_.hg;
+
+  // ---- a fallen robot (FallConfig): damping from here on, no contact problem ----------------
+  if (!diag_.fallen) detect_fall(R_WB);
+  if (diag_.fallen) {
+    problem = problem_;
+    for (auto& f : problem.feet)
+      f.in_contact = false;
+    return;
+  }
 
   // ---- feet: kinematics, supports, Sec. 4.2 resting rule, eq (36) -------------------------------
   const double weight = mass * model_.gravity.norm();
@@ -529,10 +569,34 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
   problem = problem_;
 }
 
+void BalanceController::detect_fall(const Eigen::Matrix3d& R_WB) noexcept {
+  const Eigen::Vector3d up = -model_.gravity.normalized();
+  const double cos_tilt = std::clamp((R_WB * base_up_B_).dot(up), -1.0, 1.0);
+  const double tilt_deg = std::acos(cos_tilt) * 180.0 / M_PI;
+  double lowest_sole = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < kFeet; ++i)
+    lowest_sole = std::min(
+        lowest_sole,
+        up.dot(sole_center_W(model::frame_placement(model_, data_, robot_.feet[i].frame_id),
+                             robot_.feet[i].sole)));
+  const double fraction = (up.dot(data_.com) - lowest_sole) / com_height_;
+  FallReason reason = FallReason::kNone;
+  if (tilt_deg > config_.fall.tilt_deg)
+    reason = FallReason::kTilt;
+  else if (config_.fall.com_height_fraction > 0.0 && fraction < config_.fall.com_height_fraction)
+    reason = FallReason::kComHeight;
+  if (reason == FallReason::kNone) return;
+  diag_.fallen = true;
+  diag_.fall_reason = reason;
+  diag_.fall_tick = diag_.tick;
+  diag_.fall_tilt_deg = tilt_deg;
+  diag_.fall_com_height_fraction = fraction;
+}
+
 void BalanceController::finish(const contact::ContactSolution& solution,
                                JointCommand& command) noexcept {
   if (!command_sized(command)) return;
-  if (!state_ok_) {
+  if (!state_ok_ || diag_.fallen) {
     command_damping(command);
     return;
   }
@@ -547,7 +611,7 @@ void BalanceController::finish(const contact::ContactSolution& solution,
 void BalanceController::finish_fallback(JointCommand& command) noexcept {
   if (!command_sized(command)) return;
   ++diag_.late_solutions;
-  if (!state_ok_) {
+  if (!state_ok_ || diag_.fallen) {
     command_damping(command);
     return;
   }

@@ -130,6 +130,10 @@ void ControllerConfig::validate() const {
   require(std::isfinite(feedback.touchdown_follow_hz) && feedback.touchdown_follow_hz > 0.0,
           "feedback.touchdown_follow_hz", "must be > 0");
   require(fallback.max_reuse_ticks >= 0, "fallback.max_reuse_ticks", "must be >= 0");
+  require(fall.tilt_deg > 0.0 && fall.tilt_deg <= 180.0, "fall.tilt_deg",
+          "must be in (0, 180] (degrees; 180: never)");
+  require(fall.com_height_fraction >= 0.0 && fall.com_height_fraction < 1.0,
+          "fall.com_height_fraction", "must be in [0, 1) (0: never)");
   require(std::isfinite(resting_extra_margin), "resting_extra_margin", "must be finite");
   require(std::isfinite(resting_force_fraction) && resting_force_fraction >= 0.0 &&
               resting_force_fraction < 1.0,
@@ -153,7 +157,7 @@ ControllerConfig from_yaml(const YAML::Node& root, const std::string& file) {
   Reader r(file);
   if (root.IsNull()) return c;
   r.keys(root, "",
-         {"dt", "momentum", "contact", "foot", "acceleration", "feedback", "fallback",
+         {"dt", "momentum", "contact", "foot", "acceleration", "feedback", "fallback", "fall",
           "resting_extra_margin", "resting_force_fraction", "resting_touchdown_force_fraction",
           "resting_touchdown_air_time", "com_height",
           "planned_support_release", "planned_support_release_height"});
@@ -236,6 +240,11 @@ ControllerConfig from_yaml(const YAML::Node& root, const std::string& file) {
   if (const auto m = root["fallback"]) {
     r.keys(m, "fallback", {"max_reuse_ticks"});
     r.integer(m, "max_reuse_ticks", "fallback.", c.fallback.max_reuse_ticks);
+  }
+  if (const auto m = root["fall"]) {
+    r.keys(m, "fall", {"tilt_deg", "com_height_fraction"});
+    r.number(m, "tilt_deg", "fall.", c.fall.tilt_deg);
+    r.number(m, "com_height_fraction", "fall.", c.fall.com_height_fraction);
   }
   try {
     c.validate();

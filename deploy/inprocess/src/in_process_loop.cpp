@@ -1,6 +1,7 @@
 #include "poise/inprocess/in_process_loop.hpp"
 
 #include <algorithm>
+#include <cstdio>
 #include <cmath>
 #include <stdexcept>
 
@@ -407,6 +408,19 @@ RunResult InProcessLoop::result() const {
   r.failed = monitor_.failed_criteria();
   r.completed = !aborted_;
   r.command_timeouts = command_timeouts_;
+  if (controller_) {  // the controller declared a fall: it damps the joints from then on
+    const controller::TickDiagnostics& d = controller_->diagnostics();
+    const controller::FallConfig& fc = controller_->config().fall;
+    r.controller_fall = controller::describe_fall(d, fc.tilt_deg, fc.com_height_fraction);
+    if (d.fallen) {
+      r.controller_fall_time_s = static_cast<double>(d.fall_tick) * sim_->dt();  // sim time
+      char t[32];
+      std::snprintf(t, sizeof t, "%.3f", r.controller_fall_time_s);
+      r.failed.push_back("the controller declared a fall at " + std::string(t) + " s (" +
+                         r.controller_fall + "): joints damped");
+      r.survived = false;
+    }
+  }
   if (aborted_) {  // as poise-sim's result
     r.survived = false;
     r.failed.push_back("run aborted before its end");

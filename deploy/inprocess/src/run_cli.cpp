@@ -42,6 +42,10 @@ nlohmann::json to_json(const RunResult& r) {
   j["trunk_pitch_max_deg"] = r.trunk_pitch_max_deg;
   j["trunk_roll_max_deg"] = r.trunk_roll_max_deg;
   j["failed_criteria"] = r.failed;
+  j["controller_fall"] = r.controller_fall.empty()
+                             ? nlohmann::json(nullptr)
+                             : nlohmann::json{{"time_s", r.controller_fall_time_s},
+                                              {"reason", r.controller_fall}};
   if (!r.failed.empty()) {
     std::string why;
     for (const auto& f : r.failed) why += (why.empty() ? "" : "; ") + f;

@@ -740,6 +740,18 @@ int run_distributed(int argc, char** argv) {
                                      " damping ticks > " + std::to_string(damping_tolerance));
       r["survived"] = false;
     }
+    // The controller declared a fall (FallConfig): it damps the joints from then on.
+    r["controller_fall"] = Json();
+    if (ctrl_r.is_object() && ctrl_r.value("fall_tick", -1LL) >= 0) {
+      const double t = static_cast<double>(ctrl_r.value("fall_tick", -1LL)) * ccfg.dt;
+      const std::string why = ctrl_r.value("fall", std::string());
+      r["controller_fall"] = {{"time_s", t}, {"reason", why}};
+      char ts[32];
+      std::snprintf(ts, sizeof ts, "%.3f", t);
+      r["failed_criteria"].push_back("the controller declared a fall at " + std::string(ts) +
+                                     " s (" + why + "): joints damped");
+      r["survived"] = false;
+    }
     for (const auto& f : r["failed_criteria"])
       verdict_reason += (verdict_reason.empty() ? "" : "; ") + f.get<std::string>();
     if (!verdict_reason.empty()) r["failure"] = verdict_reason;

@@ -189,6 +189,8 @@ class BalanceController {
   Eigen::Matrix<double, 6, 1> internal_rhs_;
   /// internal_basis_ from this tick's foot Jacobians C_; false if not finite.
   bool internal_split_basis();
+  /// FallConfig: sets diag_.fallen (latched) when the base tilts or the CoM sinks past the limits.
+  void detect_fall(const Eigen::Matrix3d& R_WB) noexcept;
   /// The part of the joint error e (dim n, joints) whose torque diag(1/w) e is a pure internal
   /// force of the two feet, for the metric w (inv_kp_ or inv_kd_); false if not solvable.
   bool internal_part(const Eigen::VectorXd& e, const Eigen::VectorXd& w, Eigen::VectorXd& out);

@@ -214,6 +214,23 @@ struct FallbackConfig {
   int max_reuse_ticks = 5;
 };
 
+/// A fallen robot: balance is over. From the first tick that meets either rule the controller
+/// commands damping (the safe mode, tau = -kd qd) and says so (TickDiagnostics::fallen), until it
+/// is reset: a fallen humanoid driven by a balance controller whose model no longer holds (feet
+/// in the air, the trunk on the ground) gets joint torques at their limits, which on a real robot
+/// break it and in the simulator threw a fallen G1 200 m into the air (controller/momentum/
+/// README.md "A fallen robot"). Latched: a robot that lies on the floor does not stand up by
+/// balancing.
+struct FallConfig {
+  /// The floating base turned this far from its orientation at the first tick (the robot
+  /// standing) about a horizontal axis [deg]. Balanced pushes tilt the trunk at most ~20 deg
+  /// (controller/momentum/README.md); no robot recovers from 60 deg. In (0, 180]; 180: never.
+  double tilt_deg = 60.0;
+  /// The CoM's height above the lowest sole below this fraction of its height at the first tick.
+  /// [0, 1); 0: never.
+  double com_height_fraction = 0.5;
+};
+
 struct ControllerConfig {
   double dt = 0.001;  ///< control period [s]
   MomentumGains momentum;
@@ -222,6 +239,7 @@ struct ControllerConfig {
   AccelerationConfig acceleration;
   FeedbackConfig feedback;
   FallbackConfig fallback;
+  FallConfig fall;
   /// Measured CoP inside the safe region shrunk by this extra margin => the foot is resting
   /// (Sec. 4.2 moving-support rule) [m]. 0: the safe region itself.
   double resting_extra_margin = 0.0;

@@ -3,6 +3,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <string>
 #include <cstdint>
 
 #include "poise/contact/solver_status.hpp"
@@ -18,6 +19,11 @@ enum class ContactSource : std::uint8_t {
 };
 
 const char* to_string(ContactSource s);
+
+/// Which FallConfig rule declared the fall.
+enum class FallReason : std::uint8_t { kNone = 0, kTilt = 1, kComHeight = 2 };
+
+const char* to_string(FallReason r);
 
 struct TickDiagnostics {
   std::int64_t tick = -1;
@@ -59,6 +65,18 @@ struct TickDiagnostics {
   std::uint64_t ticks = 0;
   std::uint64_t late_solutions = 0;  ///< ticks finished with a fallback
   std::uint64_t qp_failures = 0;     ///< eq (33) not optimal (bounds dropped or last iterate)
+
+  // ---- a fallen robot (FallConfig; latched until reset()) ------------------------------------
+  bool fallen = false;             ///< damping is commanded: the robot has fallen
+  FallReason fall_reason = FallReason::kNone;
+  std::int64_t fall_tick = -1;     ///< the state tick that met the rule
+  double fall_tilt_deg = 0.0;      ///< the base's tilt from its start orientation then [deg]
+  double fall_com_height_fraction = 1.0;  ///< the CoM height over its standing height then
 };
+
+/// What declared the fall, with the figures and the limits ("base tilt 61.2 deg > 60 deg");
+/// "" when not fallen. Allocates: for logs and results, not the control loop.
+std::string describe_fall(const TickDiagnostics& diag, double tilt_limit_deg,
+                          double com_height_fraction_limit);
 
 }  // namespace poise::controller

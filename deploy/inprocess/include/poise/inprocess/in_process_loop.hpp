@@ -124,6 +124,9 @@ struct RunResult {
   double trunk_pitch_max_deg = 0.0;  ///< ScenarioMonitor::Result
   double trunk_roll_max_deg = 0.0;
   std::vector<std::string> failed;  ///< the success criteria that failed, readable
+  /// The controller's FallConfig declared a fall (controller::describe_fall); "" when not.
+  std::string controller_fall;
+  double controller_fall_time_s = -1.0;  ///< when (scenario time) [s]; -1: no fall
   bool completed = true;            ///< false: aborted (ticks without a command, see LoopOptions)
   std::uint64_t command_timeouts = 0;  ///< ticks without a joint command
   LatencyStats tick_latency_us;        ///< compute time of state + controller + optimiser per tick
