@@ -1241,7 +1241,7 @@ TEST(BalanceController, AFallenRobotIsDampedUntilReset) {
   EXPECT_EQ(cmd.mode, CommandMode::kDamping);
   EXPECT_TRUE(cmd.tau_ff.isZero());
   EXPECT_FALSE(p.feet[0].in_contact || p.feet[1].in_contact);
-  EXPECT_EQ(describe_fall(d, 60.0, 0.5), "base tilt 65.0 deg > 60.0 deg");
+  EXPECT_EQ(describe_fall(d, 60.0, 0.5), "base tilt 65.00 deg > 60.0 deg");
   // Latched: upright again, still damped; the fall's figures kept.
   s = test::standing_state(c);
   s.tick = 43;

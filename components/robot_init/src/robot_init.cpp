@@ -23,6 +23,7 @@
 #include "poise/model/centroidal.hpp"
 #include "poise/model/dynamics.hpp"
 #include "poise/model/kinematics.hpp"
+#include "poise/model/mesh.hpp"
 #include "poise/model/model.hpp"
 #include "poise/model/robot_config.hpp"
 
@@ -83,71 +84,6 @@ bool shape_points(const urdf::Geometry& g, std::vector<Vector3>& out) {
     default:
       return false;  // meshes: not read here
   }
-}
-
-// A mesh file of a URDF: "package://PKG/REST" is looked for as REST and PKG/REST in the URDF's
-// folder and its parents (no ROS package index here), "file://PATH" and plain paths as given
-// (relative: from the URDF's folder). Empty when not found.
-fs::path resolve_mesh(const std::string& name, const fs::path& urdf_dir) {
-  std::string n = name;
-  std::vector<std::string> rel;
-  if (n.rfind("package://", 0) == 0) {
-    n = n.substr(10);
-    const auto slash = n.find('/');
-    if (slash != std::string::npos) rel.push_back(n.substr(slash + 1));
-    rel.push_back(n);
-  } else {
-    if (n.rfind("file://", 0) == 0) n = n.substr(7);
-    if (fs::path(n).is_absolute()) return fs::is_regular_file(n) ? fs::path(n) : fs::path();
-    rel.push_back(n);
-  }
-  for (fs::path d = urdf_dir; !d.empty(); d = d.parent_path()) {
-    for (const std::string& r : rel)
-      if (fs::is_regular_file(d / r)) return d / r;
-    if (d == d.parent_path()) break;
-  }
-  return {};
-}
-
-// Vertices of an STL (binary or ASCII) or OBJ mesh, at most 64 MB. Throws InitError naming the file.
-std::vector<Vector3> mesh_vertices(const fs::path& path) {
-  std::string ext = path.extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  const std::string data = model::read_text_file_limited(path, "mesh", std::size_t{64} << 20);
-  std::vector<Vector3> v;
-  auto ascii_vertices = [&](const char* tag) {
-    std::istringstream in(data);
-    std::string line;
-    while (std::getline(in, line)) {
-      std::istringstream ls(line);
-      std::string t;
-      ls >> t;
-      double x, y, z;
-      if (t == tag && (ls >> x >> y >> z) && std::isfinite(x) && std::isfinite(y) && std::isfinite(z))
-        v.emplace_back(x, y, z);
-    }
-  };
-  if (ext == ".obj") {
-    ascii_vertices("v");
-  } else if (ext == ".stl") {
-    std::uint32_t n = 0;
-    if (data.size() >= 84) std::memcpy(&n, data.data() + 80, 4);
-    if (data.size() >= 84 && data.size() == 84 + std::size_t{50} * n) {
-      for (std::uint32_t i = 0; i < n; ++i)
-        for (int k = 0; k < 3; ++k) {
-          float f[3];
-          std::memcpy(f, data.data() + 84 + 50 * std::size_t{i} + 12 + 12 * k, 12);
-          if (std::isfinite(f[0]) && std::isfinite(f[1]) && std::isfinite(f[2]))
-            v.emplace_back(f[0], f[1], f[2]);
-        }
-    } else {
-      ascii_vertices("vertex");
-    }
-  } else {
-    throw InitError("mesh '" + path.string() + "': only STL and OBJ meshes are read");
-  }
-  if (v.empty()) throw InitError("mesh '" + path.string() + "': no vertices read");
-  return v;
 }
 
 SE3 pose_of(const urdf::Pose& p) {
@@ -307,12 +243,18 @@ int run_init(const Options& opt) {
       if (!shape_points(*c->geometry, pts)) {
         if (c->geometry->type != urdf::Geometry::MESH) continue;
         const auto& mesh = static_cast<const urdf::Mesh&>(*c->geometry);
-        const fs::path file = resolve_mesh(mesh.filename, urdf_path.parent_path());
+        const fs::path file = model::resolve_mesh_path(mesh.filename, urdf_path.parent_path());
         if (file.empty()) {
           geo[f.body].meshes.push_back(f.name + " (" + mesh.filename + ": not found)");
           continue;
         }
-        for (const Vector3& p : mesh_vertices(file))
+        std::vector<Vector3> vertices;
+        try {
+          vertices = model::read_mesh_vertices(file);
+        } catch (const model::ModelError& e) {
+          throw InitError(e.what());
+        }
+        for (const Vector3& p : vertices)
           pts.emplace_back(p.x() * mesh.scale.x, p.y() * mesh.scale.y, p.z() * mesh.scale.z);
         geo[f.body].mesh_files.push_back(file.string());
       }
@@ -320,6 +262,13 @@ int run_init(const Options& opt) {
       for (const Vector3& p : pts) geo[f.body].points_B.push_back(X_BC.act(p));
     }
   }
+
+  // A floating base without collision geometry passes through the floor when the robot falls
+  // (Unitree's G1 pelvis: its base ended 0.21 m below the ground after a fall).
+  if (geo[0].points_B.empty() && geo[0].mesh_files.empty())
+    checks.push_back("the floating base '" + m.body_name[0] + "' has no collision geometry: in "
+                     "the simulator it passes through the floor when the robot falls (a "
+                     "scenario's min_base_height then measures that); give it a <collision>");
 
   // ---- zero configuration: base at the origin, upright ------------------------------------------
   model::Data data(m);

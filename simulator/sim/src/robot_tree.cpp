@@ -2,10 +2,12 @@
 
 #include <urdf_parser/urdf_parser.h>
 #if POISE_SIM_HAVE_MODEL
+#include "poise/model/mesh.hpp"
 #include "poise/model/model.hpp"
 #endif
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -30,6 +32,7 @@ struct Builder {
   const urdf::ModelInterface& model;
   std::string what;
   RobotTree tree;
+  std::string mesh_dir;  ///< where mesh files are resolved; empty: not read
 
   // Adds the link's inertia and collision geometry to body b; the link frame is X_LK in L.
   void merge_link(const urdf::Link& link, int b, const Eigen::Isometry3d& X_LK) {
@@ -80,14 +83,42 @@ struct Builder {
           s.size = Eigen::Vector3d(g.radius, g.length, 0.0);
           break;
         }
-        default:
+        case urdf::Geometry::MESH: {
           body.has_mesh = true;
+          if (!read_mesh(static_cast<const urdf::Mesh&>(*col->geometry), s.points)) continue;
+          s.type = ShapeSpec::Type::kConvex;
+          break;
+        }
+        default:
           continue;
       }
       if (!s.size.allFinite() || (s.size.array() < 0.0).any())
         fail(what, "link '" + link.name + "' has an invalid collision size");
       body.shapes.push_back(s);
     }
+  }
+
+  // The mesh's vertices, scaled (its frame is the collision's origin); false when it is not found
+  // or not readable (another format than STL or OBJ): the link then has no such collision.
+  bool read_mesh(const urdf::Mesh& mesh, std::vector<Eigen::Vector3d>& points) const {
+#if POISE_SIM_HAVE_MODEL
+    if (mesh_dir.empty()) return false;
+    const std::filesystem::path file = model::resolve_mesh_path(mesh.filename, mesh_dir);
+    if (file.empty()) return false;
+    try {
+      points = model::read_mesh_vertices(file);
+    } catch (const model::ModelError&) {
+      return false;
+    }
+    const Eigen::Vector3d scale(mesh.scale.x, mesh.scale.y, mesh.scale.z);
+    if (!scale.allFinite()) fail(what, "mesh '" + mesh.filename + "' has an invalid scale");
+    for (Eigen::Vector3d& p : points) p = p.cwiseProduct(scale);
+    return points.size() >= 4;
+#else
+    (void)mesh;
+    (void)points;
+    return false;
+#endif
   }
 
   void visit(const urdf::Link& link, int b, const Eigen::Isometry3d& X_LK) {
@@ -182,7 +213,8 @@ const FrameSpec* RobotTree::find_frame(const std::string& name) const {
   return nullptr;
 }
 
-RobotTree parse_robot_tree(const std::string& urdf_xml, const std::string& what) {
+RobotTree parse_robot_tree(const std::string& urdf_xml, const std::string& what,
+                           const std::string& mesh_dir) {
 #if POISE_SIM_HAVE_MODEL
   // The text the model library checked and stripped of visuals (model.hpp urdf_for_urdfdom).
   urdf::ModelInterfaceSharedPtr model =
@@ -193,7 +225,7 @@ RobotTree parse_robot_tree(const std::string& urdf_xml, const std::string& what)
   if (!model) fail(what, "could not be parsed (see the urdfdom message above)");
   const urdf::LinkConstSharedPtr root = model->getRoot();
   if (!root) fail(what, "has no root link");
-  Builder b{*model, what, {}};
+  Builder b{*model, what, {}, mesh_dir};
   BodySpec base;
   base.name = root->name;
   b.tree.bodies.push_back(base);
@@ -208,7 +240,8 @@ RobotTree load_robot_tree(const std::string& urdf_path) {
   if (!in) throw std::runtime_error("URDF file '" + urdf_path + "' cannot be opened");
   std::stringstream ss;
   ss << in.rdbuf();
-  return parse_robot_tree(ss.str(), "'" + urdf_path + "'");
+  return parse_robot_tree(ss.str(), "'" + urdf_path + "'",
+                          std::filesystem::absolute(urdf_path).parent_path().string());
 }
 
 }  // namespace poise::sim::detail

@@ -10,10 +10,12 @@ namespace poise::sim::detail {
 
 /// Collision primitive in the body frame L (the URDF frame of the body's own link).
 struct ShapeSpec {
-  enum class Type { kBox, kSphere, kCylinder } type = Type::kBox;
+  /// kConvex: a URDF <mesh> that could be read (STL, OBJ), colliding as its convex hull.
+  enum class Type { kBox, kSphere, kCylinder, kConvex } type = Type::kBox;
   Eigen::Vector3d size =
       Eigen::Vector3d::Zero();  ///< box half extents | (radius) | (radius, length)
   Eigen::Isometry3d X_LS = Eigen::Isometry3d::Identity();
+  std::vector<Eigen::Vector3d> points;  ///< kConvex: the mesh's vertices in S, scaled
 };
 
 struct BodySpec {
@@ -48,7 +50,10 @@ struct RobotTree {
 
 /// Parses and reduces a URDF file. Throws std::runtime_error naming the problem.
 RobotTree load_robot_tree(const std::string& urdf_path);
-/// Same from URDF text (`what` names the source in error messages).
-RobotTree parse_robot_tree(const std::string& urdf_xml, const std::string& what);
+/// Same from URDF text (`what` names the source in error messages). `mesh_dir`: the URDF's
+/// folder, where mesh filenames are resolved (model::resolve_mesh_path); empty: meshes are not
+/// read (the body only notes has_mesh).
+RobotTree parse_robot_tree(const std::string& urdf_xml, const std::string& what,
+                           const std::string& mesh_dir = {});
 
 }  // namespace poise::sim::detail

@@ -6,6 +6,8 @@
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #include <BulletCollision/CollisionShapes/btBoxShape.h>
 #include <BulletCollision/CollisionShapes/btCompoundShape.h>
+#include <BulletCollision/CollisionShapes/btConvexHullShape.h>
+#include <BulletCollision/CollisionShapes/btShapeHull.h>
 #include <BulletCollision/CollisionShapes/btCylinderShape.h>
 #include <BulletCollision/CollisionShapes/btSphereShape.h>
 #include <BulletCollision/CollisionShapes/btStaticPlaneShape.h>
@@ -635,6 +637,17 @@ void Simulator::Impl::resolve_feet_and_imu() {
     added.X_LF = lf->X_LF * a.X_link_frame;
     tree.frames.push_back(added);
   }
+  // A foot touches with its primitives or the configured sole box, never with a mesh's hull
+  // (the contact model of the soles, README "Collision"); other bodies keep theirs.
+  for (const FootConfig& f : cfg.robot.feet)
+    if (const detail::FrameSpec* fr = tree.find_frame(f.frame)) {
+      auto& shapes = tree.bodies[static_cast<std::size_t>(fr->body)].shapes;
+      shapes.erase(std::remove_if(shapes.begin(), shapes.end(),
+                                  [](const ShapeSpec& sh) {
+                                    return sh.type == ShapeSpec::Type::kConvex;
+                                  }),
+                   shapes.end());
+    }
   for (const FootConfig& f : cfg.robot.feet) {
     const detail::FrameSpec* fr = tree.find_frame(f.frame);
     if (!fr)
@@ -774,6 +787,26 @@ void Simulator::Impl::build_robot() {
           shape = std::make_unique<btCylinderShapeZ>(
               btVector3(s.size.x(), s.size.x(), 0.5 * s.size.y()));
           break;
+        case ShapeSpec::Type::kConvex: {
+          // The mesh's convex hull, reduced by Bullet's hull builder to a few dozen vertices
+          // (a support-point query per contact test walks them all).
+          btConvexHullShape all;
+          for (const Eigen::Vector3d& p : s.points) all.addPoint(bt(p), false);
+          all.setMargin(0.0);  // the reduction samples support points, margin included
+          all.recalcLocalAabb();
+          btShapeHull reduced(&all);
+          reduced.buildHull(0.0);
+          auto hull = std::make_unique<btConvexHullShape>();
+          for (int v = 0; v < reduced.numVertices(); ++v)
+            hull->addPoint(reduced.getVertexPointer()[v], false);
+          // Bullet inflates a hull by its margin (0.04 m by default, unlike its box, sphere and
+          // cylinder, whose margin is inside): a shank 3 cm above the ground then touched it.
+          // 0.1 mm: a box mesh rests where the box does (tests/simulator/physics_test.cpp).
+          hull->setMargin(1e-4);
+          hull->recalcLocalAabb();
+          shape = std::move(hull);
+          break;
+        }
       }
       compound->addChildShape(bt(Eigen::Isometry3d(X_LK[b].inverse() * s.X_LS)), shape.get());
       shapes.push_back(std::move(shape));
@@ -953,6 +986,9 @@ double Simulator::Impl::lowest_foot_point(int foot, const Eigen::Vector3d& norma
                               0.5 * sh.size.y() * az);
         break;
       }
+      case ShapeSpec::Type::kConvex:  // (not on a foot: removed when the feet are set up)
+        for (const Eigen::Vector3d& p : sh.points) lo = std::min(lo, c + n_S.dot(p));
+        break;
     }
   }
   if (f.shapes_F.empty())  // (not reached: a foot without shapes gets the sole box)

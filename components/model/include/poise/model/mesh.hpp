@@ -1,0 +1,24 @@
+#pragma once
+// Mesh files a URDF names for collision geometry: where they are, and their vertices. Used by
+// `poise robot init` (sole rectangles of mesh feet) and the simulator (a non-foot link's mesh
+// collides as its convex hull).
+
+#include <Eigen/Core>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace poise::model {
+
+/// A URDF mesh filename: "package://PKG/REST" is looked for as REST and PKG/REST in the URDF's
+/// folder and its parents (no ROS package index here), "file://PATH" and plain paths as given
+/// (relative: from the URDF's folder). Empty when not found.
+std::filesystem::path resolve_mesh_path(const std::string& name,
+                                        const std::filesystem::path& urdf_dir);
+
+/// Vertices of an STL (binary or ASCII) or OBJ mesh file, at most 64 MB, in the file's units
+/// (the URDF's <mesh scale> is the caller's). Throws ModelError naming the file: unreadable,
+/// another format, or no vertex.
+std::vector<Eigen::Vector3d> read_mesh_vertices(const std::filesystem::path& path);
+
+}  // namespace poise::model
