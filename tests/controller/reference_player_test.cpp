@@ -153,6 +153,32 @@ TEST(ReferencePlayer, TheOriginAndTheStoodPoseComeFromTheStateLeadTicksAhead) {
                      s3500.feet()[right].pose_W().position()[i]);
 }
 
+// A CoM move `over` a foot: the player resolves it on the state it produces the move's start
+// from (lead ticks ahead), so the move ends with the CoM target over that state's left sole
+// centre (the foot pose composed with robot.yaml's sole rectangle, computed here).
+TEST(ReferencePlayer, AMoveOverAFootEndsOverThatSoleCentre) {
+  const Robot& r = robot();
+  reference::Trajectory t = step_in_place();
+  t.com[0].over = reference::ComOver::kLeft;
+  t.com[0].resolved = false;
+  reference::Player p(t, r.model, r.config, r.model_to_wire, 1e-3, 200);
+  const auto refs = play(10, 6400, 1, p, true);
+  const msg::State s1800 = state_of(1800);
+  const auto& sole = r.config.feet[model::kLeft].sole;
+  const auto& foot = s1800.feet()[model::kLeft].pose_W().position();  // identity orientation
+  const double x = foot[0] + 0.5 * (sole.x_min + sole.x_max);
+  const double y = foot[1] + 0.5 * (sole.y_min + sole.y_max);
+  const msg::BalanceReference& end = refs.at(3500);  // the move is over (2.0 + 1.5 s)
+  ASSERT_TRUE(end.has_com_target());
+  EXPECT_NEAR(end.com_W()[0], x, 1e-12);
+  EXPECT_NEAR(end.com_W()[1], y, 1e-12);
+  EXPECT_NEAR(end.com_W()[2], s1800.com_W()[2], 1e-12);  // no vertical change
+  // The same references whichever states the player saw (here every 7th).
+  reference::Player q(t, r.model, r.config, r.model_to_wire, 1e-3, 200);
+  const auto sparse = play(10, 6400, 7, q, true);
+  EXPECT_NEAR(sparse.at(3500).com_W()[1], y, 1e-12);
+}
+
 TEST(ReferencePlayer, ARestartedStateStreamIsCountedAndNothingIsProducedTwice) {
   const Robot& r = robot();
   reference::Player p(step_in_place(), r.model, r.config, r.model_to_wire, 1e-3, 200);

@@ -30,6 +30,10 @@ TEST(ReferenceTrajectory, ShippedFilesLoad) {
   ASSERT_EQ(shift.com.size(), 1u);
   EXPECT_DOUBLE_EQ(shift.begin(), 1.0);
   EXPECT_DOUBLE_EQ(shift.end(), 2.0);
+  const auto any = reference::load_trajectory(dir + "step_in_place_any_robot.yaml");
+  ASSERT_EQ(any.com.size(), 2u);
+  EXPECT_EQ(any.com[0].over, reference::ComOver::kLeft);
+  EXPECT_EQ(any.com[1].over, reference::ComOver::kBetween);
   const auto arms = reference::load_trajectory(dir + "arm_swing.yaml");
   ASSERT_EQ(arms.joints.size(), 2u);
   EXPECT_DOUBLE_EQ(arms.end(), 4.0);
@@ -60,6 +64,43 @@ TEST(ReferenceTrajectory, ComMovesAreMinimumJerkAndAddUp) {
     reference::com_offset(t, s, c, v);
     EXPECT_NEAR(((cp - cm) / (2 * h) - v).norm(), 0.0, 1e-6) << "t = " << s;
   }
+}
+
+// `over: left|right|between`: the move ends with the CoM over that sole centre (or their
+// mid-point), horizontally, measured when the move begins; the target before it is the origin
+// plus the earlier moves. Values worked by hand.
+TEST(ReferenceTrajectory, AMoveOverAFootEndsOverItsSoleCentre) {
+  reference::Trajectory t = reference::load_trajectory(
+      write("over", "name: over\ncom:\n  - {start: 2.0, duration: 1.0, over: left}\n"
+                    "  - {start: 4.0, duration: 1.0, shift: [0.0, 0.0, -0.02]}\n"
+                    "  - {start: 6.0, duration: 2.0, over: between}\n"));
+  ASSERT_EQ(t.com.size(), 3u);
+  EXPECT_EQ(t.com[0].over, reference::ComOver::kLeft);
+  EXPECT_FALSE(t.com[0].resolved);
+  EXPECT_TRUE(t.com[1].resolved);
+  EXPECT_EQ(t.com[2].over, reference::ComOver::kBetween);
+  const Eigen::Vector3d origin(0.01, 0.002, 0.8);
+  const Eigen::Vector3d right(0.03, -0.11, 0.0), left(0.02, 0.09, 0.05);
+  Eigen::Vector3d c, v;
+  reference::resolve_com_moves(t, 1.9, origin, right, left);  // nothing has begun
+  EXPECT_FALSE(t.com[0].resolved);
+  reference::resolve_com_moves(t, 2.0, origin, right, left);
+  ASSERT_TRUE(t.com[0].resolved);
+  EXPECT_FALSE(t.com[2].resolved);
+  EXPECT_NEAR((t.com[0].shift - Eigen::Vector3d(0.01, 0.088, 0.0)).norm(), 0.0, 1e-15);
+  ASSERT_TRUE(reference::com_offset(t, 5.5, c, v));  // the third, unresolved, counts as none
+  EXPECT_NEAR((origin + c - Eigen::Vector3d(0.02, 0.09, 0.78)).norm(), 0.0, 1e-12);
+  // The feet measured later (the robot moved): the mid-point then.
+  reference::resolve_com_moves(t, 6.0, origin, right + Eigen::Vector3d(0.01, 0, 0),
+                               left + Eigen::Vector3d(0.01, 0, 0));
+  ASSERT_TRUE(t.com[2].resolved);
+  ASSERT_TRUE(reference::com_offset(t, 9.0, c, v));
+  EXPECT_NEAR((origin + c - Eigen::Vector3d(0.035, -0.01, 0.78)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR(v.norm(), 0.0, 1e-12);
+  // Resolved once: later feet do not move it.
+  reference::resolve_com_moves(t, 9.0, origin, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
+  ASSERT_TRUE(reference::com_offset(t, 9.0, c, v));
+  EXPECT_NEAR((origin + c - Eigen::Vector3d(0.035, -0.01, 0.78)).norm(), 0.0, 1e-12);
 }
 
 TEST(ReferenceTrajectory, SwingDerivativesAndEnvelope) {
@@ -112,6 +153,11 @@ TEST(ReferenceTrajectory, BadFilesAreRefusedNamingTheKey) {
       refused("name: x\njoints: [{joint: a, start: 0, duration: 1, amplitude: 0.1, "
               "fade: 0.6}]\n",
               "joints[0].fade"));
+  EXPECT_TRUE(refused("name: x\ncom: [{start: 1, duration: 1, over: up}]\n", "com[0].over"));
+  EXPECT_TRUE(refused("name: x\ncom: [{start: 1, duration: 1, over: [left]}]\n", "com[0].over"));
+  EXPECT_TRUE(refused(
+      "name: x\ncom: [{start: 1, duration: 1, over: left, shift: [0, 0, 0]}]\n", "com[0].over"));
+  EXPECT_TRUE(refused("name: x\ncom: [{start: 1, duration: 1}]\n", "com[0].shift"));
   EXPECT_TRUE(refused("name: x\n", "neither"));
   EXPECT_TRUE(refused("com: []\n", "name"));
 }

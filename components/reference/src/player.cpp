@@ -27,6 +27,7 @@ Player::Player(Trajectory trajectory, const model::Model& model, const model::Ro
     ref_.upper_body_q()[static_cast<std::size_t>(model_to_wire[j])] =
         robot.q_nominal[7 + static_cast<Eigen::Index>(j)];
   nominal_q_ = ref_.upper_body_q();
+  sole_F_ = sole_centres_F(robot);
 }
 
 void Player::begin(const msg::State& in) noexcept {
@@ -54,12 +55,20 @@ bool Player::fill(std::uint64_t j, const msg::State& in) noexcept {
   if (t < traj_.begin() - 0.5 * period_) return false;
   ref_.header().tick(j);
   ref_.header().stamp_ns(stamp_ns);
+  if (!traj_.com.empty() && t >= traj_.com.front().start) {
+    if (!origin_set_) {
+      origin_ = Eigen::Vector3d(in.com_W()[0], in.com_W()[1], in.com_W()[2]);
+      origin_set_ = true;
+    }
+    model::SE3 X_WF[2];
+    for (std::size_t side = 0; side < 2; ++side) {
+      const msg::Pose& p = in.feet()[side].pose_W();
+      X_WF[side] = model::SE3(node::rotation(p), node::vec3(p.position()));
+    }
+    resolve_com_moves(traj_, t, origin_, X_WF[0].act(sole_F_[0]), X_WF[1].act(sole_F_[1]));
+  }
   Eigen::Vector3d offset, velocity;
   const bool com = com_offset(traj_, t, offset, velocity);
-  if (com && !origin_set_) {
-    origin_ = Eigen::Vector3d(in.com_W()[0], in.com_W()[1], in.com_W()[2]);
-    origin_set_ = true;
-  }
   ref_.has_com_target(com);
   for (int i = 0; i < 3; ++i) {
     ref_.com_W()[i] = com ? origin_[i] + offset[i] : 0.0;

@@ -7,8 +7,20 @@ namespace poise::reference {
 
 Sampler::Sampler(Trajectory trajectory, const model::Model& model,
                  const model::RobotConfig& robot)
-    : traj_(std::move(trajectory)), swing_joint_(swing_joint_indices(traj_, model, robot)) {
+    : traj_(std::move(trajectory)),
+      swing_joint_(swing_joint_indices(traj_, model, robot)),
+      sole_F_(sole_centres_F(robot)) {
   q_nominal_ = robot.q_nominal.tail(model.njoints);
+}
+
+std::array<Eigen::Vector3d, 2> sole_centres_F(const model::RobotConfig& robot) {
+  std::array<Eigen::Vector3d, 2> c;
+  for (std::size_t side = 0; side < 2; ++side) {
+    const auto& sole = robot.feet[side].sole;
+    c[side] = Eigen::Vector3d(0.5 * (sole.x_min + sole.x_max), 0.5 * (sole.y_min + sole.y_max),
+                              -sole.height);
+  }
+  return c;
 }
 
 std::vector<int> swing_joint_indices(const Trajectory& trajectory, const model::Model& model,
@@ -44,12 +56,15 @@ void Sampler::sample(double t, const Eigen::Vector3d& com_W,
                      const std::array<model::SE3, 2>& X_WF,
                      controller::BalanceReference& ref) noexcept {
   if (t < traj_.begin()) return;
-  Eigen::Vector3d offset, velocity;
-  if (com_offset(traj_, t, offset, velocity)) {
+  if (!traj_.com.empty() && t >= traj_.com.front().start) {
     if (!origin_set_) {
       origin_ = com_W;
       origin_set_ = true;
     }
+    resolve_com_moves(traj_, t, origin_, X_WF[0].act(sole_F_[0]), X_WF[1].act(sole_F_[1]));
+  }
+  Eigen::Vector3d offset, velocity;
+  if (com_offset(traj_, t, offset, velocity)) {
     ref.has_com_target = true;
     ref.com_W = origin_ + offset;
     ref.com_velocity_W = velocity;

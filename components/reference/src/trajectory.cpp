@@ -100,15 +100,31 @@ Trajectory load_trajectory(const std::string& path) {
     if (!com.IsSequence()) fail(path, "com", "expected a list of moves");
     for (std::size_t i = 0; i < com.size(); ++i) {
       const std::string key = "com[" + std::to_string(i) + "]";
-      check_keys(path, key, com[i], {"start", "duration", "shift"});
+      check_keys(path, key, com[i], {"start", "duration", "shift", "over"});
       ComMove m;
       m.start = number(path, key + ".start", com[i]["start"], 0.0, true);
       m.duration = number(path, key + ".duration", com[i]["duration"], 0.0, true);
       if (!(m.duration > 0.0)) fail(path, key + ".duration", "must be > 0");
-      const YAML::Node s = com[i]["shift"];
-      if (!s || !s.IsSequence() || s.size() != 3) fail(path, key + ".shift", "expected [x, y, z]");
-      for (int k = 0; k < 3; ++k)
-        m.shift[k] = number(path, key + ".shift", s[k], 0.0, true);
+      if (com[i]["shift"] && com[i]["over"])
+        fail(path, key + ".over", "give either shift or over, not both");
+      if (const YAML::Node o = com[i]["over"]) {
+        const std::string name = o.IsScalar() ? o.as<std::string>() : std::string();
+        if (name == "right")
+          m.over = ComOver::kRight;
+        else if (name == "left")
+          m.over = ComOver::kLeft;
+        else if (name == "between")
+          m.over = ComOver::kBetween;
+        else
+          fail(path, key + ".over", "must be right, left or between, got '" + name + "'");
+        m.resolved = false;
+      } else {
+        const YAML::Node s = com[i]["shift"];
+        if (!s || !s.IsSequence() || s.size() != 3)
+          fail(path, key + ".shift", "expected [x, y, z] (or over: right|left|between)");
+        for (int k = 0; k < 3; ++k)
+          m.shift[k] = number(path, key + ".shift", s[k], 0.0, true);
+      }
       if (m.start < 0.0) fail(path, key + ".start", "must be >= 0");
       if (!t.com.empty() && m.start < t.com.back().start + t.com.back().duration)
         fail(path, key + ".start", "CoM moves must be in time order and must not overlap");
@@ -174,12 +190,30 @@ Trajectory load_trajectory(const std::string& path) {
   return t;
 }
 
+void resolve_com_moves(Trajectory& traj, double t, const Eigen::Vector3d& origin,
+                       const Eigen::Vector3d& right_sole_W,
+                       const Eigen::Vector3d& left_sole_W) noexcept {
+  Eigen::Vector3d target = origin;  // the CoM target before each move
+  for (ComMove& m : traj.com) {
+    if (!m.resolved && t >= m.start) {
+      const Eigen::Vector3d point = m.over == ComOver::kRight  ? right_sole_W
+                                    : m.over == ComOver::kLeft ? left_sole_W
+                                                               : 0.5 * (right_sole_W + left_sole_W);
+      m.shift = Eigen::Vector3d(point.x() - target.x(), point.y() - target.y(), 0.0);
+      m.resolved = true;
+    }
+    if (!m.resolved) break;  // later moves start later still
+    target += m.shift;
+  }
+}
+
 bool com_offset(const Trajectory& traj, double t, Eigen::Vector3d& offset,
                 Eigen::Vector3d& velocity) noexcept {
   offset.setZero();
   velocity.setZero();
   if (traj.com.empty() || t < traj.com.front().start) return false;
   for (const ComMove& m : traj.com) {
+    if (!m.resolved) break;
     double s = 0.0, ds = 0.0, dds = 0.0;
     smooth_step((t - m.start) / m.duration, s, ds, dds);
     offset += s * m.shift;

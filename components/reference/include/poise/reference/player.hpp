@@ -15,6 +15,7 @@
 // profile) and makes the other FOOT_SUPPORT (with feet: every foot not stepping is FOOT_SUPPORT
 // from the first reference on). Nothing is produced for times before the trajectory begins, nor
 // after its last tick. on_state() neither allocates nor throws.
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -90,6 +91,7 @@ class Player {
   Eigen::Vector3d origin_ = Eigen::Vector3d::Zero();
   int step_index_ = -1;
   model::SE3 X_stood_;
+  std::array<Eigen::Vector3d, 2> sole_F_;  // sole centres in the foot frames (ComOver)
 };
 
 }  // namespace poise::reference

@@ -25,7 +25,8 @@ class Sampler {
 
   /// Writes the reference of time t (robot time) into `ref` (sized by the controller's
   /// make_reference()). `com_W` and `X_WF` (indexed by model::Side) are measured now: the first
-  /// CoM move takes its origin from `com_W`, a step its stood pose from `X_WF` when it begins.
+  /// CoM move takes its origin from `com_W`, a move `over` a foot its end from `X_WF` when it
+  /// begins, a step its stood pose from `X_WF` when it begins.
   /// Before the trajectory's first change `ref` is left untouched. Allocation-free.
   void sample(double t, const Eigen::Vector3d& com_W, const std::array<model::SE3, 2>& X_WF,
               controller::BalanceReference& ref) noexcept;
@@ -40,6 +41,7 @@ class Sampler {
   Eigen::Vector3d origin_ = Eigen::Vector3d::Zero();
   int step_ = -1;  // index of the step whose stood pose is held
   model::SE3 X_stood_;
+  std::array<Eigen::Vector3d, 2> sole_F_;  // sole centres in the foot frames (ComOver)
 };
 
 /// The model joint index of each of the trajectory's swings. Throws std::runtime_error naming
@@ -47,6 +49,10 @@ class Sampler {
 /// Shared by the sampler and the player (player.hpp).
 std::vector<int> swing_joint_indices(const Trajectory& trajectory, const model::Model& model,
                                      const model::RobotConfig& robot);
+
+/// Each foot's sole centre in its foot frame (model::Side order): where a CoM move `over` a foot
+/// ends (ComOver). Shared by the sampler and the player.
+std::array<Eigen::Vector3d, 2> sole_centres_F(const model::RobotConfig& robot);
 
 /// Foot reference of a step at time t from the stood pose: FOOT_SWING, target raised by the lift
 /// profile (vertical velocity as the target velocity). Shared by the DDS player.

@@ -9,11 +9,18 @@
 
 namespace poise::reference {
 
+/// Where a CoM move ends: `shift` as given, or (horizontally) over a foot's sole centre or the
+/// mid-point of both, taken when the move begins (resolve_com_moves): a file that says "over the
+/// left foot" fits any robot's stance.
+enum class ComOver { kShift, kRight, kLeft, kBetween };
+
 /// The CoM target moves by `shift` [m] along a minimum-jerk profile in [start, start + duration].
 struct ComMove {
   double start = 0.0;
   double duration = 1.0;
   Eigen::Vector3d shift = Eigen::Vector3d::Zero();
+  ComOver over = ComOver::kShift;
+  bool resolved = true;  ///< `shift` is known (false for an `over` move until it begins)
 };
 
 /// An upper-body joint swings about its nominal angle:
@@ -60,8 +67,17 @@ struct Trajectory {
 /// (unknown keys, missing or non-positive durations, overlapping CoM moves, fades too long).
 Trajectory load_trajectory(const std::string& path);
 
+/// Gives each `over` move that has begun by time t (t >= start) and is not yet resolved its
+/// shift: the horizontal vector from the CoM target before it (origin + the earlier moves'
+/// shifts) to the sole centre it names, or the mid-point of both (`sole_centre_W`, indexed by
+/// model::Side: 0 right, 1 left, in W, measured now); no vertical change. Allocation-free.
+void resolve_com_moves(Trajectory& traj, double t, const Eigen::Vector3d& origin,
+                       const Eigen::Vector3d& right_sole_W,
+                       const Eigen::Vector3d& left_sole_W) noexcept;
+
 /// CoM target offset and velocity at time t, relative to the CoM at the first move's start
-/// (moves add up). False before the first move (no CoM target yet).
+/// (moves add up; an unresolved `over` move counts as no move). False before the first move
+/// (no CoM target yet).
 bool com_offset(const Trajectory& traj, double t, Eigen::Vector3d& offset,
                 Eigen::Vector3d& velocity) noexcept;
 
