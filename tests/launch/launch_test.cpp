@@ -395,6 +395,25 @@ TEST(Launch, AFallenRobotIsDampedAndTheVerdictSaysWhen) {
   EXPECT_NE(text.str().find("the robot has fallen"), std::string::npos) << text.str();
 }
 
+// `poise launch` gives poise-estimator what `poise run` gives it (one function makes both:
+// launch::estimator_scenario_args): on platforms, the soles' start heights derived from the
+// platforms' placement, and the scenario's sensor figures (F/T noise, IMU latency).
+TEST(Launch, ADeploymentGivesTheEstimatorWhatPoiseRunGivesIt) {
+  const fs::path dir = work_dir("deployment_estimator_args");
+  std::ofstream(dir / "deployment.yaml") << "domain: 45\n"
+                                            "scenario: platforms_in_phase\n"
+                                            "hosts:\n  local: {address: 127.0.0.1}\n"
+                                            "components:\n"
+                                            "  sim: {host: local}\n  estimator: {host: local}\n"
+                                            "  contact: {host: local}\n  controller: {host: local}\n";
+  auto [code, out] =
+      run_command({bin("poise"), "launch", (dir / "deployment.yaml").string(), "--check"}, 30s);
+  EXPECT_EQ(code, 0) << out;
+  for (const char* arg : {"--supports translating", "--estimator invariant-ekf", "--support-heights",
+                          "--initial-xy", "--contact-ft-noise 0.5", "--imu-delay-ticks 1"})
+    EXPECT_NE(out.find(arg), std::string::npos) << arg << "\n" << out;
+}
+
 // A desk host needs the scenario file but no robot files: its nodes take the robot from
 // poise/robot_description. The scenario here names a robot configuration that does not exist:
 // the desk's share is valid (and its nodes get the scenario's support model), the robot's share

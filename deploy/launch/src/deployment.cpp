@@ -5,6 +5,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdio>
+#include <cmath>
 #include <cstdlib>
 #include <optional>
 #include <set>
@@ -339,6 +341,7 @@ Deployment load_deployment(const fs::path& file, const std::string& host) {
             try {
               const scenario::Scenario sc = scenario::load_scenario(d.scenario);
               d.estimator_supports = sc.estimator.supports;
+              d.estimator_args = estimator_scenario_args(sc);
               d.contact_method = sc.contact_method;
               d.planned_support = sc.support;
             } catch (const std::exception& e) {
@@ -449,6 +452,35 @@ std::string sim_command_timeout_ms(const Deployment& d) {
 
 }  // namespace
 
+std::vector<std::string> estimator_scenario_args(const scenario::Scenario& sc) {
+  // Every number to the last bit (%.17g): a start height rounded to 1e-6 m was a difference
+  // from the in-process run (issue #17 item 4).
+  const auto exact = [](double v) {
+    char b[40];
+    std::snprintf(b, sizeof b, "%.17g", v);
+    return std::string(b);
+  };
+  std::vector<std::string> a{"--supports", sc.estimator.supports, "--estimator", sc.estimator.type};
+  const scenario::EstimatorStart start = scenario::estimator_start(sc);
+  a.insert(a.end(), {"--ground-height", exact(start.ground_height)});
+  if (start.per_foot) {
+    // Feet without a given height stand on the ground.
+    const auto h = [&](std::size_t f) {
+      return std::isfinite(start.support_height[f]) ? start.support_height[f] : start.ground_height;
+    };
+    a.insert(a.end(), {"--support-heights", exact(h(0)), exact(h(1))});
+  }
+  a.insert(a.end(), {"--initial-xy", exact(sc.sim.initial.base_position.x()),
+                     exact(sc.sim.initial.base_position.y())});
+  if (std::isfinite(sc.estimator.stance_rate_hz))
+    a.insert(a.end(), {"--stance-rate-hz", exact(sc.estimator.stance_rate_hz)});
+  if (const double n = scenario::estimator_contact_ft_noise(sc); std::isfinite(n))
+    a.insert(a.end(), {"--contact-ft-noise", exact(n)});
+  if (const int d = scenario::estimator_imu_delay_ticks(sc); d > 0)
+    a.insert(a.end(), {"--imu-delay-ticks", std::to_string(d)});
+  return a;
+}
+
 std::vector<std::string> command_line(const Deployment& d, const Component& c,
                                       const fs::path& bin_dir, const fs::path& dds_config) {
   std::vector<std::string> a;
@@ -483,7 +515,9 @@ std::vector<std::string> command_line(const Deployment& d, const Component& c,
     // The nodes take the robot from poise/robot_description; `robot:` of the file is an explicit
     // override, which each node checks against the description (and refuses on a difference).
     if (!d.robot.empty()) a.insert(a.end(), {"--robot", d.robot});
-    if (c.kind == "estimator" && !d.estimator_supports.empty())
+    if (c.kind == "estimator" && !d.estimator_args.empty())
+      a.insert(a.end(), d.estimator_args.begin(), d.estimator_args.end());
+    else if (c.kind == "estimator" && !d.estimator_supports.empty())
       a.insert(a.end(), {"--supports", d.estimator_supports});
     if (c.kind == "contact" && !d.contact_method.empty())
       a.insert(a.end(), {"--method", d.contact_method});

@@ -347,35 +347,14 @@ int run_distributed(int argc, char** argv) {
     const char* output_readers = passive ? "1" : "2";
     std::vector<std::string> est_args = common("estimator");
     if (s.ground_truth_state) est_args.push_back("--ground-truth-state");
-    est_args.insert(est_args.end(), {"--supports", scenario.estimator.supports});
     if (s.estimator.empty()) s.estimator = scenario.estimator.type;
-    est_args.insert(est_args.end(), {"--estimator", s.estimator});
-    // Where the soles start (scenario estimator section, or derived from the platforms' placement).
-    const scenario::EstimatorStart start = scenario::estimator_start(scenario);
-    // Every number to the last bit (%.17g): a start height rounded to 1e-6 m was a difference
-    // from the in-process run (issue #17 item 4).
-    const auto exact = [](double v) {
-      char b[40];
-      std::snprintf(b, sizeof b, "%.17g", v);
-      return std::string(b);
-    };
-    est_args.insert(est_args.end(), {"--ground-height", exact(start.ground_height)});
-    if (start.per_foot) {
-      // Feet without a given height stand on the ground.
-      const auto h = [&](std::size_t f) {
-        return std::isfinite(start.support_height[f]) ? start.support_height[f]
-                                                      : start.ground_height;
-      };
-      est_args.insert(est_args.end(), {"--support-heights", exact(h(0)), exact(h(1))});
+    {
+      std::vector<std::string> from_scenario = estimator_scenario_args(scenario);
+      // --estimator: the command line's choice over the scenario's.
+      const auto it = std::find(from_scenario.begin(), from_scenario.end(), "--estimator");
+      if (it != from_scenario.end()) *(it + 1) = s.estimator;
+      est_args.insert(est_args.end(), from_scenario.begin(), from_scenario.end());
     }
-    est_args.insert(est_args.end(), {"--initial-xy", exact(scenario.sim.initial.base_position.x()),
-                                      exact(scenario.sim.initial.base_position.y())});
-    if (std::isfinite(scenario.estimator.stance_rate_hz))
-      est_args.insert(est_args.end(), {"--stance-rate-hz", exact(scenario.estimator.stance_rate_hz)});
-    if (const double n = scenario::estimator_contact_ft_noise(scenario); std::isfinite(n))
-      est_args.insert(est_args.end(), {"--contact-ft-noise", exact(n)});
-    if (const int d = scenario::estimator_imu_delay_ticks(scenario); d > 0)
-      est_args.insert(est_args.end(), {"--imu-delay-ticks", std::to_string(d)});
     if (recording_run) est_args.insert(est_args.end(), {"--output-readers", output_readers});
     // Lockstep: a tick takes as long as the slowest process needs, and a loaded machine stalls
     // the loop for 100+ ms now and then (171 ms in a CI run); the nodes' 50 ms wall-clock
@@ -436,6 +415,7 @@ int run_distributed(int argc, char** argv) {
           vendor["sim"].c_str(), vendor["estimator"].c_str(), vendor["contact"].c_str(),
           vendor["controller"].c_str(), logs.c_str());
     if (!s.quiet) {
+      const scenario::EstimatorStart start = scenario::estimator_start(scenario);
       if (start.per_foot)
         std::printf("  estimator %s, supports %s, soles start at z right %.4f m, left %.4f m (%s)\n",
                     s.estimator.c_str(), scenario.estimator.supports.c_str(),

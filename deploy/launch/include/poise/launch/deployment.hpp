@@ -55,6 +55,19 @@ struct Component {
   int max_restarts = 3;
 };
 
+}  // namespace poise::launch
+namespace poise::scenario {
+struct Scenario;
+}
+namespace poise::launch {
+
+/// poise-estimator's options that a scenario sets, as `poise run` and `poise launch` pass them:
+/// --supports, --estimator (the scenario's type), --ground-height and --support-heights (where the
+/// soles start: the estimator section or the platforms' placement), --initial-xy, --stance-rate-hz,
+/// --contact-ft-noise (the section's or the simulated F/T's), --imu-delay-ticks (the section's or
+/// the simulated IMU's), every number to the last bit.
+std::vector<std::string> estimator_scenario_args(const scenario::Scenario& scenario);
+
 struct Deployment {
   std::filesystem::path file;
   std::string name;
@@ -63,6 +76,9 @@ struct Deployment {
   /// What the nodes take from the scenario (its estimator.supports and contact.method; "" =
   /// the nodes' defaults), read without loading the scenario's robot.
   std::string estimator_supports, contact_method;
+  /// poise-estimator's options from the scenario (estimator_scenario_args) when this host could
+  /// load it (the simulator's host); empty otherwise (then --supports alone, from the YAML).
+  std::vector<std::string> estimator_args;
   std::string planned_support;  ///< the scenario's initial.support (controller --planned-support)
   std::string robot;     ///< --robot for the nodes ("" = none: the robot of the description)
   bool realtime = false;
