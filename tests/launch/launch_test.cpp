@@ -410,8 +410,23 @@ TEST(Launch, ADeploymentGivesTheEstimatorWhatPoiseRunGivesIt) {
       run_command({bin("poise"), "launch", (dir / "deployment.yaml").string(), "--check"}, 30s);
   EXPECT_EQ(code, 0) << out;
   for (const char* arg : {"--supports translating", "--estimator invariant-ekf", "--support-heights",
-                          "--initial-xy", "--contact-ft-noise 0.5", "--imu-delay-ticks 1"})
+                          "--initial-xy", "--contact-ft-noise 0.5", "--imu-delay-ticks 1",
+                          // its controller: section, as poise run passes it
+                          "controller.yaml", "--priority lexicographic",
+                          "--torsion-limit friction-coupled"})
     EXPECT_NE(out.find(arg), std::string::npos) << arg << "\n" << out;
+  // A bad key of the section is a problem of the file, named.
+  std::ofstream(dir / "bad.yaml") << "name: bad\nduration: 1.0\ncontroller: {fall: {tilt: 45}}\n";
+  std::ofstream(dir / "bad_deployment.yaml") << "domain: 45\nscenario: bad.yaml\n"
+                                                "hosts:\n  desk: {address: 127.0.0.1}\n"
+                                                "  robot: {address: 127.0.0.2}\n"
+                                                "components:\n  sim: {host: robot}\n"
+                                                "  controller: {host: desk}\n";
+  auto [bad_code, bad] = run_command({bin("poise"), "launch", (dir / "bad_deployment.yaml").string(),
+                                      "--check", "--host", "desk"},
+                                     30s);
+  EXPECT_EQ(bad_code, 2) << bad;
+  EXPECT_NE(bad.find("fall.tilt"), std::string::npos) << bad;
 }
 
 // A desk host needs the scenario file but no robot files: its nodes take the robot from

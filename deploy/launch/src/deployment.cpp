@@ -14,6 +14,8 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "poise/contact/contact_optimizer.hpp"
+#include "poise/controller/controller_config.hpp"
 #include "poise/scenario/scenario.hpp"
 #include "poise/sim/sim_config.hpp"
 
@@ -138,6 +140,22 @@ std::vector<const Component*> Deployment::components_on(const std::string& host)
   return out;
 }
 
+/// The scenario's controller section, checked by the controller's parser (a problem names the
+/// key), with the contact optimiser's settings it carries.
+void set_controller_section(const std::string& yaml, const std::string& scenario, Deployment& d,
+                            Problems& p) {
+  if (yaml.empty()) return;
+  try {
+    const controller::ControllerConfig c =
+        controller::parse_controller_config(yaml, "scenario '" + scenario + "', controller");
+    d.controller_yaml = yaml;
+    d.contact_priority = contact::to_string(c.contact.priority);
+    d.contact_torsion_limit = contact::to_string(c.contact.torsion_limit);
+  } catch (const std::exception& e) {
+    p.add("scenario", e.what());
+  }
+}
+
 /// estimator.supports and contact.method of a scenario file, by YAML alone (no robot loaded).
 void read_scenario_hints(const std::string& path, Deployment& d, Problems& p) {
   try {
@@ -149,6 +167,11 @@ void read_scenario_hints(const std::string& path, Deployment& d, Problems& p) {
     d.planned_support = "double";
     if (root["initial"] && root["initial"]["support"])
       d.planned_support = root["initial"]["support"].as<std::string>();
+    if (root["controller"]) {
+      YAML::Emitter e;
+      e << root["controller"];
+      set_controller_section(e.c_str(), path, d, p);
+    }
   } catch (const YAML::Exception& e) {
     p.add("scenario", path + ": " + e.what());
   }
@@ -342,6 +365,7 @@ Deployment load_deployment(const fs::path& file, const std::string& host) {
               const scenario::Scenario sc = scenario::load_scenario(d.scenario);
               d.estimator_supports = sc.estimator.supports;
               d.estimator_args = estimator_scenario_args(sc);
+              set_controller_section(sc.controller_yaml, d.scenario, d, p);
               d.contact_method = sc.contact_method;
               d.planned_support = sc.support;
             } catch (const std::exception& e) {
@@ -521,6 +545,13 @@ std::vector<std::string> command_line(const Deployment& d, const Component& c,
       a.insert(a.end(), {"--supports", d.estimator_supports});
     if (c.kind == "contact" && !d.contact_method.empty())
       a.insert(a.end(), {"--method", d.contact_method});
+    if (c.kind == "contact" && !d.contact_priority.empty())
+      a.insert(a.end(), {"--priority", d.contact_priority, "--torsion-limit",
+                         d.contact_torsion_limit});
+    // The scenario's controller section, written next to the DDS configurations (launch_cli).
+    if (c.kind == "controller" && !d.controller_yaml.empty())
+      a.insert(a.end(),
+               {"--config", (dds_config.parent_path().parent_path() / "controller.yaml").string()});
     if (c.kind == "controller") {
       a.insert(a.end(), {"--contact-deadline-us", d.realtime ? "400" : "1000000"});
       // The scenario's planned supports from the first tick, as `poise run` plans them.

@@ -202,6 +202,9 @@ int launch_main(int argc, char** argv) {
   fs::remove(result_path, ignored);  // an older result never stands for this run
   for (const char* v : {"cyclone", "fastdds"})
     std::ofstream(logs / "dds" / (std::string(v) + ".xml")) << dds_config_xml(d, *host, v);
+  if (!d.controller_yaml.empty())  // poise-controller --config (command_line)
+    std::ofstream(logs / "controller.yaml")
+        << "# the controller: section of " << d.scenario << "\n" << d.controller_yaml << "\n";
 
   struct sigaction sa {};
   sa.sa_handler = on_signal;

@@ -79,6 +79,11 @@ struct Deployment {
   /// poise-estimator's options from the scenario (estimator_scenario_args) when this host could
   /// load it (the simulator's host); empty otherwise (then --supports alone, from the YAML).
   std::vector<std::string> estimator_args;
+  /// The scenario's `controller:` section (YAML text, checked by the controller's parser; ""
+  /// = none): written to the logs as controller.yaml for poise-controller --config, and its
+  /// contact.priority / torsion_limit given to poise-contact, as `poise run` does.
+  std::string controller_yaml;
+  std::string contact_priority, contact_torsion_limit;
   std::string planned_support;  ///< the scenario's initial.support (controller --planned-support)
   std::string robot;     ///< --robot for the nodes ("" = none: the robot of the description)
   bool realtime = false;
