@@ -393,6 +393,27 @@ TEST(Launch, AFallenRobotIsDampedAndTheVerdictSaysWhen) {
   std::stringstream text;
   text << err.rdbuf();
   EXPECT_NE(text.str().find("the robot has fallen"), std::string::npos) << text.str();
+
+  // From a deployment file (one machine, lockstep): the host's result says it too, at the tick
+  // of the same time.
+  std::ofstream(dir / "one.yaml") << "name: one\ndomain: " << poise::testing::unique_domain_id()
+                                  << "\nscenario: " << f.string()
+                                  << "\nhosts:\n  local: {address: 127.0.0.1}\ncomponents:\n"
+                                     "  sim: {host: local}\n  estimator: {host: local}\n"
+                                     "  controller: {host: local}\n  contact: {host: local}\n";
+  auto [l_code, l_out] = run_command({bin("poise"), "launch", (dir / "one.yaml").string(), "-o",
+                                      (dir / "one.json").string(), "--log-dir",
+                                      (dir / "one.logs").string()},
+                                     180s);
+  EXPECT_EQ(l_code, 1) << l_out;
+  EXPECT_NE(l_out.find("the controller declared the robot fallen at tick"), std::string::npos)
+      << l_out;
+  const Json l = Json::parse(std::ifstream(dir / "one.json"));
+  ASSERT_TRUE(l["controller_fall"].is_object()) << l.dump(2);
+  EXPECT_EQ(l["controller_fall"]["reason"], d["controller_fall"]["reason"]) << l.dump(2);
+  EXPECT_NEAR(l["controller_fall"]["tick"].get<double>() * 1e-3,
+              d["controller_fall"]["time_s"].get<double>(), 1e-9);
+  EXPECT_FALSE(l["survived"].get<bool>());
 }
 
 // `poise launch` gives poise-estimator what `poise run` gives it (one function makes both:

@@ -339,6 +339,26 @@ int launch_main(int argc, char** argv) {
       code = j["survived"].get<bool>() ? 0 : 1;
     }
   }
+  // The controller on this host declared the robot fallen (FallConfig): it damps the joints
+  // from then on; the result says when and why (as `poise run`'s controller_fall), and a run
+  // with the simulator here does not count as survived.
+  for (const Component* c : components) {
+    if (c->kind != "controller") continue;
+    std::ifstream in(logs / (c->name + ".summary.json"));
+    Json summary;
+    try {
+      summary = Json::parse(in);
+    } catch (...) {
+    }
+    if (summary.is_object() && summary.value("fall_tick", -1LL) >= 0) {
+      j["controller_fall"] = {{"tick", summary.value("fall_tick", -1LL)},
+                              {"reason", summary.value("fall", std::string())}};
+      if (sim && j.value("survived", false)) {
+        j["survived"] = false;
+        code = 1;
+      }
+    }
+  }
   j["failed"] = !failure.empty();
   if (!failure.empty()) {
     j["failure"] = failure;
@@ -359,6 +379,10 @@ int launch_main(int argc, char** argv) {
     std::printf("poise launch %s: host %s stopped cleanly -> %s\n", d.name.c_str(),
                 host->name.c_str(), result_path.c_str());
   }
+  if (j.contains("controller_fall"))
+    std::printf("  the controller declared the robot fallen at tick %lld (%s): joints damped\n",
+                j["controller_fall"].value("tick", -1LL),
+                j["controller_fall"].value("reason", std::string()).c_str());
   return code;
 }
 
