@@ -307,5 +307,41 @@ TEST(EstimatorConfiguration, BadConfigurationsThrowNamingTheProblem) {
   EXPECT_NE(message(robot.config, c).find("frozen_imu_ticks"), std::string::npos);
 }
 
+
+// An IMU behind joints with a latency of d ticks: its pose relative to the base is that of the
+// joint positions d frames back, and after dropped frames (a gap) that of the new frame until d
+// frames have come again (the old positions are not d ticks old any more). The waist angle
+// of each frame is its tick in mrad, so the pose says which frame it came from.
+TEST(Estimator, AnImuBehindJointsTakesTheJointPositionsOfItsDelayAndRestartsThemAfterAGap) {
+  test::StandingRobot robot;
+  model::RobotConfig rc = robot.config;
+  rc.imu_frame = "torso";
+  rc.imu_frame_id = robot.model.frame_id("torso");
+  EstimatorConfig c;
+  c.imu_delay_ticks = 3;
+  Estimator est(robot.model, rc, c);
+  ASSERT_FALSE(est.imu_on_base());
+  const int waist = robot.model.joint_index("torso_yaw");
+  SensorFrame frame = est.make_sensor_frame();
+  EstimatorState out = est.make_state();
+  const SE3 X0 = robot.model.frames[rc.imu_frame_id].X_BF;  // the torso frame at yaw 0
+  const auto yaw = [&] {  // the torso's yaw relative to the base in est.X_BI()
+    const Eigen::Matrix3d R = X0.R.transpose() * est.X_BI().R;
+    return std::atan2(R(1, 0), R(0, 0));
+  };
+  const auto send = [&](std::int64_t tick) {
+    robot.fill(tick, frame);
+    frame.q[waist] = 1e-3 * static_cast<double>(tick);
+    est.update(frame, out);
+  };
+  for (std::int64_t k = 1; k <= 10; ++k) send(k);
+  EXPECT_NEAR(yaw(), 1e-3 * 7, 1e-9);  // 3 frames back
+  send(20);                                  // ticks 11..19 dropped
+  EXPECT_NEAR(yaw(), 1e-3 * 20, 1e-9);  // the ring starts again
+  send(21);
+  send(22);
+  send(23);
+  EXPECT_NEAR(yaw(), 1e-3 * 20, 1e-9);  // 3 frames back again
+}
 }  // namespace
 }  // namespace poise::estimator

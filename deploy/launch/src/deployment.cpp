@@ -476,7 +476,8 @@ std::string sim_command_timeout_ms(const Deployment& d) {
 
 }  // namespace
 
-std::vector<std::string> estimator_scenario_args(const scenario::Scenario& sc) {
+std::vector<std::string> estimator_scenario_args(const scenario::Scenario& sc,
+                                                 const std::string& estimator_type) {
   // Every number to the last bit (%.17g): a start height rounded to 1e-6 m was a difference
   // from the in-process run (issue #17 item 4).
   const auto exact = [](double v) {
@@ -484,7 +485,8 @@ std::vector<std::string> estimator_scenario_args(const scenario::Scenario& sc) {
     std::snprintf(b, sizeof b, "%.17g", v);
     return std::string(b);
   };
-  std::vector<std::string> a{"--supports", sc.estimator.supports, "--estimator", sc.estimator.type};
+  std::vector<std::string> a{"--supports", sc.estimator.supports, "--estimator",
+                             estimator_type.empty() ? sc.estimator.type : estimator_type};
   const scenario::EstimatorStart start = scenario::estimator_start(sc);
   a.insert(a.end(), {"--ground-height", exact(start.ground_height)});
   if (start.per_foot) {

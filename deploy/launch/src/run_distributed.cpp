@@ -349,10 +349,7 @@ int run_distributed(int argc, char** argv) {
     if (s.ground_truth_state) est_args.push_back("--ground-truth-state");
     if (s.estimator.empty()) s.estimator = scenario.estimator.type;
     {
-      std::vector<std::string> from_scenario = estimator_scenario_args(scenario);
-      // --estimator: the command line's choice over the scenario's.
-      const auto it = std::find(from_scenario.begin(), from_scenario.end(), "--estimator");
-      if (it != from_scenario.end()) *(it + 1) = s.estimator;
+      const std::vector<std::string> from_scenario = estimator_scenario_args(scenario, s.estimator);
       est_args.insert(est_args.end(), from_scenario.begin(), from_scenario.end());
     }
     if (recording_run) est_args.insert(est_args.end(), {"--output-readers", output_readers});

@@ -502,6 +502,12 @@ StatusFlags Estimator::update(const SensorFrame& frame, EstimatorState& out) noe
     }
     dt = static_cast<double>(gap) * config_.dt;
     if (dt > config_.max_gap) initialized_ = false;  // too long to propagate: restart
+    if (gap > 1) {
+      // The joint positions imu_delay_ticks ticks old are not in the ring after dropped frames:
+      // it starts again (this frame's positions until that many frames have come).
+      ring_next_ = 0;
+      ring_full_ = false;
+    }
   }
   last_tick_ = frame.tick;
 

@@ -65,8 +65,9 @@ namespace poise::launch {
 /// --supports, --estimator (the scenario's type), --ground-height and --support-heights (where the
 /// soles start: the estimator section or the platforms' placement), --initial-xy, --stance-rate-hz,
 /// --contact-ft-noise (the section's or the simulated F/T's), --imu-delay-ticks (the section's or
-/// the simulated IMU's), every number to the last bit.
-std::vector<std::string> estimator_scenario_args(const scenario::Scenario& scenario);
+/// the simulated IMU's), every number to the last bit. `estimator_type`: "" = the scenario's.
+std::vector<std::string> estimator_scenario_args(const scenario::Scenario& scenario,
+                                                 const std::string& estimator_type = "");
 
 struct Deployment {
   std::filesystem::path file;
