@@ -1005,6 +1005,51 @@ TEST(BalanceController, BothLoadedLegsReferencesLeakTowardsTheMeasuredJoints) {
                         [](ControllerConfig& c, double v) { c.feedback.support_leg_leak_hz = v; });
 }
 
+// FeedbackConfig::velocity_leak_hz: every joint's theta_dot* (the arms', and the legs' with both
+// feet loaded or one unloaded) decays towards the measured velocity before qdd_a is integrated;
+// theta* integrates the leaked theta_dot* as before. Off, the paper's commands to the bit.
+TEST(BalanceController, EveryJointsVelocityReferenceLeaksTowardsTheMeasuredVelocity) {
+  std::mt19937 rng(2027);
+  std::uniform_real_distribution<double> hz(0.2, 50.0);
+  for (int trial = 0; trial < 4; ++trial) {
+    SCOPED_TRACE(trial);
+    ControllerConfig cfg = ReferenceRuleBench::paper();  // this rule alone
+    cfg.feedback.velocity_leak_hz = trial == 3 ? 0.0 : hz(rng);
+    const double keep = std::exp(-2.0 * M_PI * cfg.feedback.velocity_leak_hz * 1e-3);
+    ReferenceRuleBench b(cfg, /*one_unloaded=*/trial == 1);
+    const BalanceController& leaky = b.leaky;
+    const RobotState& s = b.s;
+    std::vector<int> legs;
+    for (const char* j : {"l_hip_pitch", "l_knee", "r_hip_roll", "r_ankle_pitch"})
+      legs.push_back(leaky.model().joint_index(j));
+    std::vector<int> checked = legs;
+    checked.push_back(b.elbow);
+    Eigen::VectorXd q_ref_prev, qd_ref_prev;
+    for (int k = 0; k < 60; ++k) {
+      b.tick(legs, rng);
+      const Eigen::VectorXd qdd = leaky.generalized_acceleration().tail(leaky.num_joints());
+      if (k > 0) {
+        for (int j : checked) {
+          // By hand, FeedbackConfig's clamps included (the moving elbow reaches them).
+          const double vr =
+              s.qd[j] + std::clamp(keep * (qd_ref_prev[j] - s.qd[j]) + qdd[j] * 1e-3, -0.5, 0.5);
+          EXPECT_NEAR(b.cmd.qd_ref[j], vr, 1e-12) << j;
+          const double pr = s.q[j] + std::clamp(q_ref_prev[j] + vr * 1e-3 - s.q[j], -0.05, 0.05);
+          EXPECT_NEAR(b.cmd.q_ref[j], pr, 1e-12) << j;
+        }
+      }
+      q_ref_prev = b.cmd.q_ref;
+      qd_ref_prev = b.cmd.qd_ref;
+    }
+    if (trial == 3)
+      expect_same_commands(b.cmd, b.cmd_plain);
+    else
+      EXPECT_GT((b.cmd.qd_ref - b.cmd_plain.qd_ref).cwiseAbs().maxCoeff(), 1e-4);
+  }
+  expect_refused_naming("feedback.velocity_leak_hz",
+                        [](ControllerConfig& c, double v) { c.feedback.velocity_leak_hz = v; });
+}
+
 // FeedbackConfig::touchdown_follow_fraction: from a support's touch-down until the contact
 // solution plans that foot more than the fraction of the weight, its leg's references are pulled
 // towards the measured joints at touchdown_follow_hz after the integration; the other leg and the

@@ -158,6 +158,9 @@ TEST(ControllerConfig, BadFilesNameTheProblem) {
   expect_error("feedback: {touchdown_follow_fraction: -0.1}\n",
                "feedback.touchdown_follow_fraction");
   expect_error("feedback: {touchdown_follow_hz: 0}\n", "feedback.touchdown_follow_hz");
+  expect_error("feedback: {velocity_leak_hz: -1}\n", "feedback.velocity_leak_hz");
+  expect_error("feedback: {velocity_leak_hz: .nan}\n", "feedback.velocity_leak_hz");
+  expect_error("feedback: {velocity_leak: 1}\n", "feedback.velocity_leak");
   expect_error("foot: {unloaded_kp: .nan}\n", "foot.unloaded_kp");
   expect_error("foot: {unloaded_kd: .inf}\n", "foot.unloaded_kd");
   expect_error("foot: {unloaded_kp: []}\n", "foot.unloaded_kp");

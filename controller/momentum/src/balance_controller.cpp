@@ -757,6 +757,8 @@ void BalanceController::finish_with(const contact::ContactSolution& solution, Co
     error_scratch_ = qd_ref_ - qd_joint_;
     if (!internal_part(error_scratch_, inv_kd_, internal_qd_)) internal_qd_.setZero();
   }
+  const double velocity_keep =
+      fb.velocity_leak_hz > 0.0 ? std::exp(-2.0 * M_PI * fb.velocity_leak_hz * dt) : 1.0;
   for (int j = 0; j < n; ++j) {
     const double q = q_[7 + j];
     const double qd = qd_joint_[j];
@@ -768,9 +770,12 @@ void BalanceController::finish_with(const contact::ContactSolution& solution, Co
     // decay towards the measured joints; a leg whose foot a push lifted keeps its integrated
     // references (its joint PD holds the leg's shape).
     const double keep = both_feet_loaded_ ? leg_keep_[j] : 1.0;
-    // keep == 1: the paper's integration, written as before (bit for bit).
-    double vr = keep < 1.0 ? qd + keep * (qd_ref_[j] - qd) + qdd_[6 + j] * dt
-                           : qd_ref_[j] + qdd_[6 + j] * dt;
+    // FeedbackConfig::velocity_leak_hz: every joint's theta_dot* decays towards the measured
+    // velocity as well (composes with the leg leak). keep_v == 1: the paper's integration,
+    // written as before (bit for bit).
+    const double keep_v = keep * velocity_keep;
+    double vr = keep_v < 1.0 ? qd + keep_v * (qd_ref_[j] - qd) + qdd_[6 + j] * dt
+                             : qd_ref_[j] + qdd_[6 + j] * dt;
     if (std::abs(vr - qd) > fb.max_velocity_error) {
       vr = qd + std::clamp(vr - qd, -fb.max_velocity_error, fb.max_velocity_error);
       ++clamps;

@@ -124,6 +124,8 @@ void ControllerConfig::validate() const {
           "feedback.support_leg_leak_hz", "must be >= 0 (0 = pure integration)");
   require(std::isfinite(feedback.internal_force_leak_hz) && feedback.internal_force_leak_hz >= 0.0,
           "feedback.internal_force_leak_hz", "must be >= 0 (0 = off)");
+  require(std::isfinite(feedback.velocity_leak_hz) && feedback.velocity_leak_hz >= 0.0,
+          "feedback.velocity_leak_hz", "must be >= 0 (0 = pure integration)");
   require(std::isfinite(feedback.touchdown_follow_fraction) &&
               feedback.touchdown_follow_fraction >= 0.0 && feedback.touchdown_follow_fraction < 1.0,
           "feedback.touchdown_follow_fraction", "must be in [0, 1) (0 = off)");
@@ -228,12 +230,13 @@ ControllerConfig from_yaml(const YAML::Node& root, const std::string& file) {
   if (const auto m = root["feedback"]) {
     r.keys(m, "feedback",
            {"gain_scale", "max_position_error", "max_velocity_error", "support_leg_leak_hz",
-            "internal_force_leak_hz", "touchdown_follow_fraction", "touchdown_follow_hz"});
+            "internal_force_leak_hz", "touchdown_follow_fraction", "touchdown_follow_hz", "velocity_leak_hz"});
     r.number(m, "gain_scale", "feedback.", c.feedback.gain_scale);
     r.number(m, "max_position_error", "feedback.", c.feedback.max_position_error);
     r.number(m, "max_velocity_error", "feedback.", c.feedback.max_velocity_error);
     r.number(m, "support_leg_leak_hz", "feedback.", c.feedback.support_leg_leak_hz);
     r.number(m, "internal_force_leak_hz", "feedback.", c.feedback.internal_force_leak_hz);
+    r.number(m, "velocity_leak_hz", "feedback.", c.feedback.velocity_leak_hz);
     r.number(m, "touchdown_follow_fraction", "feedback.", c.feedback.touchdown_follow_fraction);
     r.number(m, "touchdown_follow_hz", "feedback.", c.feedback.touchdown_follow_hz);
   }

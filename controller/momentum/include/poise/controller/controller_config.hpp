@@ -205,6 +205,18 @@ struct FeedbackConfig {
   double touchdown_follow_fraction = 0.01;
   /// [Hz] The rate of that following (exp(-2 pi f dt) of the reference error kept per tick). > 0.
   double touchdown_follow_hz = 300.0;
+  /// [Hz] Every joint's theta_dot* decays towards the measured joint velocity at this rate
+  /// (theta_dot* - theta_dot multiplied by exp(-2 pi f dt) each tick before qdd_a is
+  /// integrated; composes with support_leg_leak_hz); theta* is integrated as before. Why: the
+  /// error e = theta* - theta of references integrated open loop is a mode of its own that
+  /// the momentum loop cannot see (with an exact inverse dynamics, e'' = -M^-1 (K e + D e')
+  /// whatever qdd_a is), and the robot's joint gains leave it lightly damped: on the project
+  /// humanoid the whole body rocks on its ankles after a push (period 2.4 s, damping ratio
+  /// ~0.04; controller/momentum/README.md "The joint references' own mode"). The leak adds
+  /// 2 pi f to that mode's damping rate and leaves the references' stiffness. 0 = the
+  /// paper's integration (the default: 1 Hz stops the rocking, but the double-support push
+  /// envelope gets survivals above its first failure in more directions).
+  double velocity_leak_hz = 0.0;
 };
 
 /// What to do when the contact solution of a tick is late or unusable.
