@@ -35,9 +35,9 @@ JointCommand posture_command(const Simulator& sim, const SensorFrame& s, double 
 // A link that collides through a <mesh> (most public humanoid URDFs: Unitree's, all of their
 // links) collides as the mesh's convex hull. The biped's torso box (0.2 x 0.3 x 0.4 m) replaced
 // by an STL of the same box (binary; and an ASCII unit cube with <mesh scale>): lying on its
-// back, the biped rests where it rests on the box, within 1 mm. Before, meshes were ignored and
-// the torso sank into the ground until the pelvis held it (the "ignored" case: a .dae file,
-// which is not read).
+// back, the biped rests where it rests on the box, within 1 mm; so does a COLLADA file of the
+// box in decimetres placed by a node. Before, meshes were ignored and the torso sank into the
+// ground until the pelvis held it (the "ignored" case: a mesh file that is not there).
 TEST(SimPhysics, AMeshCollidesAsItsConvexHull) {
   namespace fs = std::filesystem;
   const fs::path dir = fs::path(POISE_BINARY_DIR) / "test_output" / "sim_mesh";
@@ -76,6 +76,22 @@ TEST(SimPhysics, AMeshCollidesAsItsConvexHull) {
       ascii << "  endloop\n endfacet\n";
     }
     ascii << "endsolid cube\n";
+    // The same box as COLLADA: its 8 corners in decimetres, shifted by 1 dm in x, which the
+    // node's <translate> takes back.
+    std::ofstream dae(dir / "torso.dae");
+    dae << "<?xml version=\"1.0\"?>\n<COLLADA><asset><unit meter=\"0.1\"/><up_axis>Y_UP</up_axis>"
+           "</asset><library_geometries><geometry id=\"box\"><mesh><source id=\"p\">"
+           "<float_array id=\"pa\" count=\"24\">";
+    for (int k = 0; k < 8; ++k) {
+      const Eigen::Vector3d p = 10.0 * corner(k, Eigen::Vector3d(0.1, 0.15, 0.2));
+      dae << p.x() + 1.0 << " " << p.y() << " " << p.z() << " ";
+    }
+    dae << "</float_array><technique_common><accessor source=\"#pa\" count=\"8\" stride=\"3\"/>"
+           "</technique_common></source><vertices id=\"v\"><input semantic=\"POSITION\" "
+           "source=\"#p\"/></vertices></mesh></geometry></library_geometries>"
+           "<library_visual_scenes><visual_scene id=\"s\"><node><translate>-1 0 0</translate>"
+           "<instance_geometry url=\"#box\"/></node></visual_scene></library_visual_scenes>"
+           "<scene><instance_visual_scene url=\"#s\"/></scene></COLLADA>\n";
   }
   std::stringstream text;
   text << std::ifstream(test::urdf("biped.urdf")).rdbuf();
@@ -104,13 +120,99 @@ TEST(SimPhysics, AMeshCollidesAsItsConvexHull) {
   const double on_mesh = rest_height(variant("mesh.urdf", "<mesh filename=\"torso.stl\"/>"));
   const double on_scaled = rest_height(variant(
       "scaled.urdf", "<mesh filename=\"package://biped/cube.stl\" scale=\"0.1 0.15 0.2\"/>"));
-  const double ignored = rest_height(variant("ignored.urdf", "<mesh filename=\"torso.dae\"/>"));
+  const double on_dae = rest_height(variant("dae.urdf", "<mesh filename=\"torso.dae\"/>"));
+  const double ignored =
+      rest_height(variant("ignored.urdf", "<mesh filename=\"no_such_torso.stl\"/>"));
   EXPECT_NEAR(on_mesh, on_box, 1e-3);
   EXPECT_NEAR(on_scaled, on_box, 1e-3);
+  EXPECT_NEAR(on_dae, on_box, 1e-3);
   EXPECT_GT(std::abs(ignored - on_box), 0.02) << "the test cannot tell a hull from no collision";
   std::printf("base height lying on the torso: box %.4f m, STL %.4f m, scaled ASCII STL %.4f m, "
-              "no readable mesh %.4f m\n",
-              on_box, on_mesh, on_scaled, ignored);
+              "COLLADA %.4f m, no mesh file %.4f m\n",
+              on_box, on_mesh, on_scaled, on_dae, ignored);
+}
+
+// URDF joint damping and friction are explicit torques in the simulator's step; on a link too
+// light for them (a hand's finger: Valkyrie's last phalanges, 6 g, damping and friction 0.5)
+// they blew the whole robot up within 15 ms. The simulator scales them down to what the joint
+// moves takes in one step, I / dt, I its articulated inertia about the axis (the joints below
+// it free, its parent held), and says so. A two-link finger on the biped's torso, both joints
+// about y: the I of each note against the closed form of the chain (M11 - M12^2 / M22, M22);
+// the biped lying on its back with zero joint torques stays finite, its fingers slow; the
+// biped's own joints (heavier links, damping 0.5) are left as they are.
+TEST(SimPhysics, AJointDampingTooStrongForItsLightLinkIsScaledToWhatTheStepTakes) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::path(POISE_BINARY_DIR) / "test_output" / "sim_finger";
+  fs::create_directories(dir);
+  const double ma = 0.02, ca = 0.02, la = 0.04, Ia = 2e-6;  // proximal: mass, COM, length, Iyy
+  const double mb = 0.01, cb = 0.015, Ib = 6e-7;            // distal
+  std::stringstream text;
+  text << std::ifstream(test::urdf("biped.urdf")).rdbuf();
+  std::string u = text.str();
+  char finger[2048];
+  std::snprintf(finger, sizeof finger, R"(
+  <link name="fa"><inertial><origin xyz="%g 0 0"/><mass value="%g"/>
+    <inertia ixx="1e-6" ixy="0" ixz="0" iyy="%g" iyz="0" izz="1e-6"/></inertial></link>
+  <link name="fb"><inertial><origin xyz="%g 0 0"/><mass value="%g"/>
+    <inertia ixx="5e-7" ixy="0" ixz="0" iyy="%g" iyz="0" izz="5e-7"/></inertial></link>
+  <joint name="f1" type="revolute"><parent link="torso"/><child link="fa"/>
+    <origin xyz="0.12 0 0.1" rpy="0 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="-1.5" upper="1.5" effort="1" velocity="10"/><dynamics damping="0.5" friction="0.5"/></joint>
+  <joint name="f2" type="revolute"><parent link="fa"/><child link="fb"/>
+    <origin xyz="%g 0 0" rpy="0 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="-1.5" upper="1.5" effort="1" velocity="10"/><dynamics damping="0.5" friction="0.5"/></joint>
+)", ca, ma, Ia, cb, mb, Ib, la);
+  u.insert(u.rfind("</robot>"), finger);
+  std::ofstream(dir / "finger.urdf") << u;
+
+  SimulatorConfig cfg = biped_lying_on_back_config();
+  cfg.robot.urdf_path = (dir / "finger.urdf").string();
+  Simulator sim(cfg);
+  const double M22 = Ib + mb * cb * cb;
+  const double M12 = Ib + mb * cb * (la + cb);
+  const double M11 = Ia + ma * ca * ca + Ib + mb * (la + cb) * (la + cb);
+  const std::pair<std::string, double> expected[] = {{"'f1'", M11 - M12 * M12 / M22},
+                                                     {"'f2'", M22}};
+  ASSERT_EQ(sim.notes().size(), 2u) << (sim.notes().empty() ? "" : sim.notes()[0]);
+  for (const auto& [name, inertia] : expected) {
+    const std::string* note = nullptr;
+    for (const std::string& n : sim.notes())
+      if (n.find(name) != std::string::npos) note = &n;
+    ASSERT_NE(note, nullptr) << name;
+    const auto at = note->find("moves (");
+    ASSERT_NE(at, std::string::npos) << *note;
+    const double printed = std::stod(note->substr(at + 7));
+    EXPECT_NEAR(printed, inertia, 1e-5 * inertia) << *note;
+    std::printf("%s: articulated inertia %.6g kg m^2 (closed form %.6g)\n", name.c_str(), printed,
+                inertia);
+  }
+  SensorFrame s = sim.make_sensor_frame();
+  GroundTruth g = sim.make_ground_truth();
+  JointCommand cmd = sim.make_command();
+  cmd.mode = CommandMode::kTorque;
+  cmd.tau_ff.setZero();
+  std::vector<int> fingers;
+  for (int j = 0; j < sim.num_joints(); ++j)
+    if (sim.joint_names()[j] == "f1" || sim.joint_names()[j] == "f2") fingers.push_back(j);
+  ASSERT_EQ(fingers.size(), 2u);
+  double fastest = 0.0, base_speed = 0.0;
+  for (int k = 0; k < 2000; ++k) {
+    sim.step(cmd, s, g);
+    ASSERT_TRUE(s.qd.allFinite() && g.X_WB.translation().allFinite()) << "tick " << k;
+    if (k < 1000) continue;
+    for (int j : fingers) fastest = std::max(fastest, std::abs(s.qd[j]));
+    base_speed = std::max(base_speed, g.com_vel_W.norm());
+  }
+  std::printf("over the last second: fastest finger joint %.3g rad/s, CoM speed %.3g m/s; base "
+              "at %.4f m\n", fastest, base_speed, g.X_WB.translation().z());
+  // Bounded, not blown up: with I / dt of damping the finger creeps down under its weight at
+  // about its gravity torque over I / dt (~0.7 rad/s; the URDF's damping would hold it at ~2e-4),
+  // until its joint limit stops it.
+  EXPECT_LT(fastest, 1.0);
+  EXPECT_LT(base_speed, 0.05);
+  EXPECT_LT(g.X_WB.translation().z(), 0.3);
+  // The biped alone: nothing to scale.
+  EXPECT_TRUE(Simulator(biped_lying_on_back_config()).notes().empty());
 }
 
 TEST(SimPhysics, FreeFallingRobotAcceleratesAtG) {

@@ -2,6 +2,7 @@
 // Internal helpers shared by the algorithm sources (not installed).
 
 #include <cmath>
+#include <string>
 
 #include "poise/model/data.hpp"
 #include "poise/model/model.hpp"
@@ -31,5 +32,9 @@ inline double project_force(const Model& model, int b, const Force& f) {
 void joint_transform(const Model& model, int b, double qj, SE3& liMi);
 /// data.J from data.oMi.
 void fill_world_jacobian(const Model& model, Data& data);
+
+/// Throws ModelError("<what>: XML elements nested deeper than ...") when XML text nests its
+/// elements deeper than tinyxml can parse without overflowing the stack (model.cpp).
+void check_xml_depth(const std::string& xml, const std::string& what);
 
 }  // namespace poise::model::detail

@@ -1,6 +1,8 @@
 // Model building from URDF (urdfdom) and configuration helpers.
 #include "poise/model/model.hpp"
 
+#include "detail.hpp"
+
 #include <tinyxml.h>
 
 #include <console_bridge/console.h>
@@ -22,25 +24,13 @@
 
 namespace poise::model {
 
-namespace {
-
-// ---- limits and pre-checks on the raw text, before tinyxml and urdfdom see it ------------------
-
-// Joins collected problems, one per line (each line is a complete message naming its subject).
-std::string join_lines(const std::vector<std::string>& errs, std::size_t max_lines = 60) {
-  std::string out;
-  for (std::size_t i = 0; i < errs.size() && i < max_lines; ++i)
-    out += (i == 0 ? "" : "\n") + errs[i];
-  if (errs.size() > max_lines)
-    out += "\n... and " + std::to_string(errs.size() - max_lines) + " more problems";
-  return out;
-}
+namespace detail {
 
 // Element nesting depth of XML text, without building a tree (tinyxml recurses per level and
 // overflows the stack on ~100,000 nested elements). Comments, CDATA, declarations and processing
 // instructions are skipped; quoted attribute values may contain '>'. An approximation is enough:
 // it only has to bound the depth tinyxml will see.
-void check_xml_depth(const std::string& xml, const std::string& origin) {
+void check_xml_depth(const std::string& xml, const std::string& what) {
   int depth = 0;
   const std::size_t n = xml.size();
   for (std::size_t i = 0; i < n; ++i) {
@@ -82,12 +72,28 @@ void check_xml_depth(const std::string& xml, const std::string& origin) {
       depth = std::max(0, depth - 1);
     } else if (!self_closing) {
       if (++depth > kMaxXmlDepth)
-        throw ModelError("URDF " + origin + ": XML elements nested deeper than " +
+        throw ModelError(what + ": XML elements nested deeper than " +
                          std::to_string(kMaxXmlDepth) + " levels (refused before parsing)");
     }
     if (j >= n) return;
     i = j - (xml[j] == '<' ? 1 : 0);
   }
+}
+
+}  // namespace detail
+
+namespace {
+
+// ---- limits and pre-checks on the raw text, before tinyxml and urdfdom see it ------------------
+
+// Joins collected problems, one per line (each line is a complete message naming its subject).
+std::string join_lines(const std::vector<std::string>& errs, std::size_t max_lines = 60) {
+  std::string out;
+  for (std::size_t i = 0; i < errs.size() && i < max_lines; ++i)
+    out += (i == 0 ? "" : "\n") + errs[i];
+  if (errs.size() > max_lines)
+    out += "\n... and " + std::to_string(errs.size() - max_lines) + " more problems";
+  return out;
 }
 
 // Strict number: the whole (trimmed) text must be one number. False for text and empty strings;
@@ -342,7 +348,7 @@ class RawChecker {
 // Checks the raw XML; returns the text urdfdom is to parse: `xml` itself, or a copy without the
 // <mimic> elements of fixed joints (legal URDF, meaningless there, ignored).
 std::string precheck_xml(const std::string& xml, const std::string& origin) {
-  check_xml_depth(xml, origin);
+  detail::check_xml_depth(xml, "URDF " + origin);
   TiXmlDocument doc;
   doc.Parse(xml.c_str());
   if (doc.Error()) {

@@ -287,7 +287,7 @@ int run_init(const Options& opt) {
     if (has_shapes(b) && (a < 0 || lowest_z(b) < lowest_z(a) - 1e-9)) a = b;
   if (a < 0)
     throw InitError(
-        "no movable link carries collision geometry (box, cylinder, sphere, STL or OBJ mesh): the "
+        "no movable link carries collision geometry (box, cylinder, sphere, STL, OBJ or COLLADA mesh): the "
         "feet are found by their collision geometry");
   auto related = [&](int x, int y) {
     return (x <= y && y <= m.subtree_end[x]) || (y <= x && x <= m.subtree_end[y]);

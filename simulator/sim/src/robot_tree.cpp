@@ -99,7 +99,7 @@ struct Builder {
   }
 
   // The mesh's vertices, scaled (its frame is the collision's origin); false when it is not found
-  // or not readable (another format than STL or OBJ): the link then has no such collision.
+  // or not readable (another format than STL, OBJ or COLLADA): the link then has no such collision.
   bool read_mesh(const urdf::Mesh& mesh, std::vector<Eigen::Vector3d>& points) const {
 #if POISE_SIM_HAVE_MODEL
     if (mesh_dir.empty()) return false;

@@ -23,8 +23,11 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <random>
+#include <sstream>
 #include <stdexcept>
 #include <unordered_map>
 
@@ -444,6 +447,10 @@ struct Simulator::Impl {
   int n = 0;  // joints = bodies - 1
   std::vector<std::string> joint_names, body_names, foot_names;
   Eigen::VectorXd effort, damping, friction;
+  // Per joint: the velocity over which URDF friction saturates (solver.joint_friction_velocity,
+  // widened where the explicit step needs it: Impl::limit_explicit_joint_damping).
+  Eigen::VectorXd friction_velocity;
+  std::vector<std::string> notes;  // what the simulator changed of the URDF, one line each
   std::vector<Eigen::Isometry3d> X_LK;  // body COM frame K in the URDF body frame L
   double mass = 0.0;
   double dt = 0.001;
@@ -523,6 +530,7 @@ struct Simulator::Impl {
   }
   void fill(SensorFrame& s, GroundTruth& g, bool measure_imu);
   double lowest_foot_point(int foot, const Eigen::Vector3d& normal) const;
+  void limit_explicit_joint_damping();
 };
 
 Simulator::Impl::Impl(const SimulatorConfig& c) : cfg(c) {
@@ -545,6 +553,7 @@ Simulator::Impl::Impl(const SimulatorConfig& c) : cfg(c) {
     damping[i] = b.damping;
     if (!cfg.solver.joint_friction_constraint) friction[i] = b.friction;
   }
+  limit_explicit_joint_damping();
   for (const auto& b : tree.bodies)
     body_names.push_back(b.name);
   for (const auto& b : tree.bodies)
@@ -723,6 +732,74 @@ void Simulator::Impl::resolve_feet_and_imu() {
   const std::string imu = cfg.robot.imu_frame.empty() ? tree.bodies[0].name : cfg.robot.imu_frame;
   if (!tree.find_frame(imu))
     throw std::runtime_error("robot.imu_frame: '" + imu + "' is not a link of the URDF");
+}
+
+// The URDF's joint damping and smooth friction are explicit torques, -c qd with c = damping +
+// friction / joint_friction_velocity below the friction's saturation: over one step of dt they
+// are stable only while c dt / I < 2, I the inertia the joint moves. A hand's last finger link
+// (Valkyrie: 6 g, 1e-6 kg m^2 about its joint, damping 0.5 and friction 0.5 N m) has c dt / I ~
+// 5e4, and the whole robot blew up within 15 ms of the start. Where c exceeds I / dt (a velocity
+// damped to zero in one step: the limit of any stronger damping), damping and friction slope are
+// scaled down together to I / dt, the friction keeping its level (its saturation velocity
+// widened). I: the joint's articulated-body inertia about its axis at q = 0 with its parent held
+// (what its torque accelerates when every joint below it is free: the least it can meet).
+void Simulator::Impl::limit_explicit_joint_damping() {
+  friction_velocity = Eigen::VectorXd::Constant(n, cfg.solver.joint_friction_velocity);
+  using Mat6 = Eigen::Matrix<double, 6, 6>;
+  using Vec6 = Eigen::Matrix<double, 6, 1>;
+  auto skew = [](const Eigen::Vector3d& v) {
+    Eigen::Matrix3d m;
+    m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+    return m;
+  };
+  const std::size_t nb = tree.bodies.size();
+  std::vector<Mat6> IA(nb);
+  std::vector<Vec6> S(nb, Vec6::Zero());
+  for (std::size_t b = 0; b < nb; ++b) {  // spatial inertias (angular; linear) at the body frame
+    const BodySpec& body = tree.bodies[b];
+    const Eigen::Matrix3d cx = skew(body.com_L);
+    IA[b].setZero();
+    IA[b].topLeftCorner<3, 3>() = body.inertia_com_L + body.mass * cx * cx.transpose();
+    IA[b].topRightCorner<3, 3>() = body.mass * cx;
+    IA[b].bottomLeftCorner<3, 3>() = body.mass * cx.transpose();
+    IA[b].bottomRightCorner<3, 3>() = body.mass * Eigen::Matrix3d::Identity();
+    const Eigen::Vector3d a = body.axis_L.normalized();
+    if (body.joint == BodySpec::Joint::kRevolute) S[b].head<3>() = a;
+    if (body.joint == BodySpec::Joint::kPrismatic) S[b].tail<3>() = a;
+  }
+  std::vector<double> d(nb, 0.0);
+  for (std::size_t b = nb - 1; b >= 1; --b) {  // leaves first: parents precede children
+    const Vec6 U = IA[b] * S[b];
+    d[b] = S[b].dot(U);
+    const BodySpec& body = tree.bodies[b];
+    if (body.parent < 0 || !(d[b] > 0.0)) continue;
+    const Mat6 Ia = IA[b] - U * U.transpose() / d[b];
+    // Motion transform from the parent's frame to this body's (its frame at q = 0 is X_PJ).
+    const Eigen::Matrix3d Rt = body.X_PJ.linear().transpose();
+    Mat6 X = Mat6::Zero();
+    X.topLeftCorner<3, 3>() = Rt;
+    X.bottomRightCorner<3, 3>() = Rt;
+    X.bottomLeftCorner<3, 3>() = -Rt * skew(body.X_PJ.translation());
+    IA[static_cast<std::size_t>(body.parent)] += X.transpose() * Ia * X;
+  }
+  for (int i = 0; i < n; ++i) {
+    const std::size_t b = static_cast<std::size_t>(i + 1);
+    const double c = damping[i] + friction[i] / friction_velocity[i];
+    const double c_max = d[b] / dt;
+    if (!(c > 0.0) || c <= c_max) continue;
+    const double scale = c_max / c;
+    std::ostringstream os;
+    os << "joint '" << tree.bodies[b].joint_name << "': URDF damping " << damping[i]
+       << " and friction " << friction[i] << " damp it by " << c
+       << " (SI) at low speed, more than what it moves (" << d[b]
+       << " kg m^2 about the axis, the joints below it free) takes in an explicit step of " << dt
+       << " s: simulated as " << c_max << " (damping " << damping[i] * scale
+       << ", friction saturating at " << friction_velocity[i] / scale << " instead of "
+       << friction_velocity[i] << ")";
+    notes.push_back(os.str());
+    damping[i] *= scale;
+    friction_velocity[i] /= scale;
+  }
 }
 
 void Simulator::Impl::build_robot() {
@@ -1201,6 +1278,8 @@ void Simulator::Impl::fill(SensorFrame& s, GroundTruth& g, bool measure_imu) {
 Simulator::Simulator(const SimulatorConfig& config) {
   if (config.robot.feet.size() > 16) throw std::runtime_error("robot.feet: at most 16 feet");
   impl_ = std::make_unique<Impl>(config);
+  for (const std::string& n : impl_->notes)
+    std::fprintf(stderr, "simulator '%s': note: %s\n", config.robot.urdf_path.c_str(), n.c_str());
 }
 Simulator::~Simulator() = default;
 
@@ -1230,6 +1309,9 @@ double Simulator::time() const {
 }
 const Eigen::VectorXd& Simulator::effort_limits() const {
   return impl_->effort;
+}
+const std::vector<std::string>& Simulator::notes() const {
+  return impl_->notes;
 }
 double Simulator::damping_kd() const {
   return impl_->cfg.robot.damping_mode_kd;
@@ -1307,7 +1389,7 @@ StepStatus Simulator::step(const JointCommand& cmd, SensorFrame& sensors, Ground
     t = std::clamp(t, -s.effort[i], s.effort[i]);
     s.tau[i] = t;
     const double fr =
-        s.friction[i] * std::clamp(qd / s.cfg.solver.joint_friction_velocity, -1.0, 1.0);
+        s.friction[i] * std::clamp(qd / s.friction_velocity[i], -1.0, 1.0);
     mb.addJointTorque(i, t - s.damping[i] * qd - fr);
   }
   if (!ok) status = StepStatus::kRejectedCommand;

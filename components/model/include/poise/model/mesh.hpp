@@ -16,9 +16,11 @@ namespace poise::model {
 std::filesystem::path resolve_mesh_path(const std::string& name,
                                         const std::filesystem::path& urdf_dir);
 
-/// Vertices of an STL (binary or ASCII) or OBJ mesh file, at most 64 MB, in the file's units
-/// (the URDF's <mesh scale> is the caller's). Throws ModelError naming the file: unreadable,
-/// another format, or no vertex.
+/// Vertices of an STL (binary or ASCII), OBJ or COLLADA (.dae) mesh file, at most 64 MB, in the
+/// file's units except COLLADA's, which are metres by its <unit meter> (the URDF's <mesh scale>
+/// is the caller's). COLLADA as ROS reads it for a URDF (rviz, MoveIt): the visual scene's
+/// geometries placed by their nodes' transforms, <up_axis> not applied. Throws ModelError
+/// naming the file: unreadable, another format, malformed, or no vertex.
 std::vector<Eigen::Vector3d> read_mesh_vertices(const std::filesystem::path& path);
 
 }  // namespace poise::model

@@ -51,6 +51,10 @@ class Simulator {
   double time() const;
   /// Effort limit per joint (infinity when the URDF gives none), joint order.
   const Eigen::VectorXd& effort_limits() const;
+  /// What the simulator changed of the URDF to step it stably, one readable line each (joint
+  /// damping and friction too strong for the explicit step of a light link); empty for most
+  /// robots. Printed by `poise sim`, poise-sim and `poise run --in-process`.
+  const std::vector<std::string>& notes() const;
 
   /// Preallocated outputs / command of the right sizes (configuration time: allocates).
   SensorFrame make_sensor_frame() const;
