@@ -166,8 +166,8 @@ std::vector<AttrCase> attr_cases() {
       {"cylinder", "length", "<collision>", "length", plus(kScalarJunk, {"-1", "1e300"})},
       {"origin", "xyz", "<joint ", "xyz", plus(kVectorJunk, {"1e300 0 0", "0 0 -250"})},
       {"origin", "rpy", "<joint ", "rpy", plus(kVectorJunk, {"1e300 0 0"})},
-      {"limit", "effort", "<joint ", "effort", plus(kScalarJunk, {"0", "-1", "-1e-3"})},
-      {"limit", "velocity", "<joint ", "velocity", plus(kScalarJunk, {"0", "-4"})},
+      {"limit", "effort", "<joint ", "effort", plus(kScalarJunk, {"-1", "-1e-3"})},
+      {"limit", "velocity", "<joint ", "velocity", plus(kScalarJunk, {"-4"})},
       {"limit", "lower", "<joint ", "lower", plus(kScalarJunk, {"5", "1e300"})},
       {"limit", "upper", "<joint ", "upper", plus(kScalarJunk, {"-5", "-1e300"})},
       {"axis", "xyz", "<joint ", "axis", plus(kVectorJunk, {"0 0 0"})},
@@ -277,7 +277,7 @@ TEST(MutatedUrdf, EveryDefectReportedInOneRun) {
   std::string xml = urdf_text();
   const std::vector<std::pair<std::string, std::string>> edits = {
       {"<mass value=\"14\"/>", "<mass value=\"nan\"/>"},              // torso
-      {"effort=\"100\"", "effort=\"0\""},                           // torso_yaw
+      {"effort=\"100\"", "effort=\"-1\""},                          // torso_yaw
       {"<sphere radius=\"0.085\"/>", "<sphere radius=\"-1\"/>"},    // head
       {"<origin xyz=\"0 0.2 0.34\"", "<origin xyz=\"0 1e300 0.34\""}  // l_shoulder_pitch
   };
@@ -390,7 +390,7 @@ TEST(MutatedUrdf, FilesEmptyZeroOversizedMissing) {
   // from files too, URDF and robot.yaml defects come in one message
   const fs::path urdf = dir / "robot.urdf";
   std::string xml = urdf_text();
-  xml.replace(xml.find("effort=\"100\""), 13, "effort=\"0\"");
+  xml.replace(xml.find("effort=\"100\""), 13, "effort=\"-1\"");
   std::ofstream(urdf) << xml;
   std::ofstream(yaml) << std::regex_replace(yaml_text(), std::regex("urdf: [^\\n]*"),
                                             "urdf: robot.urdf\ncolour: blue");
@@ -412,6 +412,45 @@ std::string link_xml(const std::string& name, double mass, const std::string& in
   os << "<link name=\"" << name << "\"><inertial><origin xyz=\"0.01 0 0\"/><mass value=\"" << mass
      << "\"/><inertia " << inertia << "/></inertial></link>\n";
   return os.str();
+}
+
+// A joint whose <limit> has effort or velocity 0 (hands' passive joints: Aldebaran Romeo's
+// fingers write effort="0" velocity="0") is not actuated: frozen at 0 clamped to its limits,
+// like a mimic joint, and said; a negative limit is still refused.
+TEST(MutatedUrdf, AJointWithZeroEffortOrVelocityIsFrozenAsNotActuated) {
+  const std::string inertia = "ixx=\"1e-6\" ixy=\"0\" ixz=\"0\" iyy=\"1e-6\" iyz=\"0\" izz=\"1e-6\"";
+  const std::string parts =
+      link_xml("l_finger", 0.02, inertia) + link_xml("r_finger", 0.03, inertia) +
+      "<joint name=\"l_finger_joint\" type=\"revolute\"><parent link=\"l_hand\"/>"
+      "<child link=\"l_finger\"/><origin xyz=\"0 0 -0.05\"/><axis xyz=\"0 1 0\"/>"
+      "<limit lower=\"0.1\" upper=\"1\" effort=\"0\" velocity=\"0\"/></joint>\n"
+      "<joint name=\"r_finger_joint\" type=\"revolute\"><parent link=\"r_hand\"/>"
+      "<child link=\"r_finger\"/><origin xyz=\"0 0 -0.05\"/><axis xyz=\"0 1 0\"/>"
+      "<limit lower=\"-1\" upper=\"1\" effort=\"2\" velocity=\"0\"/></joint>\n";
+  const Model ref = build_model_from_urdf_string(urdf_text());
+  const Model m = build_model_from_urdf_string(with_hand_parts(parts));
+  EXPECT_EQ(m.njoints, ref.njoints);
+  ASSERT_EQ(m.frozen_joints.size(), 2u);
+  EXPECT_NEAR(m.total_mass, ref.total_mass + 0.05, 1e-12);
+  for (const char* name : {"l_finger_joint", "r_finger_joint"}) {
+    EXPECT_NE(std::find(m.frozen_joints.begin(), m.frozen_joints.end(), name), m.frozen_joints.end());
+    bool said = false;
+    for (const std::string& n : m.notes)
+      said = said || (n.find(name) != std::string::npos && n.find("not actuated") != std::string::npos);
+    EXPECT_TRUE(said) << name;
+  }
+  // frozen at 0 clamped to [0.1, 1]: the left finger frame turned by 0.1 rad, the right by 0
+  const auto turn = [&](const char* link, const char* hand) {
+    const Frame& f = m.frames[m.frame_id(link)];
+    const Frame& h = m.frames[m.frame_id(hand)];
+    EXPECT_EQ(f.body, h.body);
+    return Eigen::AngleAxisd((h.X_BF.inverse() * f.X_BF).R).angle();
+  };
+  EXPECT_NEAR(turn("l_finger", "l_hand"), 0.1, 1e-12);
+  EXPECT_NEAR(turn("r_finger", "r_hand"), 0.0, 1e-12);
+  std::string bad = with_hand_parts(parts);
+  bad.replace(bad.find("effort=\"2\""), 10, "effort=\"-2\"");
+  expect_names(urdf_error(bad), {"'r_finger_joint'", "effort", ">= 0"}, "negative effort");
 }
 
 TEST(MutatedUrdf, MimicOnFixedJointIsIgnored) {

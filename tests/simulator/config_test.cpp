@@ -127,7 +127,9 @@ namespace {
 // A movable <mimic> joint (a finger following the elbow) is frozen at its offset by the
 // simulator exactly as by poise::model: both see the same joints (before the fix the simulator
 // had one more, a free joint nobody commands), and the robot stands.
-TEST(SimConfig, MimicJointIsFrozenLikeTheModelFreezesIt) {
+// `limit` and `mimic`: the finger joint's <limit> and <mimic> lines; `dir_name` its output folder.
+void expect_frozen_like_the_model(const std::string& limit, const std::string& mimic,
+                                  const std::string& dir_name) {
   namespace fs = std::filesystem;
   const fs::path src = fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid";
   std::ifstream in(src / "poise_humanoid.urdf");
@@ -140,8 +142,7 @@ TEST(SimConfig, MimicJointIsFrozenLikeTheModelFreezesIt) {
     <child link="r_finger_link"/>
     <origin xyz="0 0 -0.08" rpy="0 0 0"/>
     <axis xyz="0 1 0"/>
-    <limit lower="-1" upper="1" effort="5" velocity="5"/>
-    <mimic joint="r_elbow" multiplier="0.5" offset="0.3"/>
+    )" + limit + "\n    " + mimic + R"(
   </joint>
   <link name="r_finger_link">
     <inertial><origin xyz="0 0 -0.02"/><mass value="0.02"/>
@@ -152,7 +153,7 @@ TEST(SimConfig, MimicJointIsFrozenLikeTheModelFreezesIt) {
   const auto end = urdf.rfind("</robot>");
   ASSERT_NE(end, std::string::npos);
   urdf = urdf.substr(0, end) + finger;
-  const fs::path dir = fs::path(POISE_BINARY_DIR) / "test_output" / "sim_mimic";
+  const fs::path dir = fs::path(POISE_BINARY_DIR) / "test_output" / dir_name;
   fs::create_directories(dir);
   std::ofstream(dir / "finger.urdf") << urdf;
   {
@@ -178,6 +179,21 @@ TEST(SimConfig, MimicJointIsFrozenLikeTheModelFreezesIt) {
   std::sort(model_joints.begin(), model_joints.end());
   std::sort(sim_joints.begin(), sim_joints.end());
   EXPECT_EQ(sim_joints, model_joints);
+}
+
+TEST(SimConfig, MimicJointIsFrozenLikeTheModelFreezesIt) {
+  expect_frozen_like_the_model(R"(<limit lower="-1" upper="1" effort="5" velocity="5"/>)",
+                               R"(<mimic joint="r_elbow" multiplier="0.5" offset="0.3"/>)",
+                               "sim_mimic");
+}
+
+// A joint whose <limit> says it is not actuated (effort or velocity 0: hands' passive joints,
+// Aldebaran Romeo's) is frozen by both as well.
+TEST(SimConfig, AJointThatIsNotActuatedIsFrozenLikeTheModelFreezesIt) {
+  expect_frozen_like_the_model(R"(<limit lower="-1" upper="1" effort="0" velocity="0"/>)", "",
+                               "sim_unactuated");
+  expect_frozen_like_the_model(R"(<limit lower="0.1" upper="1" effort="0" velocity="2"/>)", "",
+                               "sim_unactuated_effort");
 }
 
 }  // namespace

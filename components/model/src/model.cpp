@@ -307,12 +307,14 @@ class RawChecker {
       if (j.type != "continuous") err(where, "a " + j.type + " joint needs a <limit>");
     } else {
       const double inf = std::numeric_limits<double>::infinity();
+      // 0: a joint that is not actuated (hands' passive joints write effort="0" velocity="0"):
+      // frozen like a mimic joint (visit below); a negative limit is a defect.
       const auto eff = scalar(lim, "effort", where, true, -inf, inf);
-      if (eff && !(*eff > 0.0))
-        err(where + ": <limit> effort",
-            "must be > 0 (a limit <= 0 would be read as 'unlimited')");
+      if (eff && !(*eff >= 0.0))
+        err(where + ": <limit> effort", "must be >= 0 (0: not actuated, the joint is frozen)");
       const auto vel = scalar(lim, "velocity", where, true, -inf, inf);
-      if (vel && !(*vel > 0.0)) err(where + ": <limit> velocity", "must be > 0");
+      if (vel && !(*vel >= 0.0))
+        err(where + ": <limit> velocity", "must be >= 0 (0: not actuated, the joint is frozen)");
       if (j.type != "continuous") {
         const double b = prismatic ? kMaxOffset : inf;
         const auto lo = scalar(lim, "lower", where, false, -b, b);
@@ -665,10 +667,13 @@ struct Builder {
       if (child == nullptr)
         throw ModelError("URDF " + origin + ": joint '" + j->name + "' has no child link");
       const SE3 X_BJ = X_BL * to_se3(j->parent_to_joint_origin_transform);
-      if (j->mimic && j->type != urdf::Joint::FIXED) {
-        // Frozen: made fixed at the mimic formula with its leader at 0 (= offset), clamped to
-        // the joint's limits (components/model/README.md "Mimic joints").
-        double x = j->mimic->offset;
+      const bool unactuated = j->type != urdf::Joint::FIXED && j->limits &&
+                              (j->limits->effort == 0.0 || j->limits->velocity == 0.0);
+      if ((j->mimic && j->type != urdf::Joint::FIXED) || unactuated) {
+        // Frozen: made fixed at the mimic formula with its leader at 0 (= offset), or at 0 for a
+        // joint whose <limit> says it is not actuated (effort or velocity 0), clamped to the
+        // joint's limits (components/model/README.md "Mimic joints").
+        double x = j->mimic ? j->mimic->offset : 0.0;
         if (j->limits && j->type != urdf::Joint::CONTINUOUS)
           x = std::clamp(x, j->limits->lower, std::max(j->limits->lower, j->limits->upper));
         Vector3 a(j->axis.x, j->axis.y, j->axis.z);
@@ -680,8 +685,12 @@ struct Builder {
         else
           X_JC.R = Eigen::AngleAxisd(x, a).toRotationMatrix();
         std::ostringstream os;
-        os << "joint '" << j->name << "' mimics '" << j->mimic->joint_name
-           << "': frozen (treated as fixed) at " << x;
+        if (j->mimic)
+          os << "joint '" << j->name << "' mimics '" << j->mimic->joint_name
+             << "': frozen (treated as fixed) at " << x;
+        else
+          os << "joint '" << j->name << "': <limit> effort " << j->limits->effort << " velocity "
+             << j->limits->velocity << ", not actuated: frozen (treated as fixed) at " << x;
         m.notes.push_back(os.str());
         m.frozen_joints.push_back(j->name);
         visit(*child, body, X_BJ * X_JC);

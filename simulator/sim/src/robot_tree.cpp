@@ -134,11 +134,15 @@ struct Builder {
         visit(*child, b, X_LJ);
         continue;
       }
-      if (j->mimic && (j->type == urdf::Joint::REVOLUTE || j->type == urdf::Joint::CONTINUOUS ||
-                       j->type == urdf::Joint::PRISMATIC)) {
-        // A movable mimic joint is frozen at its offset (leader at 0), clamped to its limits:
-        // the same rule as poise::model (Model::frozen_joints), so both see the same tree.
-        double v = std::isfinite(j->mimic->offset) ? j->mimic->offset : 0.0;
+      const bool movable = j->type == urdf::Joint::REVOLUTE ||
+                           j->type == urdf::Joint::CONTINUOUS || j->type == urdf::Joint::PRISMATIC;
+      const bool unactuated =
+          j->limits && (j->limits->effort == 0.0 || j->limits->velocity == 0.0);
+      if (movable && (j->mimic || unactuated)) {
+        // A movable mimic joint is frozen at its offset (leader at 0), one whose <limit> says it
+        // is not actuated (effort or velocity 0) at 0, clamped to its limits: the same rule as
+        // poise::model (Model::frozen_joints), so both see the same tree.
+        double v = j->mimic && std::isfinite(j->mimic->offset) ? j->mimic->offset : 0.0;
         if (j->limits && j->type != urdf::Joint::CONTINUOUS)
           v = std::clamp(v, j->limits->lower, j->limits->upper);
         Eigen::Vector3d axis(j->axis.x, j->axis.y, j->axis.z);
