@@ -301,6 +301,66 @@ TEST(SimScenario, MonitorMeasuresComErrorAndSlipAgainstTheSupports) {
   EXPECT_EQ(mon.result().non_foot_contacts, 1);
 }
 
+// A balance reference's CoM move is not error: the monitor's reference is shifted by the move
+// (ReferenceComShift: the applied reference's com_W minus the first CoM target's), so a CoM that
+// follows a 0.1 m move over the left foot reads 0, and one that stays behind reads the move.
+TEST(SimScenario, MonitorDoesNotCountABalanceReferencesCoMMoveAsError) {
+  Scenario sc = parse_scenario(kInline, fs::path(POISE_SOURCE_DIR) / "tests/simulator");
+  sc.sim.world.platforms.clear();
+  ScenarioMonitor follows(sc, platforms_of_feet(sc)), stays(sc, platforms_of_feet(sc));
+  GroundTruth g;
+  g.feet.resize(2);
+  g.non_foot_contact.assign(3, 0);
+  g.feet[0].X_WF.translation() = Eigen::Vector3d(0.0, 0.1, 0.0);
+  g.feet[1].X_WF.translation() = Eigen::Vector3d(0.0, -0.1, 0.0);
+  g.feet[0].in_contact = g.feet[1].in_contact = true;
+  // The references (estimator frame, offset by (5, -3) m from the truth's: only their
+  // differences count): none before tick 100, then a move of 0.1 m to the left over ticks
+  // 100..199, held; tick 300 drops the CoM target (back over the feet's mid-point).
+  ReferenceComShift refs(64);
+  const Eigen::Vector3d origin(5.0, -3.0, 0.8);
+  std::uint64_t sent = 0;
+  double worst_follow = 0.0, worst_stay = 0.0;
+  for (std::uint64_t k = 0; k < 400; ++k) {
+    // The player sends 20 ticks ahead, in order.
+    for (; sent <= k + 20; ++sent)
+      if (sent >= 100) {
+        const double y = 0.1 * std::min(1.0, static_cast<double>(sent - 100) / 99.0);
+        refs.put(sent, sent < 300, origin + Eigen::Vector3d(0.0, y, 0.0));
+      }
+    const Eigen::Vector2d shift = refs.due(k);
+    const double expected_y = k < 100 || k >= 300 ? 0.0 : 0.1 * std::min(1.0, (k - 100) / 99.0);
+    ASSERT_NEAR(shift.y(), expected_y, 1e-12) << k;
+    ASSERT_NEAR(shift.x(), 0.0, 1e-12) << k;
+    g.time = 1e-3 * static_cast<double>(k);
+    g.com_W = Eigen::Vector3d(0.0, expected_y, 0.8);
+    follows.set_com_target_shift(shift);
+    follows.update(g);
+    worst_follow = std::max(worst_follow, follows.result().com_error_final_m);
+    g.com_W = Eigen::Vector3d(0.0, 0.0, 0.8);
+    stays.set_com_target_shift(shift);
+    stays.update(g);
+    worst_stay = std::max(worst_stay, stays.result().com_error_final_m);
+  }
+  EXPECT_NEAR(worst_follow, 0.0, 1e-12);
+  EXPECT_NEAR(worst_stay, 0.1, 1e-12);
+  EXPECT_EQ(refs.overflows(), 0u);
+  // Tick 0 applies at once, a later tick only at its tick.
+  ReferenceComShift now(4);
+  now.put(0, true, origin);
+  now.put(50, true, origin + Eigen::Vector3d(0.02, 0.0, 0.0));
+  EXPECT_NEAR(now.due(1).x(), 0.0, 1e-12);
+  EXPECT_NEAR(now.due(49).x(), 0.0, 1e-12);
+  EXPECT_NEAR(now.due(50).x(), 0.02, 1e-12);
+  // Past the capacity the oldest held go (counted).
+  ReferenceComShift small(4);
+  small.put(0, true, origin);
+  for (std::uint64_t t = 10; t < 16; ++t) small.put(t, true, origin + Eigen::Vector3d(0.01 * t, 0, 0));
+  EXPECT_EQ(small.overflows(), 3u);
+  EXPECT_NEAR(small.due(12).x(), 0.0, 1e-12);  // base: tick 12's, the first held with a target
+  EXPECT_NEAR(small.due(15).x(), 0.03, 1e-12);
+}
+
 TEST(SimScenario, MonitorTellsASlipFromARollOntoTheToeAndATwist) {
   // Foot slip (the criterion): the sole centre's displacement since the start. Foot
   // displacement: the foot frame's (the ankle's). Foot slide: the sole point under the CoP

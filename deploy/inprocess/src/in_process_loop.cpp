@@ -298,6 +298,8 @@ void InProcessLoop::play_reference() {
   // queue and to the estimator's (both subscribe to poise/balance_reference).
   reference_player_->on_state(*state_msg_, [this](const msg::BalanceReference& r) {
     reference_applier_->queue().put(r);
+    com_shift_.put(r.header().tick(), r.has_com_target(),
+                   Eigen::Vector3d(r.com_W()[0], r.com_W()[1], r.com_W()[2]));
 #if POISE_INPROCESS_HAVE_ESTIMATOR
     if (estimator_)
       estimator_->plans.put(r.header().tick(),
@@ -350,7 +352,7 @@ void InProcessLoop::step() {
     }
     apply_safety_command(clock_ns());
     if (sim_->step(sim_command_, sensors_, truth_) != sim::StepStatus::kOk) ++rejected_commands_;
-    monitor_.update(truth_);
+    update_monitor();
     wall_ += std::chrono::steady_clock::now() - t0;
     return;
   }
@@ -371,8 +373,16 @@ void InProcessLoop::step() {
     ++rejected_commands_;
   apply_safety_command(now);
   if (sim_->step(sim_command_, sensors_, truth_) != sim::StepStatus::kOk) ++rejected_commands_;
-  monitor_.update(truth_);
+  update_monitor();
   wall_ += std::chrono::steady_clock::now() - t0;
+}
+
+// poise-sim after a step: the references' CoM target shift due at the tick stepped, then the
+// monitor on the new truth.
+void InProcessLoop::update_monitor() {
+  const std::int64_t stepped = sensors_.tick - 1;
+  monitor_.set_com_target_shift(com_shift_.due(static_cast<std::uint64_t>(std::max<std::int64_t>(0, stepped))));
+  monitor_.update(truth_);
 }
 
 RunResult InProcessLoop::run(const std::function<void(double)>& progress) {

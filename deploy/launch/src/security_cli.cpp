@@ -39,7 +39,8 @@ std::map<std::string, Grant> grants() {
   return {
       {"sim",
        {{"poise/robot_description", "poise/sensors", "poise/ground_truth", "poise/diagnostics"},
-        {"poise/joint_command", "poise/disturbance", "poise/estop"}}},
+        {"poise/joint_command", "poise/disturbance", "poise/estop",
+         "poise/balance_reference"}}},  // the CoM target, for the scenario monitor
       {"estimator",
        {{"poise/state", "poise/diagnostics"},
         {"poise/robot_description", "poise/sensors", "poise/ground_truth",

@@ -9,6 +9,8 @@
 //                                                          matched (reliable, keep-last 1)
 //               poise/diagnostics        Diagnostics       ~10 Hz best-effort (compute = step)
 //   subscribes  poise/joint_command      JointCommand      reliable, keep-last 1
+//               poise/balance_reference  BalanceReference  latched, 512 held: only the CoM target,
+//                                                            for the scenario monitor's CoM error
 //               poise/disturbance        Disturbance       reliable, keep-last 16: pushes applied
 //                                                          live (start < 0: at once)
 //   --lockstep  (default) publish sensors k, wait for the command with header.tick == k (at most
@@ -54,6 +56,8 @@
 #include <mutex>
 #include <thread>
 #include <nlohmann/json.hpp>
+
+#include <poise/msg/balance_reference.h>
 
 #include "poise/node/mailbox.hpp"
 #include "poise/node/node.hpp"
@@ -104,6 +108,8 @@ struct Figures {
   bool aborted = false;
 };
 
+constexpr std::size_t kReferenceQueue = 512;  // balance references held ahead of their tick
+
 class SimNode {
  public:
   SimNode(node::Node& node, const Settings& settings)
@@ -123,8 +129,16 @@ class SimNode {
         sensors_pub_(node.participant()),
         truth_pub_(node.participant()),
         publish_ns_(1024, 0),
-        commands_in_(node.participant(), [this](const msg::JointCommand& c) { on_command(c); }) {
+        commands_in_(node.participant(), [this](const msg::JointCommand& c) { on_command(c); }),
+        references_(
+            node.participant(),
+            [this](const msg::BalanceReference& r) {
+              com_shift_.put(r.header().tick(), r.has_com_target(),
+                             Eigen::Vector3d(r.com_W()[0], r.com_W()[1], r.com_W()[2]));
+            },
+            dds::Qos::latched(static_cast<int>(kReferenceQueue))) {
     node.watch(commands_in_);
+    node.watch(references_);
     node.expect_one_writer(commands_in_);
     node.watch(disturbances_);
     node.watch(estops_);
@@ -396,6 +410,8 @@ class SimNode {
         figures_.max_joint_speed = std::abs(sensors_.qd[j]);
         figures_.fastest_joint = static_cast<int>(j);
       }
+    monitor_.set_com_target_shift(
+        com_shift_.due(static_cast<std::uint64_t>(std::max<std::int64_t>(0, sensors_.tick - 1))));
     monitor_.update(truth_);
     slip_.update(truth_);
     ++figures_.ticks;
@@ -679,8 +695,12 @@ class SimNode {
   msg::EStop estop_msg_;
   std::vector<std::int64_t> publish_ns_;  ///< publication time of sensors k, ring by k
   Figures figures_;
-  // Last: its callback uses the members above, and it goes first.
+  // The CoM target shifts of poise/balance_reference, for the monitor (ScenarioMonitor's CoM
+  // error does not count a reference's deliberate CoM move).
+  sim::ReferenceComShift com_shift_{2 * kReferenceQueue};
+  // Last: their callbacks use the members above, and they go first.
   dds::Subscriber<msg::JointCommand> commands_in_;
+  dds::Subscriber<msg::BalanceReference> references_;
 };
 
 int run(int argc, char** argv) {

@@ -696,7 +696,7 @@ void ScenarioMonitor::update(const GroundTruth& g) {
     initialised_ = true;
   }
   time_ = g.time;
-  const double err = (g.com_W.head<2>() - (centre + com_offset_)).norm();
+  const double err = (g.com_W.head<2>() - (centre + com_offset_ + com_shift_)).norm();
   r_.com_error_max_m = std::max(r_.com_error_max_m, err);
   r_.com_error_final_m = err;
   if (err > scenario_.success.com_error_final_m) last_bad_time_ = g.time;
@@ -746,6 +746,50 @@ void ScenarioMonitor::update(const GroundTruth& g) {
     r_.trunk_roll_max_deg = std::max(r_.trunk_roll_max_deg, std::abs(roll));
   }
   r_.min_base_height_m = std::min(r_.min_base_height_m, g.X_WB.translation().z());
+}
+
+ReferenceComShift::ReferenceComShift(std::size_t capacity) : ring_(std::max<std::size_t>(1, capacity)) {}
+
+void ReferenceComShift::put(std::uint64_t tick, bool has_com_target,
+                            const Eigen::Vector3d& com_W) noexcept {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (size_ == ring_.size()) {  // full: the oldest held goes
+    head_ = (head_ + 1) % ring_.size();
+    --size_;
+    ++overflows_;
+  }
+  Entry& e = ring_[(head_ + size_) % ring_.size()];
+  e.tick = tick;
+  e.has_com_target = has_com_target;
+  e.com_W = com_W;
+  ++size_;
+}
+
+Eigen::Vector2d ReferenceComShift::due(std::uint64_t k) noexcept {
+  std::lock_guard<std::mutex> lock(mutex_);
+  // Every held reference due at k (tick 0: at once), in arrival order: the last one wins, as
+  // the controller applies the one with the largest tick.
+  while (size_ > 0) {
+    const Entry& e = ring_[head_];
+    if (e.tick != 0 && e.tick > k) break;
+    if (e.has_com_target) {
+      if (!have_base_) {
+        base_ = e.com_W.head<2>();
+        have_base_ = true;
+      }
+      shift_ = e.com_W.head<2>() - base_;
+    } else {
+      shift_.setZero();
+    }
+    head_ = (head_ + 1) % ring_.size();
+    --size_;
+  }
+  return shift_;
+}
+
+std::uint64_t ReferenceComShift::overflows() const noexcept {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return overflows_;
 }
 
 ScenarioMonitor::Result ScenarioMonitor::result() const {

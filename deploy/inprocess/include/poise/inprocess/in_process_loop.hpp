@@ -184,6 +184,7 @@ class InProcessLoop {
   /// False when the estimator refused the frame (no state: poise-estimator sends none).
   bool read_state();
   void apply_references();
+  void update_monitor();
   void play_reference();
   void control();
   void apply_safety_command(std::int64_t now_ns);
@@ -247,6 +248,9 @@ class InProcessLoop {
   std::uint64_t deadline_misses_ = 0;
   std::uint64_t rejected_commands_ = 0;
   std::chrono::steady_clock::duration wall_{};
+  // The CoM target shifts of the played references, for the monitor (as poise-sim follows
+  // poise/balance_reference).
+  sim::ReferenceComShift com_shift_;
 };
 
 }  // namespace poise::inprocess

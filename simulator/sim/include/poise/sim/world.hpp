@@ -7,8 +7,11 @@
 // controller) belong to the scenario format, poise::scenario (deploy/scenario), and are skipped
 // here.
 
+#include <Eigen/Core>
 #include <filesystem>
+#include <cstdint>
 #include <limits>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -60,7 +63,9 @@ World parse_world(const std::string& yaml_text, const std::filesystem::path& bas
 /// Accumulates the verdict quantities of a run from its ground truth (one update per tick).
 /// CoM error: horizontal distance between the CoM and its reference, the reference being the
 /// initial CoM offset from the centroid of the support feet, carried along with that centroid
-/// (so moving supports are not counted as error). Relative to the support each foot stands on
+/// (so moving supports are not counted as error), plus the CoM target shift of the run's
+/// balance references (set_com_target_shift: a step in place's deliberate move over one foot is
+/// not counted as error either). Relative to the support each foot stands on
 /// (platform or ground), horizontally, while the foot is in contact:
 ///   foot slip (the criterion): largest displacement of the sole's centre point (on the sole
 ///     plane; without a sole in the robot config, the point of the sole plane below the foot
@@ -98,6 +103,9 @@ class ScenarioMonitor {
   /// `platform_of_foot[f]` = index of the platform under foot f, or -1 for the ground.
   ScenarioMonitor(const World& world, std::vector<int> platform_of_foot);
   void update(const GroundTruth& truth);
+  /// The horizontal CoM target shift the balance references ask for at the next update
+  /// (ReferenceComShift::due); zero until set.
+  void set_com_target_shift(const Eigen::Vector2d& shift_W) noexcept { com_shift_ = shift_W; }
   /// Evaluates the success criteria on what was seen so far. Allocates nothing: fit for the
   /// simulator's 1 kHz loop (progress lines).
   Result result() const;
@@ -122,6 +130,37 @@ class ScenarioMonitor {
   double last_bad_time_ = 0.0;
   double time_ = 0.0;
   Result r_;
+  Eigen::Vector2d com_shift_ = Eigen::Vector2d::Zero();
+};
+
+/// The CoM target shifts a run's balance references (poise/balance_reference) ask for, by tick,
+/// for ScenarioMonitor: the simulator does not see the controller, so it follows the references
+/// as poise-controller applies them (at tick k the one with the largest header tick <= k, tick 0
+/// at once, later ones held). The shift is the horizontal difference between the applied
+/// reference's com_W and the com_W of the first reference that had a CoM target (the references
+/// are in the estimator's frame: differences of them are what the simulator can compare); zero
+/// without a CoM target. put() from a subscriber thread, due() from the loop; no allocation
+/// after construction; a reference beyond the capacity drops the oldest held (counted).
+class ReferenceComShift {
+ public:
+  explicit ReferenceComShift(std::size_t capacity = 1024);
+  void put(std::uint64_t tick, bool has_com_target, const Eigen::Vector3d& com_W) noexcept;
+  /// The shift applied at tick k (references with tick <= k taken).
+  Eigen::Vector2d due(std::uint64_t k) noexcept;
+  std::uint64_t overflows() const noexcept;
+
+ private:
+  struct Entry {
+    std::uint64_t tick = 0;
+    bool has_com_target = false;
+    Eigen::Vector3d com_W = Eigen::Vector3d::Zero();
+  };
+  mutable std::mutex mutex_;
+  std::vector<Entry> ring_;  // held references in arrival order (ticks non-decreasing)
+  std::size_t head_ = 0, size_ = 0;
+  std::uint64_t overflows_ = 0;
+  bool have_base_ = false;
+  Eigen::Vector2d base_ = Eigen::Vector2d::Zero(), shift_ = Eigen::Vector2d::Zero();
 };
 
 /// Index of the platform that supports each foot (by PlatformConfig::foot), -1 = ground.
