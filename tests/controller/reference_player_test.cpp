@@ -103,6 +103,36 @@ TEST(ReferencePlayer, ProducesEachTickOnceAheadOfTheStateAndStopsAtTheEnd) {
   EXPECT_EQ(p.sent(), 4301u);
 }
 
+// States that jump past ticks not yet produced (a player that fell behind and lost states) leave
+// those ticks' references unsent: counted once as skipped (only the trajectory's ticks, 2000 to
+// 6300), never produced later; strides within the lead skip nothing (test above).
+TEST(ReferencePlayer, CountsTheTicksStatesJumpedPastAsSkipped) {
+  const Robot& r = robot();
+  for (const auto& [jump_to, expected] :
+       std::vector<std::pair<std::uint64_t, std::uint64_t>>{{1500, 0}, {2999, 1000}, {9000, 4301}}) {
+    SCOPED_TRACE(jump_to);
+    reference::Player p(step_in_place(), r.model, r.config, r.model_to_wire, 1e-3, 200);
+    std::map<std::uint64_t, int> sent;
+    auto emit = [&](const msg::BalanceReference& ref) {
+      ++sent[ref.header().tick()];
+      return true;
+    };
+    for (std::uint64_t k = 10; k <= 1000; ++k) p.on_state(state_of(k), emit);  // up to 1200 made
+    p.on_state(state_of(jump_to), emit);
+    p.on_state(state_of(jump_to + 1), emit);
+    for (std::uint64_t k = jump_to + 2; k <= std::max<std::uint64_t>(jump_to + 2, 7000); ++k)
+      p.on_state(state_of(k), emit);
+    EXPECT_EQ(p.skipped(), expected);
+    // Every trajectory tick is either sent once or skipped.
+    std::uint64_t produced = 0;
+    for (const auto& [tick, n] : sent) {
+      EXPECT_EQ(n, 1) << tick;
+      if (tick >= 2000 && tick <= 6300) ++produced;
+    }
+    EXPECT_EQ(produced + p.skipped(), 4301u);
+  }
+}
+
 TEST(ReferencePlayer, TheReferencesOfATickDoNotDependOnWhichStatesItSaw) {
   // A player that skips states (a busy one behind a newest-sample mailbox) computes the time of
   // tick j from another state k. On states that carry the same CoM and feet, its references must

@@ -279,6 +279,62 @@ TEST(Launch, TheResultCountsEveryMissAndDampingFailsTheRun) {
       << bad.dump(2);
 }
 
+// A reference player that falls behind (stopped for 0.4 s of wall time, SIGSTOP, in the middle
+// of step_in_place's trajectory: the lockstep loop runs on without it) loses states and never
+// sends the references of the ticks it skipped; those it sends after their tick are applied
+// late. Before, such a run "survived" although its step was never played. Now the verdict fails
+// naming both, the result counts them (misses), and an undisturbed run has neither.
+TEST(Launch, AReferencePlayerThatFallsBehindFailsTheRun) {
+  const int domain = poise::testing::unique_domain_id();
+  const fs::path dir = work_dir("stalled_player");
+  ChildProcess launcher(run_args("step_in_place", domain, dir, {"--lockstep", "--duration", "6"}),
+                        {}, false, true);
+  pid_t player = -1;
+  for (int i = 0; i < 600 && player < 0; ++i) {  // the launcher's child named poise-reference
+    for (pid_t c : children_of(launcher.pid())) {
+      std::ifstream comm("/proc/" + std::to_string(c) + "/comm");
+      std::string name;
+      if (std::getline(comm, name) && name == "poise-reference") player = c;
+    }
+    if (player < 0) std::this_thread::sleep_for(10ms);
+  }
+  ASSERT_GT(player, 0) << launcher.output();
+  // The CoM move begins at 2.0 s: stall the player once the loop is at 2.0 s (progress lines).
+  ASSERT_TRUE(launcher.wait_for_output("t=2.0 s", 120s)) << launcher.output();
+  ASSERT_EQ(::kill(player, SIGSTOP), 0);
+  std::this_thread::sleep_for(400ms);
+  ::kill(player, SIGCONT);
+  const auto code = launcher.wait_for(180s);
+  ASSERT_TRUE(code.has_value()) << launcher.output();
+  EXPECT_EQ(*code, 1) << launcher.output();
+  const Json r = Json::parse(std::ifstream(dir / "run.json"), nullptr, false);
+  ASSERT_TRUE(r.is_object()) << launcher.output();
+  std::printf("stalled player: %s\n  misses: skipped %s, late %s\n",
+              r.value("failure", std::string()).c_str(),
+              r["misses"].value("reference_skipped_ticks", Json()).dump().c_str(),
+              r["misses"].value("controller_late_references", Json()).dump().c_str());
+  EXPECT_FALSE(r.value("survived", true));
+  const std::string failure = r.value("failure", std::string());
+  EXPECT_GT(r["misses"].value("reference_skipped_ticks", 0) +
+                r["misses"].value("controller_late_references", 0),
+            0)
+      << r.dump(2);
+  EXPECT_TRUE(failure.find("reference player skipped") != std::string::npos ||
+              failure.find("after their tick") != std::string::npos)
+      << failure;
+
+  // Undisturbed: neither, and the step is played (the run survives).
+  const fs::path ok_dir = work_dir("undisturbed_player");
+  auto [ok_code, ok_out] =
+      run_command(run_args("step_in_place", domain, ok_dir, {"--lockstep", "--duration", "6"}),
+                  180s);
+  EXPECT_EQ(ok_code, 0) << ok_out;
+  const Json ok = Json::parse(std::ifstream(ok_dir / "run.json"), nullptr, false);
+  ASSERT_TRUE(ok.is_object()) << ok_out;
+  EXPECT_EQ(ok["misses"].value("reference_skipped_ticks", -1), 0) << ok.dump(2);
+  EXPECT_EQ(ok["misses"].value("controller_late_references", -1), 0) << ok.dump(2);
+}
+
 // A scenario's controller: section configures the controller in both modes (its contact.priority
 // reaches the contact optimiser process), a bad key in it is refused before anything starts, and
 // both modes' results carry the same verdict fields, naming the criteria that failed.

@@ -94,7 +94,13 @@ int play(int argc, char** argv) {
     const std::uint64_t k = in.header().tick();
     const bool was_late = player.started_late();
     const std::uint64_t restarts = player.restarts();
+    const std::uint64_t skipped = player.skipped();
     player.on_state(in, [&](const msg::BalanceReference& r) { return node.publish(pub, r); });
+    if (player.skipped() != skipped)
+      node.error("tick %llu: %llu ticks of the trajectory skipped (states lost: the player fell "
+                 "behind); their references are not sent",
+                 static_cast<unsigned long long>(k),
+                 static_cast<unsigned long long>(player.skipped() - skipped));
     if (player.started_late() && !was_late)
       node.error("started late: the trajectory begins at %.3f s, the state is at %.3f s",
                  traj.begin(), player.first_state_time());
@@ -115,10 +121,12 @@ int play(int argc, char** argv) {
   char extra[256];
   std::snprintf(extra, sizeof(extra),
                 "{\"references_sent\": %llu, \"first_tick\": %llu, \"last_tick\": %llu, "
-                "\"completed\": %s}",
+                "\"skipped_ticks\": %llu, \"started_late\": %s, \"completed\": %s}",
                 static_cast<unsigned long long>(player.sent()),
                 static_cast<unsigned long long>(player.first_sent()),
-                static_cast<unsigned long long>(player.last_sent()), done ? "true" : "false");
+                static_cast<unsigned long long>(player.last_sent()),
+                static_cast<unsigned long long>(player.skipped()),
+                player.started_late() ? "true" : "false", done ? "true" : "false");
   node.write_summary(extra);
   return done ? 0 : 3;
 }

@@ -1,5 +1,6 @@
 #include "poise/reference/player.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <utility>
@@ -45,6 +46,19 @@ void Player::begin(const msg::State& in) noexcept {
   end_tick_ = k_ + static_cast<std::uint64_t>(ticks_left);
   next_ = k_ + 1;
   started_late_ = t_first_ + period_ > traj_.begin();
+}
+
+void Player::count_skipped(std::uint64_t k) noexcept {
+  if (next_ >= k + 1) return;  // nothing left behind (or a restarted stream: next_ is ahead)
+  // The first tick the trajectory produces (fill: t >= begin - dt / 2), from this state's stamp.
+  const double t_k = static_cast<double>(k_stamp_ns_) * 1e-9;
+  const double first = std::ceil((traj_.begin() - 0.5 * period_ - t_k) / period_ - 1e-9);
+  const long long begin_tick = static_cast<long long>(k) + static_cast<long long>(first);
+  const std::uint64_t lo =
+      std::max<std::uint64_t>(next_, static_cast<std::uint64_t>(std::max(0LL, begin_tick)));
+  const std::uint64_t hi = std::min<std::uint64_t>(k, end_tick_);
+  if (hi >= lo) skipped_ += hi - lo + 1;
+  next_ = k + 1;  // those ticks are gone: counted once
 }
 
 bool Player::fill(std::uint64_t j, const msg::State& in) noexcept {

@@ -290,7 +290,7 @@ int run_distributed(int argc, char** argv) {
         s.log_dir.empty() ? fs::path("results") / (scenario.name + ".logs") : fs::path(s.log_dir);
     fs::create_directories(logs);
     if (output.has_parent_path()) fs::create_directories(output.parent_path());
-    for (const char* n : {"sim", "estimator", "contact", "controller"})
+    for (const char* n : {"sim", "estimator", "contact", "controller", "reference"})
       fs::remove(logs / (std::string(n) + ".summary.json"));
     // A result from an earlier run must never stand for this one.
     fs::remove(output);
@@ -636,6 +636,7 @@ int run_distributed(int argc, char** argv) {
     const Json ctrl_r = read_json(logs / "controller.summary.json");
     const Json est_r = read_json(logs / "estimator.summary.json");
     const Json con_r = read_json(logs / "contact.summary.json");
+    const Json ref_r = scenario.reference.empty() ? Json() : read_json(logs / "reference.summary.json");
     if (sim_r.is_null()) {
       std::fprintf(stderr, "poise run: the simulator wrote no result (%s)\n",
                    (logs / "sim.summary.json").c_str());
@@ -703,6 +704,9 @@ int run_distributed(int argc, char** argv) {
     misses["robot_refused_commands"] = num(safety, "rejected") - num(safety, "rejected_tick");
     misses["estimator_dropped_frames"] = num(est_r, "dropped_frames");
     misses["out_of_sequence"] = num(est_r, "out_of_sequence") + num(ctrl_r, "out_of_sequence");
+    // Balance references that reached the controller after the state of their tick (a reference
+    // player that fell behind: each applied a tick late).
+    misses["controller_late_references"] = num(ctrl_r, "late_references");
     r["contact_problems_resent"] = num(ctrl_r, "problems_resent");  // not a miss: a repeat
     misses["samples_rejected"] = r["rejected_samples"];
     r["misses"] = misses;
@@ -715,6 +719,37 @@ int run_distributed(int argc, char** argv) {
     if (static_cast<long long>(num(sim_r, "damping_ticks")) > damping_tolerance) {
       r["failed_criteria"].push_back(std::to_string(num(sim_r, "damping_ticks")) +
                                      " damping ticks > " + std::to_string(damping_tolerance));
+      r["survived"] = false;
+    }
+    // The scenario's reference trajectory must have been played in full: a player that fell
+    // behind the state stream loses states and never sends the references of the ticks it
+    // skipped (a step in place that never stepped "survived" before), one that saw its first
+    // state after the trajectory began lost its start. Both modes.
+    if (!scenario.reference.empty()) {
+      r["misses"]["reference_skipped_ticks"] = num(ref_r, "skipped_ticks");
+      if (num(ref_r, "skipped_ticks") > 0)
+        r["failed_criteria"].push_back(
+            "the reference player skipped " + std::to_string(num(ref_r, "skipped_ticks")) +
+            " ticks of the trajectory (it fell behind the state stream): the scenario's "
+            "reference was not played in full");
+      if (ref_r.is_object() && ref_r.value("started_late", false))
+        r["failed_criteria"].push_back(
+            "the reference player saw its first state after the trajectory began: its start "
+            "was not played");
+      if (!ref_r.is_object())
+        r["failed_criteria"].push_back("the reference player wrote no summary (" +
+                                       (logs / "reference.summary.json").string() + ")");
+      if (num(ref_r, "skipped_ticks") > 0 || !ref_r.is_object() ||
+          ref_r.value("started_late", false))
+        r["survived"] = false;
+    }
+    // In lockstep the run is the scenario only if every balance reference was applied at its
+    // tick: a late one (the player starved of CPU) makes a different run than in process.
+    if (!s.realtime && num(ctrl_r, "late_references") > 0) {
+      r["failed_criteria"].push_back(
+          std::to_string(num(ctrl_r, "late_references")) +
+          " balance references reached the controller after their tick (the reference player "
+          "fell behind): this lockstep run does not follow the scenario");
       r["survived"] = false;
     }
     // The controller declared a fall (FallConfig): it damps the joints from then on.
@@ -765,7 +800,7 @@ int run_distributed(int argc, char** argv) {
     if (!s.quiet) std::printf(
         "  misses: contact wait %llu, commands withheld %llu, sim overruns %llu, hold ticks %llu, "
         "damping ticks %llu, late commands %llu, refused commands %llu, dropped frames %llu, "
-        "out of sequence %llu, rejected samples %llu%s%s\n",
+        "out of sequence %llu, rejected samples %llu, late references %llu%s%s\n",
         static_cast<unsigned long long>(misses["controller_contact_wait"].get<std::uint64_t>()),
         static_cast<unsigned long long>(misses["controller_commands_withheld"].get<std::uint64_t>()),
         static_cast<unsigned long long>(misses["sim_overruns"].get<std::uint64_t>()),
@@ -776,6 +811,7 @@ int run_distributed(int argc, char** argv) {
         static_cast<unsigned long long>(misses["estimator_dropped_frames"].get<std::uint64_t>()),
         static_cast<unsigned long long>(misses["out_of_sequence"].get<std::uint64_t>()),
         static_cast<unsigned long long>(misses["samples_rejected"].get<std::uint64_t>()),
+        static_cast<unsigned long long>(misses["controller_late_references"].get<std::uint64_t>()),
         verdict_reason.empty() ? "" : ": FAILED on ", verdict_reason.c_str());
     if (s.rt_priority > 0 || s.lock_memory || !s.cpus.empty()) {
       // One line per process: what it got, and any refusal in full (never silent).

@@ -44,6 +44,7 @@ class Player {
   void on_state(const msg::State& in, Emit&& emit) noexcept {
     const std::uint64_t k = in.header().tick();
     begin(in);
+    count_skipped(k);
     for (std::uint64_t j = next_ > k + 1 ? next_ : k + 1;
          j <= k + static_cast<std::uint64_t>(lead_) && j <= end_tick_; ++j) {
       next_ = j + 1;
@@ -64,6 +65,9 @@ class Player {
   /// its timeline: it produces nothing until the stream is past the ticks already produced.
   std::uint64_t restarts() const noexcept { return restarts_; }
   std::uint64_t sent() const noexcept { return sent_; }
+  /// Ticks of the trajectory never produced because the states jumped past them (a player that
+  /// fell behind and lost states: those references are missing, not late).
+  std::uint64_t skipped() const noexcept { return skipped_; }
   std::uint64_t first_sent() const noexcept { return first_sent_; }
   std::uint64_t last_sent() const noexcept { return last_sent_; }
   int lead_ticks() const noexcept { return lead_; }
@@ -71,6 +75,8 @@ class Player {
 
  private:
   void begin(const msg::State& in) noexcept;
+  /// Adds to skipped_ the trajectory's ticks next_ .. k that state k leaves behind unproduced.
+  void count_skipped(std::uint64_t k) noexcept;
   /// Writes the reference of tick j into ref_ from state `in`; false before the trajectory.
   bool fill(std::uint64_t j, const msg::State& in) noexcept;
 
@@ -83,7 +89,7 @@ class Player {
   std::array<double, msg::MAX_JOINTS> nominal_q_{};
   bool started_ = false, started_late_ = false, origin_set_ = false;
   std::uint64_t next_ = 0, end_tick_ = 0, last_state_tick_ = 0;
-  std::uint64_t sent_ = 0, first_sent_ = 0, last_sent_ = 0;
+  std::uint64_t sent_ = 0, first_sent_ = 0, last_sent_ = 0, skipped_ = 0;
   double t_first_ = 0.0;
   std::uint64_t k_ = 0;       // tick of the state being handled
   long long k_stamp_ns_ = 0;  // its stamp
