@@ -19,7 +19,9 @@
 #include <vector>
 
 #include "child_process.hpp"
+#include "poise/model/data.hpp"
 #include "poise/model/dynamics.hpp"
+#include "poise/model/kinematics.hpp"
 #include "poise/model/robot_config.hpp"
 
 namespace fs = std::filesystem;
@@ -232,6 +234,68 @@ TEST(RobotInit, AFloatingBaseWithoutCollisionIsReported) {
                                     60s);
     EXPECT_EQ(code, 0) << text;
     EXPECT_EQ(text.find(line) != std::string::npos, without) << text;
+  }
+}
+
+// A joint that needs most of its URDF effort just to stand is reported (Fourier GR1T1: its
+// 15 N m ankles). The shipped humanoid with its ankle pitch efforts cut to 1 N m: the line names
+// each ankle with the torque of a moment balance about the ankle axis computed here from the
+// model, independently of robot init's inverse dynamics: half the weight up at the sole centre,
+// the weight of the foot below the ankle down at its COM. With the URDF's efforts: no line.
+TEST(RobotInit, AJointThatNeedsMostOfItsEffortToStandIsReported) {
+  const fs::path dir = work_dir("standing_effort");
+  const std::string xml =
+      read(fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/poise_humanoid.urdf");
+  std::string weak = xml;
+  for (const char* ankle : {"l_ankle_pitch", "r_ankle_pitch"}) {
+    const auto j = weak.find(std::string("<joint name=\"") + ankle + "\"");
+    ASSERT_NE(j, std::string::npos) << ankle;
+    const auto e = weak.find("effort=\"", j);
+    const auto end = weak.find('"', e + 8);
+    weak.replace(e, end - e + 1, "effort=\"1\"");
+  }
+  std::ofstream(dir / "weak.urdf") << weak;
+  std::ofstream(dir / "shipped.urdf") << xml;
+  auto [ok_code, ok_text] = run_command(
+      {bin("poise"), "robot", "init", (dir / "shipped.urdf").string(), "-o", (dir / "ok").string()}, 60s);
+  ASSERT_EQ(ok_code, 0) << ok_text;
+  EXPECT_EQ(ok_text.find("standing (the CoM"), std::string::npos) << ok_text;
+  auto [code, text] = run_command(
+      {bin("poise"), "robot", "init", (dir / "weak.urdf").string(), "-o", (dir / "weak").string()}, 60s);
+  ASSERT_EQ(code, 0) << text;
+  const poise::model::RobotConfig cfg = poise::model::load_robot_config(dir / "weak" / "robot.yaml");
+  const poise::model::Model m = poise::model::load_robot_model(cfg);
+  poise::model::Data data(m);
+  poise::model::forward_kinematics(m, data, cfg.q_nominal);
+  poise::model::update_frame_placements(m, data);
+  const double g = m.gravity.norm(), weight = m.total_mass * g;
+  for (const auto& [ankle, side] : {std::pair<std::string, int>{"l_ankle_pitch", 1},
+                                    std::pair<std::string, int>{"r_ankle_pitch", 0}}) {
+    SCOPED_TRACE(ankle);
+    const int j = m.joint_index(ankle);
+    ASSERT_GE(j, 0);
+    const int b = j + 1;  // the body this joint moves
+    const Eigen::Vector3d axis = data.oMi[b].R * m.axis[b];
+    const Eigen::Vector3d p = data.oMi[b].p;
+    const auto& foot = cfg.feet[static_cast<std::size_t>(side)];
+    const auto& so = foot.sole;
+    const poise::model::SE3 X = data.oMf[static_cast<std::size_t>(foot.frame_id)];
+    const Eigen::Vector3d centre =
+        X.act(Eigen::Vector3d(0.5 * (so.x_min + so.x_max), 0.5 * (so.y_min + so.y_max), -so.height));
+    double moment = axis.dot((centre - p).cross(Eigen::Vector3d(0, 0, 0.5 * weight)));
+    for (int k = b; k <= m.subtree_end[b]; ++k) {
+      const Eigen::Vector3d c = data.oMi[k].act(m.inertia[k].com);
+      moment += axis.dot((c - p).cross(Eigen::Vector3d(0, 0, -m.inertia[k].mass * g)));
+    }
+    const std::string key = "N m of '" + ankle + "'";
+    const auto at = text.find(key);
+    ASSERT_NE(at, std::string::npos) << text;
+    const auto from = text.rfind("needs ", at);
+    const double printed = std::stod(text.substr(from + 6, at - from - 6));
+    std::printf("%s: printed %.1f N m, moment balance %.3f N m\n", ankle.c_str(), printed,
+                std::abs(moment));
+    EXPECT_NEAR(printed, std::abs(moment), 0.051 + 1e-3 * std::abs(moment));
+    EXPECT_GT(std::abs(moment), 0.5) << "a cut to 1 N m must be flagged";
   }
 }
 

@@ -582,6 +582,42 @@ int run_init(const Options& opt) {
     checks.push_back("the CoM is " + fmt(st.com_error.y() * 1000, 1) +
                      " mm sideways from the mid-point of the soles: is the robot symmetric?");
 
+  // ---- standing within the joints' effort limits ------------------------------------------------
+  // The balance controller stands the robot with its CoM over the mid-point of the sole centres,
+  // half the weight on each sole. The static joint torques of that stance (inverse dynamics at
+  // rest with those two forces at the sole centres) against the URDF's effort limits: a joint
+  // that needs most of its limit just to stand saturates under the controller's corrections
+  // (Fourier GR1T1: ankle pitch effort 15 N m, the sole centre 5 cm ahead of the ankle, 13 N m to
+  // stand; it tipped forward within 1.5 s, its torques clipped every tick).
+  {
+    set_posture(d);
+    (void)stance();  // q at the nominal posture, soles on z = 0, kinematics updated
+    const double weight = m.total_mass * m.gravity.norm();
+    model::clear_external_forces(data);
+    for (const Leg& leg : legs) {
+      const SE3 X = data.oMi[leg.foot_body] * leg.X_BA;
+      const auto& so = leg.sole;
+      const Vector3 centre =
+          X.act(Vector3(0.5 * (so.x_min + so.x_max), 0.5 * (so.y_min + so.y_max), -so.height));
+      model::add_external_wrench(m, data, m.frame_id(leg.foot_frame), centre,
+                                 Vector3(0.0, 0.0, 0.5 * weight), Vector3::Zero());
+    }
+    const Eigen::VectorXd zero = Eigen::VectorXd::Zero(m.nv);
+    const Eigen::VectorXd tau = model::rnea(m, data, q, zero, zero);
+    model::clear_external_forces(data);
+    for (const Leg& leg : legs)
+      for (int j : leg.joints) {
+        const double need = std::abs(tau[6 + j]), limit = m.limits[j].effort;
+        if (std::isfinite(limit) && limit > 0.0 && need > 0.5 * limit)
+          checks.push_back("standing (the CoM over the sole centres, half the weight on each) "
+                           "needs " + fmt(need, 1) + " N m of '" + m.joint_names[j] + "', " +
+                           fmt(100.0 * need / limit, 0) + " % of its URDF effort " +
+                           fmt(limit, 1) + ": the balance controller's corrections will "
+                           "saturate it (is the effort the actuator's, or a motor's before a "
+                           "linkage?)");
+      }
+  }
+
   // ---- PD gains from the joint inertias at the nominal posture ----------------------------------
   // A joint's PD loop acts on the inertia the joint meets, 1 / (M^-1)_jj with the other joints
   // torque-free, and that depends on what holds the robot:
