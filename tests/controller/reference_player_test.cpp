@@ -105,11 +105,13 @@ TEST(ReferencePlayer, ProducesEachTickOnceAheadOfTheStateAndStopsAtTheEnd) {
 
 // States that jump past ticks not yet produced (a player that fell behind and lost states) leave
 // those ticks' references unsent: counted once as skipped (only the trajectory's ticks, 2000 to
-// 6300), never produced later; strides within the lead skip nothing (test above).
+// 6300), never produced later; strides within the lead skip nothing (test above). The tick of
+// the state jumped to is not counted: no player produces the tick of the state it handles
+// (references go to the ticks after it).
 TEST(ReferencePlayer, CountsTheTicksStatesJumpedPastAsSkipped) {
   const Robot& r = robot();
   for (const auto& [jump_to, expected] :
-       std::vector<std::pair<std::uint64_t, std::uint64_t>>{{1500, 0}, {2999, 1000}, {9000, 4301}}) {
+       std::vector<std::pair<std::uint64_t, std::uint64_t>>{{1500, 0}, {3000, 1000}, {9000, 4301}}) {
     SCOPED_TRACE(jump_to);
     reference::Player p(step_in_place(), r.model, r.config, r.model_to_wire, 1e-3, 200);
     std::map<std::uint64_t, int> sent;
@@ -123,13 +125,23 @@ TEST(ReferencePlayer, CountsTheTicksStatesJumpedPastAsSkipped) {
     for (std::uint64_t k = jump_to + 2; k <= std::max<std::uint64_t>(jump_to + 2, 7000); ++k)
       p.on_state(state_of(k), emit);
     EXPECT_EQ(p.skipped(), expected);
-    // Every trajectory tick is either sent once or skipped.
+    // Every trajectory tick is sent once or skipped, except the tick of the state jumped to
+    // (3000: no player produces the tick of the state it handles).
     std::uint64_t produced = 0;
     for (const auto& [tick, n] : sent) {
       EXPECT_EQ(n, 1) << tick;
       if (tick >= 2000 && tick <= 6300) ++produced;
     }
-    EXPECT_EQ(produced + p.skipped(), 4301u);
+    EXPECT_EQ(produced + p.skipped(), jump_to == 3000 ? 4300u : 4301u);
+  }
+  // A first state after the trajectory's first ticks is not a skip: the player cannot tell it
+  // from the loop's own first state (poise-sim's first frame is tick 10); started_late() says it.
+  for (const std::uint64_t first : {0, 2000, 3000}) {
+    reference::Player p(step_in_place(), r.model, r.config, r.model_to_wire, 1e-3, 200);
+    for (std::uint64_t k = first; k <= 7000; ++k)
+      p.on_state(state_of(k), [](const msg::BalanceReference&) { return true; });
+    EXPECT_EQ(p.skipped(), 0u) << "first state " << first;
+    EXPECT_EQ(p.started_late(), first >= 2000) << "first state " << first;
   }
 }
 

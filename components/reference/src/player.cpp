@@ -45,19 +45,28 @@ void Player::begin(const msg::State& in) noexcept {
   const double ticks_left = std::max(0.0, std::ceil((traj_.end() - t_first_) / period_));
   end_tick_ = k_ + static_cast<std::uint64_t>(ticks_left);
   next_ = k_ + 1;
+  // Not counted as skipped: the player cannot tell a first state it saw late from the first
+  // state of the loop (poise-sim's first frame is tick 10, after its start-up hold, in both
+  // modes); started_late() reports it.
   started_late_ = t_first_ + period_ > traj_.begin();
+}
+
+std::uint64_t Player::trajectory_ticks(std::uint64_t from, std::uint64_t to) const noexcept {
+  // The first tick fill() produces (t >= begin - dt / 2), from the stamp of the state handled.
+  const double t_k = static_cast<double>(k_stamp_ns_) * 1e-9;
+  const double first = std::ceil((traj_.begin() - 0.5 * period_ - t_k) / period_ - 1e-9);
+  const long long begin_tick = static_cast<long long>(k_) + static_cast<long long>(first);
+  const std::uint64_t lo =
+      std::max<std::uint64_t>(from, static_cast<std::uint64_t>(std::max(0LL, begin_tick)));
+  const std::uint64_t hi = std::min<std::uint64_t>(to, end_tick_);
+  return hi >= lo ? hi - lo + 1 : 0;
 }
 
 void Player::count_skipped(std::uint64_t k) noexcept {
   if (next_ >= k + 1) return;  // nothing left behind (or a restarted stream: next_ is ahead)
-  // The first tick the trajectory produces (fill: t >= begin - dt / 2), from this state's stamp.
-  const double t_k = static_cast<double>(k_stamp_ns_) * 1e-9;
-  const double first = std::ceil((traj_.begin() - 0.5 * period_ - t_k) / period_ - 1e-9);
-  const long long begin_tick = static_cast<long long>(k) + static_cast<long long>(first);
-  const std::uint64_t lo =
-      std::max<std::uint64_t>(next_, static_cast<std::uint64_t>(std::max(0LL, begin_tick)));
-  const std::uint64_t hi = std::min<std::uint64_t>(k, end_tick_);
-  if (hi >= lo) skipped_ += hi - lo + 1;
+  // Ticks next_ .. k - 1: due before this state. Tick k itself is this state's own tick, which
+  // no player produces (references go to the ticks after the state), as at the first state.
+  if (k > next_) skipped_ += trajectory_ticks(next_, k - 1);
   next_ = k + 1;  // those ticks are gone: counted once
 }
 

@@ -66,7 +66,8 @@ class Player {
   std::uint64_t restarts() const noexcept { return restarts_; }
   std::uint64_t sent() const noexcept { return sent_; }
   /// Ticks of the trajectory never produced because the states jumped past them (a player that
-  /// fell behind and lost states: those references are missing, not late).
+  /// fell behind and lost states: those references are missing, not late). Not the ticks before
+  /// the first state (started_late()).
   std::uint64_t skipped() const noexcept { return skipped_; }
   std::uint64_t first_sent() const noexcept { return first_sent_; }
   std::uint64_t last_sent() const noexcept { return last_sent_; }
@@ -77,6 +78,8 @@ class Player {
   void begin(const msg::State& in) noexcept;
   /// Adds to skipped_ the trajectory's ticks next_ .. k that state k leaves behind unproduced.
   void count_skipped(std::uint64_t k) noexcept;
+  /// The trajectory's ticks (those fill() produces) in [from, to].
+  std::uint64_t trajectory_ticks(std::uint64_t from, std::uint64_t to) const noexcept;
   /// Writes the reference of tick j into ref_ from state `in`; false before the trajectory.
   bool fill(std::uint64_t j, const msg::State& in) noexcept;
 
