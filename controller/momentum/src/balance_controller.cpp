@@ -142,6 +142,9 @@ BalanceController::BalanceController(const model::Model& model, const model::Rob
     for (const auto& leg : leg_joints_)
       for (int j : leg) leg_keep_[j] = keep;
   }
+  velocity_keep_ = config_.feedback.velocity_leak_hz > 0.0
+                       ? std::exp(-2.0 * M_PI * config_.feedback.velocity_leak_hz * config_.dt)
+                       : 1.0;
   touchdown_follow_keep_ =
       std::exp(-2.0 * M_PI * config_.feedback.touchdown_follow_hz * config_.dt);
   // FeedbackConfig::internal_force_leak_hz: the metrics 1/kp and 1/kd (a joint without a gain
@@ -757,8 +760,6 @@ void BalanceController::finish_with(const contact::ContactSolution& solution, Co
     error_scratch_ = qd_ref_ - qd_joint_;
     if (!internal_part(error_scratch_, inv_kd_, internal_qd_)) internal_qd_.setZero();
   }
-  const double velocity_keep =
-      fb.velocity_leak_hz > 0.0 ? std::exp(-2.0 * M_PI * fb.velocity_leak_hz * dt) : 1.0;
   for (int j = 0; j < n; ++j) {
     const double q = q_[7 + j];
     const double qd = qd_joint_[j];
@@ -773,7 +774,7 @@ void BalanceController::finish_with(const contact::ContactSolution& solution, Co
     // FeedbackConfig::velocity_leak_hz: every joint's theta_dot* decays towards the measured
     // velocity as well (composes with the leg leak). keep_v == 1: the paper's integration,
     // written as before (bit for bit).
-    const double keep_v = keep * velocity_keep;
+    const double keep_v = keep * velocity_keep_;
     double vr = keep_v < 1.0 ? qd + keep_v * (qd_ref_[j] - qd) + qdd_[6 + j] * dt
                              : qd_ref_[j] + qdd_[6 + j] * dt;
     if (std::abs(vr - qd) > fb.max_velocity_error) {

@@ -216,6 +216,8 @@ class BalanceController {
   contact::ContactSolution solution_;           // scratch for tick() and fallbacks
   contact::ContactSolution previous_solution_;  // last solution used
   TickDiagnostics diag_;
+  // FeedbackConfig::velocity_leak_hz: exp(-2 pi f dt), the velocity error kept per tick (1 = off).
+  double velocity_keep_ = 1.0;
 };
 
 }  // namespace poise::controller
