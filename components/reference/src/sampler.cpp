@@ -14,13 +14,7 @@ Sampler::Sampler(Trajectory trajectory, const model::Model& model,
 }
 
 std::array<Eigen::Vector3d, 2> sole_centres_F(const model::RobotConfig& robot) {
-  std::array<Eigen::Vector3d, 2> c;
-  for (std::size_t side = 0; side < 2; ++side) {
-    const auto& sole = robot.feet[side].sole;
-    c[side] = Eigen::Vector3d(0.5 * (sole.x_min + sole.x_max), 0.5 * (sole.y_min + sole.y_max),
-                              -sole.height);
-  }
-  return c;
+  return {robot.feet[0].sole.center_F(), robot.feet[1].sole.center_F()};
 }
 
 std::vector<int> swing_joint_indices(const Trajectory& trajectory, const model::Model& model,

@@ -527,8 +527,7 @@ int run_init(const Options& opt) {
     for (const Leg& leg : legs) {
       const SE3 X = data.oMi[leg.foot_body] * leg.X_BA;
       const auto& s = leg.sole;
-      mid += 0.5 * X.act(Vector3(0.5 * (s.x_min + s.x_max), 0.5 * (s.y_min + s.y_max), -s.height))
-                       .head<2>();
+      mid += 0.5 * X.act(s.center_F()).head<2>();
       for (double x : {s.x_min, s.x_max})
         for (double y : {s.y_min, s.y_max}) {
           const Vector3 c = X.act(Vector3(x, y, -s.height));
@@ -596,9 +595,7 @@ int run_init(const Options& opt) {
     model::clear_external_forces(data);
     for (const Leg& leg : legs) {
       const SE3 X = data.oMi[leg.foot_body] * leg.X_BA;
-      const auto& so = leg.sole;
-      const Vector3 centre =
-          X.act(Vector3(0.5 * (so.x_min + so.x_max), 0.5 * (so.y_min + so.y_max), -so.height));
+      const Vector3 centre = X.act(leg.sole.center_F());
       model::add_external_wrench(m, data, m.frame_id(leg.foot_frame), centre,
                                  Vector3(0.0, 0.0, 0.5 * weight), Vector3::Zero());
     }

@@ -183,8 +183,7 @@ class Gantry {
 
   /// The plate force at the sole centre of foot f, for the dynamics and the F/T reading.
   Eigen::Vector3d sole_centre_F(std::size_t f) const {
-    const model::SoleRectangle& s = robot_.feet[f].sole;
-    return {0.5 * (s.x_min + s.x_max), 0.5 * (s.y_min + s.y_max), -s.height};
+    return robot_.feet[f].sole.center_F();
   }
 
   void step() noexcept {

@@ -21,6 +21,10 @@ enum Side : int { kRight = 0, kLeft = 1 };
 struct SoleRectangle {
   double x_min = 0.0, x_max = 0.0, y_min = 0.0, y_max = 0.0;
   double height = 0.0;
+  /// The rectangle's centre on the sole plane, in the foot frame (dim 3).
+  Eigen::Vector3d center_F() const {
+    return {0.5 * (x_min + x_max), 0.5 * (y_min + y_max), -height};
+  }
 };
 
 struct FootConfig {

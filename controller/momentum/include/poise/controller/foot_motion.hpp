@@ -38,8 +38,7 @@ inline bool cop_in_safe_region(const model::SE3& X_WF, const Eigen::Vector3d& co
 
 /// Centre of the sole rectangle, on the sole plane, in world coordinates (dim 3).
 inline Eigen::Vector3d sole_center_W(const model::SE3& X_WF, const model::SoleRectangle& sole) {
-  return X_WF.act(Eigen::Vector3d(0.5 * (sole.x_min + sole.x_max), 0.5 * (sole.y_min + sole.y_max),
-                                  -sole.height));
+  return X_WF.act(sole.center_F());
 }
 
 }  // namespace poise::controller
