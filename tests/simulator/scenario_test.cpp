@@ -352,6 +352,10 @@ TEST(SimScenario, MonitorDoesNotCountABalanceReferencesCoMMoveAsError) {
   EXPECT_NEAR(now.due(1).x(), 0.0, 1e-12);
   EXPECT_NEAR(now.due(49).x(), 0.0, 1e-12);
   EXPECT_NEAR(now.due(50).x(), 0.02, 1e-12);
+  // A reference whose CoM target is not finite is not taken: the shift stays (counted).
+  now.put(60, true, Eigen::Vector3d(std::nan(""), 0.0, 0.8));
+  EXPECT_NEAR(now.due(60).x(), 0.02, 1e-12);
+  EXPECT_EQ(now.rejected(), 1u);
   // Past the capacity the oldest held go (counted).
   ReferenceComShift small(4);
   small.put(0, true, origin);

@@ -233,6 +233,10 @@ class SimNode {
     j["trunk_pitch_max_deg"] = r.trunk_pitch_max_deg;
     j["trunk_roll_max_deg"] = r.trunk_roll_max_deg;
     j["failed_criteria"] = monitor_.failed_criteria();
+    // poise/balance_reference as the monitor took it: references not taken (a non-finite CoM
+    // target) or dropped from a full queue; both 0 in a sound run.
+    j["reference_com_rejected"] = com_shift_.rejected();
+    j["reference_com_overflows"] = com_shift_.overflows();
     if (figures_.aborted) j["failed_criteria"].push_back("run aborted before its end");
     j["tick_latency_us"] = hist(figures_.latency);
     j["loop_wait_us"] = hist(figures_.loop_wait);

@@ -753,6 +753,10 @@ ReferenceComShift::ReferenceComShift(std::size_t capacity) : ring_(std::max<std:
 void ReferenceComShift::put(std::uint64_t tick, bool has_com_target,
                             const Eigen::Vector3d& com_W) noexcept {
   std::lock_guard<std::mutex> lock(mutex_);
+  if (has_com_target && !com_W.allFinite()) {  // the controller refuses such a tick too
+    ++rejected_;
+    return;
+  }
   if (size_ == ring_.size()) {  // full: the oldest held goes
     head_ = (head_ + 1) % ring_.size();
     --size_;
@@ -790,6 +794,11 @@ Eigen::Vector2d ReferenceComShift::due(std::uint64_t k) noexcept {
 std::uint64_t ReferenceComShift::overflows() const noexcept {
   std::lock_guard<std::mutex> lock(mutex_);
   return overflows_;
+}
+
+std::uint64_t ReferenceComShift::rejected() const noexcept {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return rejected_;
 }
 
 ScenarioMonitor::Result ScenarioMonitor::result() const {

@@ -148,6 +148,8 @@ class ReferenceComShift {
   /// The shift applied at tick k (references with tick <= k taken).
   Eigen::Vector2d due(std::uint64_t k) noexcept;
   std::uint64_t overflows() const noexcept;
+  /// References with a CoM target that is not finite: not taken (the shift stays as it was).
+  std::uint64_t rejected() const noexcept;
 
  private:
   struct Entry {
@@ -158,7 +160,7 @@ class ReferenceComShift {
   mutable std::mutex mutex_;
   std::vector<Entry> ring_;  // held references in arrival order (ticks non-decreasing)
   std::size_t head_ = 0, size_ = 0;
-  std::uint64_t overflows_ = 0;
+  std::uint64_t overflows_ = 0, rejected_ = 0;
   bool have_base_ = false;
   Eigen::Vector2d base_ = Eigen::Vector2d::Zero(), shift_ = Eigen::Vector2d::Zero();
 };
