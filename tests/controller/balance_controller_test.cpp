@@ -5,6 +5,7 @@
 // the momentum residual (Newton-Euler of the whole body); fallbacks; bad input.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <functional>
 #include <random>
@@ -46,6 +47,53 @@ void configuration_of(const model::Model& model, const RobotState& s, Eigen::Vec
 
 BalanceController make_controller(ControllerConfig cfg = {}) {
   return BalanceController(humanoid().model, humanoid().robot, cfg);
+}
+
+// robot.yaml's stand points (model::FootConfig::stand_point): the CoM target is above their
+// mid-point in double support and above the one stand point in single support, on seeded random
+// states and random points of the soles; unset, the sole centres (the paper's rule).
+TEST(BalanceController, TheCoMTargetIsAboveTheStandPointsWhereRobotYamlPutsThem) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int trial = 0; trial < 10; ++trial) {
+    model::RobotConfig robot = humanoid().robot;
+    for (auto& f : robot.feet)
+      f.stand_point = Eigen::Vector2d(f.sole.x_min + u(rng) * (f.sole.x_max - f.sole.x_min),
+                                      f.sole.y_min + u(rng) * (f.sole.y_max - f.sole.y_min));
+    BalanceController c(humanoid().model, robot, eq11_config());
+    BalanceController centre(humanoid().model, humanoid().robot, eq11_config());
+    const RobotState s = test::random_state(c, rng);
+    BalanceReference ref = c.make_reference();
+    contact::ContactProblem p;
+    c.prepare(s, ref, p);
+    centre.prepare(s, ref, p);
+    Eigen::Vector3d mid = Eigen::Vector3d::Zero(), mid_centre = Eigen::Vector3d::Zero();
+    std::array<Eigen::Vector3d, 2> point_W;
+    for (int i = 0; i < 2; ++i) {
+      const auto& f = robot.feet[i];
+      const model::SE3 X(p.feet[i].R_WF, p.feet[i].p_WF);
+      // by hand: the point in the foot frame, on the sole plane
+      point_W[i] =
+          X.R * Eigen::Vector3d(f.stand_point->x(), f.stand_point->y(), -f.sole.height) + X.p;
+      mid += 0.5 * point_W[i];
+      mid_centre += 0.5 * sole_center_W(X, f.sole);
+    }
+    const Eigen::Vector3d d = c.diagnostics().com_target_W - mid;
+    const Eigen::Vector3d dc = centre.diagnostics().com_target_W - mid_centre;
+    EXPECT_LT(d.head<2>().norm(), 1e-12) << trial;
+    EXPECT_LT(dc.head<2>().norm(), 1e-12) << trial;
+    EXPECT_NEAR(d.z(), dc.z(), 1e-9) << trial;  // the same height above the soles
+    EXPECT_GT((mid - mid_centre).head<2>().norm(), 1e-4) << trial;  // the points did move it
+    // Single support on the left foot: above its stand point.
+    RobotState one = s;
+    one.feet[0].in_contact = false;
+    one.feet[0].normal_force = 0.0;
+    c.prepare(one, ref, p);
+    if (!p.feet[0].in_contact && p.feet[1].in_contact)
+      EXPECT_LT((c.diagnostics().com_target_W - point_W[1]).head<2>().norm(), 1e-12) << trial;
+    else
+      ADD_FAILURE() << "not single support on the left foot: " << trial;
+  }
 }
 
 TEST(BalanceController, ContactProblemMatchesKinematicsAndEquations10And11) {

@@ -80,6 +80,27 @@ void expect_config_error(const std::string& from, const std::string& to,
   }
 }
 
+TEST(RobotConfig, AStandPointIsReadInTheFootFrameOnTheSolePlane) {
+  std::ifstream in(test::humanoid_config());
+  std::stringstream ss;
+  ss << in.rdbuf();
+  std::string text = ss.str();
+  const std::string sole =
+      "sole: {x_min: -0.08, x_max: 0.14, y_min: -0.055, y_max: 0.055, height: 0.08}";
+  const auto pos = text.find(sole);  // the right foot's (listed first)
+  ASSERT_NE(pos, std::string::npos);
+  text.insert(pos + sole.size(), "\n    stand_point: [-0.0125, 0.02]");
+  const std::string path = std::string(POISE_BINARY_DIR) + "/tests/model_stand_point_robot.yaml";
+  std::ofstream(path) << std::regex_replace(text, std::regex("urdf: poise_humanoid.urdf"),
+                                            "urdf: " + test::humanoid_urdf());
+  const RobotConfig cfg = load_robot_config(path);
+  ASSERT_TRUE(cfg.feet[kRight].stand_point.has_value());
+  EXPECT_FALSE(cfg.feet[kLeft].stand_point.has_value());
+  EXPECT_EQ(cfg.feet[kRight].stand_point_F(), Eigen::Vector3d(-0.0125, 0.02, -0.08));
+  EXPECT_EQ(cfg.feet[kLeft].stand_point_F(), cfg.feet[kLeft].sole.center_F());
+  EXPECT_LT((cfg.feet[kLeft].stand_point_F() - Eigen::Vector3d(0.03, 0.0, -0.08)).norm(), 1e-15);
+}
+
 TEST(RobotConfig, ErrorsNameTheProblem) {
   expect_config_error("imu_frame: imu_link", "imu_frame: imu_lnk", "imu_lnk");
   expect_config_error("frame: r_foot", "frame: r_fot", "r_fot");
@@ -91,6 +112,14 @@ TEST(RobotConfig, ErrorsNameTheProblem) {
   expect_config_error("friction_mu: 0.8", "friction_mu: -1", "friction_mu");
   expect_config_error("default: {kp: 100.0, kd: 2.0}", "default: {kp: 100.0}", "kd");
   expect_config_error("urdf: poise_humanoid.urdf", "urdf: missing.urdf", "not found");
+  // stand_point: inside the sole rectangle, two numbers
+  const std::string sole =
+      "sole: {x_min: -0.08, x_max: 0.14, y_min: -0.055, y_max: 0.055, height: 0.08}";
+  expect_config_error(sole, sole + "\n    stand_point: [0.15, 0]", "outside the sole rectangle");
+  expect_config_error(sole, sole + "\n    stand_point: [0.0, -0.06]", "outside the sole rectangle");
+  expect_config_error(sole, sole + "\n    stand_point: [0.0]", "stand_point");
+  expect_config_error(sole, sole + "\n    stand_point: [0.0, .nan]", "stand_point[1]");
+  expect_config_error(sole, sole + "\n    stand_pont: [0.0, 0.0]", "stand_pont");
   EXPECT_THROW(load_robot_config("/nonexistent/robot.yaml"), ModelError);
 }
 

@@ -7,6 +7,7 @@
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
@@ -19,6 +20,7 @@
 #include <vector>
 
 #include "child_process.hpp"
+#include "poise/model/centroidal.hpp"
 #include "poise/model/data.hpp"
 #include "poise/model/dynamics.hpp"
 #include "poise/model/kinematics.hpp"
@@ -242,60 +244,182 @@ TEST(RobotInit, AFloatingBaseWithoutCollisionIsReported) {
 // each ankle with the torque of a moment balance about the ankle axis computed here from the
 // model, independently of robot init's inverse dynamics: half the weight up at the sole centre,
 // the weight of the foot below the ankle down at its COM. With the URDF's efforts: no line.
+// The project humanoid with its ankle pitch efforts cut to `effort` N m.
+std::string weak_ankles(const std::string& xml, const std::string& effort) {
+  std::string weak = xml;
+  for (const char* ankle : {"l_ankle_pitch", "r_ankle_pitch"}) {
+    const auto j = weak.find(std::string("<joint name=\"") + ankle + "\"");
+    EXPECT_NE(j, std::string::npos) << ankle;
+    const auto e = weak.find("effort=\"", j);
+    const auto end = weak.find('"', e + 8);
+    weak.replace(e, end - e + 1, "effort=\"" + effort + "\"");
+  }
+  return weak;
+}
+
+// The static torque joint j (model index) gives to hold still the bodies below it against
+// gravity and a vertical force `up` [N] at `point` (W), by a moment balance about its axis.
+double static_moment(const poise::model::Model& m, const poise::model::Data& data, int j,
+                     const Eigen::Vector3d& point, double up) {
+  const int b = j + 1;  // the body this joint moves
+  const Eigen::Vector3d axis = data.oMi[b].R * m.axis[b];
+  const Eigen::Vector3d p = data.oMi[b].p;
+  const double g = m.gravity.norm();
+  double moment = axis.dot((point - p).cross(Eigen::Vector3d(0, 0, up)));
+  for (int k = b; k <= m.subtree_end[b]; ++k) {
+    const Eigen::Vector3d c = data.oMi[k].act(m.inertia[k].com);
+    moment += axis.dot((c - p).cross(Eigen::Vector3d(0, 0, -m.inertia[k].mass * g)));
+  }
+  return moment;
+}
+
+// The figure printed before `key` ("... needs 7.1 N m of 'x'" -> 7.1).
+double printed_need(const std::string& text, const std::string& key) {
+  const auto at = text.find(key);
+  if (at == std::string::npos) {
+    ADD_FAILURE() << "no '" << key << "' in:\n" << text;
+    return -1.0;
+  }
+  const auto from = text.rfind("needs ", at);
+  return std::stod(text.substr(from + 6, at - from - 6));
+}
+
 TEST(RobotInit, AJointThatNeedsMostOfItsEffortToStandIsReported) {
   const fs::path dir = work_dir("standing_effort");
   const std::string xml =
       read(fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/poise_humanoid.urdf");
-  std::string weak = xml;
-  for (const char* ankle : {"l_ankle_pitch", "r_ankle_pitch"}) {
-    const auto j = weak.find(std::string("<joint name=\"") + ankle + "\"");
-    ASSERT_NE(j, std::string::npos) << ankle;
-    const auto e = weak.find("effort=\"", j);
-    const auto end = weak.find('"', e + 8);
-    weak.replace(e, end - e + 1, "effort=\"1\"");
-  }
-  std::ofstream(dir / "weak.urdf") << weak;
+  std::ofstream(dir / "weak.urdf") << weak_ankles(xml, "1");
   std::ofstream(dir / "shipped.urdf") << xml;
   auto [ok_code, ok_text] = run_command(
-      {bin("poise"), "robot", "init", (dir / "shipped.urdf").string(), "-o", (dir / "ok").string()}, 60s);
+      {bin("poise"), "robot", "init", (dir / "shipped.urdf").string(), "-o", (dir / "ok").string()},
+      60s);
   ASSERT_EQ(ok_code, 0) << ok_text;
-  EXPECT_EQ(ok_text.find("standing (the CoM"), std::string::npos) << ok_text;
-  auto [code, text] = run_command(
-      {bin("poise"), "robot", "init", (dir / "weak.urdf").string(), "-o", (dir / "weak").string()}, 60s);
+  EXPECT_EQ(ok_text.find("standing with the CoM"), std::string::npos) << ok_text;
+  EXPECT_EQ(ok_text.find("stands over"), std::string::npos) << ok_text;
+  EXPECT_FALSE(poise::model::load_robot_config(dir / "ok" / "robot.yaml").feet[0].stand_point);
+  // --stand centres: the paper's stance, reported.
+  auto [code, text] = run_command({bin("poise"), "robot", "init", (dir / "weak.urdf").string(),
+                                   "-o", (dir / "weak").string(), "--stand", "centres"},
+                                  60s);
   ASSERT_EQ(code, 0) << text;
-  const poise::model::RobotConfig cfg = poise::model::load_robot_config(dir / "weak" / "robot.yaml");
+  EXPECT_NE(text.find("will saturate it (--stand centres"), std::string::npos) << text;
+  const poise::model::RobotConfig cfg =
+      poise::model::load_robot_config(dir / "weak" / "robot.yaml");
   const poise::model::Model m = poise::model::load_robot_model(cfg);
   poise::model::Data data(m);
   poise::model::forward_kinematics(m, data, cfg.q_nominal);
   poise::model::update_frame_placements(m, data);
-  const double g = m.gravity.norm(), weight = m.total_mass * g;
+  const double weight = m.total_mass * m.gravity.norm();
   for (const auto& [ankle, side] : {std::pair<std::string, int>{"l_ankle_pitch", 1},
                                     std::pair<std::string, int>{"r_ankle_pitch", 0}}) {
     SCOPED_TRACE(ankle);
     const int j = m.joint_index(ankle);
     ASSERT_GE(j, 0);
-    const int b = j + 1;  // the body this joint moves
-    const Eigen::Vector3d axis = data.oMi[b].R * m.axis[b];
-    const Eigen::Vector3d p = data.oMi[b].p;
     const auto& foot = cfg.feet[static_cast<std::size_t>(side)];
+    EXPECT_FALSE(foot.stand_point);
     const auto& so = foot.sole;
     const poise::model::SE3 X = data.oMf[static_cast<std::size_t>(foot.frame_id)];
-    const Eigen::Vector3d centre =
-        X.act(Eigen::Vector3d(0.5 * (so.x_min + so.x_max), 0.5 * (so.y_min + so.y_max), -so.height));
-    double moment = axis.dot((centre - p).cross(Eigen::Vector3d(0, 0, 0.5 * weight)));
-    for (int k = b; k <= m.subtree_end[b]; ++k) {
-      const Eigen::Vector3d c = data.oMi[k].act(m.inertia[k].com);
-      moment += axis.dot((c - p).cross(Eigen::Vector3d(0, 0, -m.inertia[k].mass * g)));
-    }
-    const std::string key = "N m of '" + ankle + "'";
-    const auto at = text.find(key);
-    ASSERT_NE(at, std::string::npos) << text;
-    const auto from = text.rfind("needs ", at);
-    const double printed = std::stod(text.substr(from + 6, at - from - 6));
+    const Eigen::Vector3d centre = X.act(
+        Eigen::Vector3d(0.5 * (so.x_min + so.x_max), 0.5 * (so.y_min + so.y_max), -so.height));
+    const double moment = static_moment(m, data, j, centre, 0.5 * weight);
+    const double printed = printed_need(text, "N m of '" + ankle + "'");
     std::printf("%s: printed %.1f N m, moment balance %.3f N m\n", ankle.c_str(), printed,
                 std::abs(moment));
     EXPECT_NEAR(printed, std::abs(moment), 0.051 + 1e-3 * std::abs(moment));
     EXPECT_GT(std::abs(moment), 0.5) << "a cut to 1 N m must be flagged";
+  }
+}
+
+// Where standing over the sole centres needs more than half a leg joint's effort, robot init
+// gives each foot a stand point where the leg joints hold the robot, and leans the legs over
+// them. Checked by moment balance at the written posture and points; then in closed loop: with
+// 3 N m ankles (7.1 N m needed at the sole centres) the robot stands over its stand points for
+// 3 s and falls over the sole centres.
+TEST(RobotInit, WeakAnklesGetStandPointsWhereTheLegJointsHoldTheRobot) {
+  const fs::path dir = work_dir("stand_points");
+  const std::string xml =
+      read(fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/poise_humanoid.urdf");
+  std::ofstream(dir / "weak.urdf") << weak_ankles(xml, "1");
+  auto [code, text] = run_command(
+      {bin("poise"), "robot", "init", (dir / "weak.urdf").string(), "-o", (dir / "weak").string()},
+      60s);
+  ASSERT_EQ(code, 0) << text;
+  ASSERT_NE(text.find("robot.yaml stands the robot over stand points"), std::string::npos) << text;
+  const poise::model::RobotConfig cfg =
+      poise::model::load_robot_config(dir / "weak" / "robot.yaml");
+  const poise::model::Model m = poise::model::load_robot_model(cfg);
+  poise::model::Data data(m);
+  poise::model::forward_kinematics(m, data, cfg.q_nominal);
+  poise::model::update_frame_placements(m, data);
+  poise::model::center_of_mass(m, data, cfg.q_nominal);
+  const double weight = m.total_mass * m.gravity.norm();
+  Eigen::Vector3d mid = Eigen::Vector3d::Zero();
+  std::array<Eigen::Vector3d, 2> point;
+  for (int side : {0, 1}) {
+    const auto& foot = cfg.feet[static_cast<std::size_t>(side)];
+    ASSERT_TRUE(foot.stand_point) << side;
+    const auto& so = foot.sole;
+    // behind the sole centre (the ankle is 3 cm behind it), inside the safe region
+    EXPECT_LT(foot.stand_point->x(), 0.5 * (so.x_min + so.x_max) - 0.02) << side;
+    EXPECT_GE(foot.stand_point->x(), so.x_min + cfg.safety_margin) << side;
+    point[static_cast<std::size_t>(side)] =
+        data.oMf[static_cast<std::size_t>(foot.frame_id)].act(foot.stand_point_F());
+    mid += 0.5 * point[static_cast<std::size_t>(side)];
+  }
+  EXPECT_LT((data.com - mid).head<2>().norm(), 1e-3) << "the CoM is not over the stand points";
+  // Each ankle within half its effort there; the printed most loaded joint by moment balance.
+  for (const auto& [ankle, side] : {std::pair<std::string, int>{"l_ankle_pitch", 1},
+                                    std::pair<std::string, int>{"r_ankle_pitch", 0}}) {
+    const double moment = static_moment(m, data, m.joint_index(ankle),
+                                        point[static_cast<std::size_t>(side)], 0.5 * weight);
+    std::printf("%s at the stand point: %.3f N m (effort 1)\n", ankle.c_str(), moment);
+    EXPECT_LT(std::abs(moment), 0.5) << ankle;
+  }
+  const auto at = text.find("the most loaded leg joint, '");
+  ASSERT_NE(at, std::string::npos) << text;
+  const auto q0 = at + std::string("the most loaded leg joint, '").size();
+  const std::string joint = text.substr(q0, text.find('\'', q0) - q0);
+  const int j = m.joint_index(joint);
+  ASSERT_GE(j, 0) << joint;
+  const int side = joint.rfind("l_", 0) == 0 ? 1 : 0;
+  const double moment =
+      static_moment(m, data, j, point[static_cast<std::size_t>(side)], 0.5 * weight);
+  const double printed = printed_need(text.substr(at), "N m, ");
+  std::printf("most loaded: %s printed %.1f N m, moment balance %.3f N m\n", joint.c_str(), printed,
+              std::abs(moment));
+  EXPECT_NEAR(printed, std::abs(moment), 0.051 + 1e-3 * std::abs(moment));
+
+  // Closed loop, 3 N m ankles: stands over the stand points, falls over the sole centres.
+  std::ofstream(dir / "weak3.urdf") << weak_ankles(xml, "3");
+  for (const std::string stand : {"auto", "centres"}) {
+    SCOPED_TRACE(stand);
+    const fs::path out = dir / ("weak3_" + stand);
+    auto [c3, t3] = run_command({bin("poise"), "robot", "init", (dir / "weak3.urdf").string(), "-o",
+                                 out.string(), "--stand", stand},
+                                60s);
+    ASSERT_EQ(c3, 0) << t3;
+    const fs::path scenario = out / "stand.yaml";
+    std::ofstream(scenario) << "name: weak_ankles_" << stand << "\n"
+                            << "description: 3 N m ankles, standing\n"
+                            << "robot:\n  config: " << (out / "robot.yaml").string() << "\n"
+                            << "duration: 3.0\n"
+                            << "initial: {posture: nominal, support: double}\n"
+                            << "world:\n  ground: {friction: 0.8}\n"
+                            << "sensors: {seed: 1}\n"
+                            << "success: {com_error_max_m: 0.02, com_error_final_m: 0.01, "
+                               "foot_slip_max_m: 0.01, min_base_height_m: 0.5}\n";
+    auto [rc, rt] = run_command({bin("poise"), "run", "--in-process", scenario.string(), "-q", "-o",
+                                 (out / "result.json").string()},
+                                300s);
+    std::printf("%s: %s", stand.c_str(), rt.c_str());
+    const std::string result = read(out / "result.json");
+    if (stand == "auto") {
+      EXPECT_EQ(rc, 0) << rt;
+      EXPECT_NE(result.find("\"survived\": true"), std::string::npos) << result;
+    } else {
+      EXPECT_NE(rc, 0) << rt;
+      EXPECT_NE(result.find("\"survived\": false"), std::string::npos) << result;
+    }
   }
 }
 

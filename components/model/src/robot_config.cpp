@@ -251,7 +251,7 @@ void read_config_body(const YAML::Node& root, const Reader& r, Model& model,
     const std::string base = std::string("feet.") + key;
     r.attempt([&, side = side, key = key] {
     const YAML::Node fn = r.child(feet, "feet", key);
-    r.keys(fn, base, {"frame", "sole_frame", "sole"});
+    r.keys(fn, base, {"frame", "sole_frame", "sole", "stand_point"});
     FootConfig& foot = cfg.feet[side];
     foot.link = r.text(r.child(fn, base, "frame"), base + ".frame");
     const int link_id = frame(foot.link, base + ".frame");
@@ -269,6 +269,17 @@ void read_config_body(const YAML::Node& root, const Reader& r, Model& model,
     if (!(s.height >= 0.0)) r.fail(sb + ".height", "must be >= 0");
     for (double v : {s.x_min, s.x_max, s.y_min, s.y_max, s.height})
       if (std::abs(v) > 10.0) r.fail(sb, "implausible: a sole coordinate beyond 10 m");
+    if (const YAML::Node pn = fn["stand_point"]) {
+      const std::string pk = base + ".stand_point";
+      if (!pn.IsSequence() || pn.size() != 2) r.fail(pk, "expected a list of 2 numbers [x, y]");
+      const Eigen::Vector2d p(r.number(pn[0], pk + "[0]"), r.number(pn[1], pk + "[1]"));
+      if (!(p.x() >= s.x_min && p.x() <= s.x_max && p.y() >= s.y_min && p.y() <= s.y_max))
+        r.fail(pk, "(" + std::to_string(p.x()) + ", " + std::to_string(p.y()) +
+                       ") is outside the sole rectangle x [" + std::to_string(s.x_min) + ", " +
+                       std::to_string(s.x_max) + "] y [" + std::to_string(s.y_min) + ", " +
+                       std::to_string(s.y_max) + "]");
+      foot.stand_point = p;
+    }
     const Frame& lf = model.frames[link_id];
     const YAML::Node sfn = r.child(fn, base, "sole_frame");
     const std::string sk = base + ".sole_frame";

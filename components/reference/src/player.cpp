@@ -28,7 +28,7 @@ Player::Player(Trajectory trajectory, const model::Model& model, const model::Ro
     ref_.upper_body_q()[static_cast<std::size_t>(model_to_wire[j])] =
         robot.q_nominal[7 + static_cast<Eigen::Index>(j)];
   nominal_q_ = ref_.upper_body_q();
-  sole_F_ = sole_centres_F(robot);
+  sole_F_ = stand_points_F(robot);
 }
 
 void Player::begin(const msg::State& in) noexcept {

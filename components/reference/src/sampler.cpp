@@ -9,12 +9,12 @@ Sampler::Sampler(Trajectory trajectory, const model::Model& model,
                  const model::RobotConfig& robot)
     : traj_(std::move(trajectory)),
       swing_joint_(swing_joint_indices(traj_, model, robot)),
-      sole_F_(sole_centres_F(robot)) {
+      sole_F_(stand_points_F(robot)) {
   q_nominal_ = robot.q_nominal.tail(model.njoints);
 }
 
-std::array<Eigen::Vector3d, 2> sole_centres_F(const model::RobotConfig& robot) {
-  return {robot.feet[0].sole.center_F(), robot.feet[1].sole.center_F()};
+std::array<Eigen::Vector3d, 2> stand_points_F(const model::RobotConfig& robot) {
+  return {robot.feet[0].stand_point_F(), robot.feet[1].stand_point_F()};
 }
 
 std::vector<int> swing_joint_indices(const Trajectory& trajectory, const model::Model& model,

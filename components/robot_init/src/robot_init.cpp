@@ -1,20 +1,22 @@
 // `poise robot init URDF [-o DIR] [--name NAME] [--force] [--wn W]`: guesses a robot.yaml from a
 // URDF alone (legs, feet, soles, IMU, nominal posture, PD gains), writes it, checks it with the
 // loader and prints what it guessed. README: components/robot_init/README.md.
-#include <CLI/CLI.hpp>
 #include <urdf_parser/urdf_parser.h>
+#include <CLI/CLI.hpp>
 
 #include <Eigen/Dense>
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
-#include <cstdint>
-#include <cstring>
-#include <cctype>
+#include <limits>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <string>
@@ -46,9 +48,10 @@ struct Options {
   std::string out_dir;
   std::string name;
   bool force = false;
-  double wn = 100.0;          ///< rad/s, natural frequency of each joint's PD loop
-  double knee_bend = 0.5;     ///< rad
-  double dt = 0.001;          ///< s, control period
+  double wn = 100.0;           ///< rad/s, natural frequency of each joint's PD loop
+  double knee_bend = 0.5;      ///< rad
+  double dt = 0.001;           ///< s, control period
+  bool stand_centres = false;  ///< --stand centres: never stand points (the paper's rule)
 };
 
 // Points of one collision shape in its link frame (boxes: corners; cylinders and spheres: points
@@ -119,18 +122,23 @@ std::string sig(double v, int digits = 4) {
 }
 
 struct Leg {
-  std::string side;               ///< "left" / "right"
+  std::string side;  ///< "left" / "right"
   int foot_body = -1;
   std::string foot_frame;
-  std::vector<int> joints;        ///< model joints from the hip down
+  std::vector<int> joints;  ///< model joints from the hip down
   model::SoleRectangle sole;
+  /// Where the robot stands on this sole (robot.yaml feet.<side>.stand_point; unset: the centre).
+  std::optional<Eigen::Vector2d> stand;
+  Vector3 stand_F() const {
+    return stand ? Vector3(stand->x(), stand->y(), -sole.height) : sole.center_F();
+  }
   std::string sole_frame;
   bool sole_added = false;
-  SE3 X_BA;                       ///< foot frame in the foot body (an added upright frame or I)
-  bool frame_added = false;       ///< the foot frame is an upright frame robot.yaml adds
-  Vector3 sole_offset = Vector3::Zero();  ///< sole_added: sole frame origin in the foot link
-  Vector3 sole_rpy = Vector3::Zero();     ///< sole_added: its rotation (URDF rpy)
-  int hip = -1, knee = -1, ankle = -1;  ///< pitch joints (model indices), -1 when not found
+  SE3 X_BA;                  ///< foot frame in the foot body (an added upright frame or I)
+  bool frame_added = false;  ///< the foot frame is an upright frame robot.yaml adds
+  Vector3 sole_offset = Vector3::Zero();      ///< sole_added: sole frame origin in the foot link
+  Vector3 sole_rpy = Vector3::Zero();         ///< sole_added: its rotation (URDF rpy)
+  int hip = -1, knee = -1, ankle = -1;        ///< pitch joints (model indices), -1 when not found
   double s_hip = 1, s_knee = 1, s_ankle = 1;  ///< sign of each pitch axis along world +y
 };
 
@@ -507,7 +515,7 @@ int run_init(const Options& opt) {
     }
   };
   struct Stance {
-    Eigen::Vector2d com_error;  ///< CoM minus the mid-point of the sole centres (world xy)
+    Eigen::Vector2d com_error;  ///< CoM minus the mid-point of the stand points (world xy)
     double tilt = 0.0;          ///< worst sole tilt (rad)
     double dz = 0.0;            ///< sole height difference
     bool inside = false;        ///< CoM inside the bounding box of the soles
@@ -527,7 +535,7 @@ int run_init(const Options& opt) {
     for (const Leg& leg : legs) {
       const SE3 X = data.oMi[leg.foot_body] * leg.X_BA;
       const auto& s = leg.sole;
-      mid += 0.5 * X.act(s.center_F()).head<2>();
+      mid += 0.5 * X.act(leg.stand_F()).head<2>();
       for (double x : {s.x_min, s.x_max})
         for (double y : {s.y_min, s.y_max}) {
           const Vector3 c = X.act(Vector3(x, y, -s.height));
@@ -544,10 +552,14 @@ int run_init(const Options& opt) {
     return st;
   };
   double d = 0.0;
-  set_posture(d);
-  Stance st = stance();
-  if (knee > 0.0) {
-    // Secant on d for the CoM x error (sagittal).
+  Stance st;
+  // Lean the legs (d) to put the CoM over the mid-point of the stand points: secant on d for the
+  // CoM x error (sagittal). Leaves q at the posture found.
+  auto lean = [&]() {
+    d = 0.0;
+    set_posture(d);
+    st = stance();
+    if (!(knee > 0.0)) return;
     double d0 = 0.0, e0 = st.com_error.x(), d1 = 0.05;
     set_posture(d1);
     double e1 = stance().com_error.x();
@@ -562,10 +574,11 @@ int run_init(const Options& opt) {
     d = d1;
     set_posture(d);
     st = stance();
-    if (std::abs(st.com_error.x()) > 0.005) {
-      checks.push_back("the CoM could not be put over the sole centres by leaning the legs (" +
-                       fmt(st.com_error.x() * 1000, 1) + " mm off in x)");
-    }
+  };
+  lean();
+  if (knee > 0.0 && std::abs(st.com_error.x()) > 0.005) {
+    checks.push_back("the CoM could not be put over the sole centres by leaning the legs (" +
+                     fmt(st.com_error.x() * 1000, 1) + " mm off in x)");
   }
   if (st.tilt > 1e-3)
     throw InitError("in the nominal posture a sole is tilted by " + fmt(st.tilt, 4) +
@@ -587,32 +600,165 @@ int run_init(const Options& opt) {
   // rest with those two forces at the sole centres) against the URDF's effort limits: a joint
   // that needs most of its limit just to stand saturates under the controller's corrections
   // (Fourier GR1T1: ankle pitch effort 15 N m, the sole centre 5 cm ahead of the ankle, 13 N m to
-  // stand; it tipped forward within 1.5 s, its torques clipped every tick).
+  // stand; it tipped forward within 1.5 s, its torques clipped every tick). Where some leg joint
+  // needs more than half its effort, each foot gets a stand point instead: the point of its sole
+  // (inside the contact safety margin) where the leg's most loaded joint, as a fraction of its
+  // effort, needs least; the legs are leaned again to put the CoM over their mid-point.
   {
-    set_posture(d);
-    (void)stance();  // q at the nominal posture, soles on z = 0, kinematics updated
     const double weight = m.total_mass * m.gravity.norm();
-    model::clear_external_forces(data);
-    for (const Leg& leg : legs) {
-      const SE3 X = data.oMi[leg.foot_body] * leg.X_BA;
-      const Vector3 centre = X.act(leg.sole.center_F());
-      model::add_external_wrench(m, data, m.frame_id(leg.foot_frame), centre,
-                                 Vector3(0.0, 0.0, 0.5 * weight), Vector3::Zero());
-    }
+    const double sole_margin = 0.01;  // robot.yaml's contact.safety_margin, written below
     const Eigen::VectorXd zero = Eigen::VectorXd::Zero(m.nv);
-    const Eigen::VectorXd tau = model::rnea(m, data, q, zero, zero);
-    model::clear_external_forces(data);
+    // Joint torques of the nominal posture, soles on z = 0, half the weight on each sole at the
+    // given points (foot frames).
+    auto standing_torques = [&](const std::array<Vector3, 2>& at_F) {
+      set_posture(d);
+      (void)stance();
+      model::clear_external_forces(data);
+      for (int s = 0; s < 2; ++s) {
+        const Leg& leg = legs[s];
+        const SE3 X = data.oMi[leg.foot_body] * leg.X_BA;
+        model::add_external_wrench(m, data, m.frame_id(leg.foot_frame), X.act(at_F[s]),
+                                   Vector3(0.0, 0.0, 0.5 * weight), Vector3::Zero());
+      }
+      const Eigen::VectorXd tau = model::rnea(m, data, q, zero, zero);
+      model::clear_external_forces(data);
+      return tau;
+    };
+    auto effort = [&](int j) {
+      const double limit = m.limits[j].effort;
+      return std::isfinite(limit) && limit > 0.0 ? limit : std::numeric_limits<double>::infinity();
+    };
+    // The leg's most loaded joint as a fraction of its effort: {fraction, joint}.
+    auto worst = [&](const Eigen::VectorXd& tau, const Leg& leg) {
+      std::pair<double, int> w{0.0, -1};
+      for (int j : leg.joints) {
+        const double f = std::abs(tau[6 + j]) / effort(j);
+        if (f > w.first) w = {f, j};
+      }
+      return w;
+    };
+    const std::array<Vector3, 2> centres{legs[0].sole.center_F(), legs[1].sole.center_F()};
+    const Eigen::VectorXd tau_c = standing_torques(centres);
+    bool too_much = false;
     for (const Leg& leg : legs)
       for (int j : leg.joints) {
-        const double need = std::abs(tau[6 + j]), limit = m.limits[j].effort;
-        if (std::isfinite(limit) && limit > 0.0 && need > 0.5 * limit)
-          checks.push_back("standing (the CoM over the sole centres, half the weight on each) "
-                           "needs " + fmt(need, 1) + " N m of '" + m.joint_names[j] + "', " +
-                           fmt(100.0 * need / limit, 0) + " % of its URDF effort " +
-                           fmt(limit, 1) + ": the balance controller's corrections will "
-                           "saturate it (is the effort the actuator's, or a motor's before a "
-                           "linkage?)");
+        const double need = std::abs(tau_c[6 + j]), limit = effort(j);
+        if (need > 0.5 * limit) {
+          too_much = true;
+          checks.push_back(
+              "standing with the CoM over the sole centres, half the weight on each, "
+              "needs " +
+              fmt(need, 1) + " N m of '" + m.joint_names[j] + "', " + fmt(100.0 * need / limit, 0) +
+              " % of its URDF effort " + fmt(limit, 1) +
+              (opt.stand_centres ? std::string(": the balance controller's corrections will "
+                                               "saturate it (--stand centres; without it robot "
+                                               "init puts stand points where the leg joints "
+                                               "can hold the robot)")
+                                 : std::string(": robot.yaml stands the robot over stand points "
+                                               "instead (next line)")));
+        }
       }
+    if (too_much && !opt.stand_centres) {
+      // Each leg's joint torques are affine in where its own foot's force acts (the other foot's
+      // force does not reach them): tau_j(p) = tau_j(c) + g_j . (p - c), slopes g_j by finite
+      // steps along the sole's x and y. A correction moves the CoP, and every joint's torque
+      // with it: along the sole's x the CoP can go r_x(p) either way from p before a leg joint
+      // reaches its effort or the CoP the sole's safe edge,
+      //   r_x(p) = min( min_j (L_j - |tau_j(p)|) / |g_j,x|, distances from p to the x edges ),
+      // and r_y(p) the same across. The stand point maximises r_x + r_y over a grid of the safe
+      // region (nearest the centre among equals; a narrow sole's r_y then does not pull x off the
+      // middle of what the joints allow); a slope below 1e-6 W does not count. Leaning the legs
+      // over the new points changes the torques a little: three rounds.
+      std::array<Eigen::Vector2d, 2> reach, reach_centre;
+      for (int round = 0; round < 3; ++round) {
+        const Eigen::VectorXd tau0 = standing_torques(centres);
+        const double h = 0.01;
+        std::array<Vector3, 2> px = centres, py = centres;
+        for (int s = 0; s < 2; ++s) {
+          px[s].x() += h;
+          py[s].y() += h;
+        }
+        const Eigen::VectorXd tau_x = standing_torques(px), tau_y = standing_torques(py);
+        for (int s = 0; s < 2; ++s) {
+          Leg& leg = legs[s];
+          const auto& so = leg.sole;
+          const double mx = std::min(sole_margin, 0.25 * (so.x_max - so.x_min));
+          const double my = std::min(sole_margin, 0.25 * (so.y_max - so.y_min));
+          const double x0 = so.x_min + mx, x1 = so.x_max - mx, y0 = so.y_min + my,
+                       y1 = so.y_max - my;
+          const Eigen::Vector2d c = centres[s].head<2>();
+          auto r_at = [&](const Eigen::Vector2d& p) {
+            Eigen::Vector2d r(std::min(p.x() - x0, x1 - p.x()), std::min(p.y() - y0, y1 - p.y()));
+            for (int j : leg.joints) {
+              if (!std::isfinite(effort(j))) continue;
+              const Eigen::Vector2d g((tau_x[6 + j] - tau0[6 + j]) / h,
+                                      (tau_y[6 + j] - tau0[6 + j]) / h);
+              const double room = effort(j) - std::abs(tau0[6 + j] + g.dot(p - c));
+              for (int k = 0; k < 2; ++k)
+                if (std::abs(g[k]) >= 1e-6 * weight) r[k] = std::min(r[k], room / std::abs(g[k]));
+            }
+            return r;
+          };
+          constexpr int kGrid = 120;
+          double best = -std::numeric_limits<double>::infinity();
+          Eigen::Vector2d best_p = c;
+          auto consider = [&](const Eigen::Vector2d& p) {
+            const double f = r_at(p).sum() - 1e-9 * (p - c).norm();
+            if (f > best) {
+              best = f;
+              best_p = p;
+            }
+          };
+          for (int a = 0; a <= kGrid; ++a)
+            for (int b = 0; b <= kGrid; ++b)
+              consider({x0 + (x1 - x0) * a / kGrid, y0 + (y1 - y0) * b / kGrid});
+          // A finer grid over the best cell and its neighbours.
+          const double sx = (x1 - x0) / kGrid, sy = (y1 - y0) / kGrid;
+          const Eigen::Vector2d coarse = best_p;
+          for (int a = -kGrid / 2; a <= kGrid / 2; ++a)
+            for (int b = -kGrid / 2; b <= kGrid / 2; ++b)
+              consider({std::clamp(coarse.x() + 4.0 * sx * a / kGrid, x0, x1),
+                        std::clamp(coarse.y() + 4.0 * sy * b / kGrid, y0, y1)});
+          leg.stand = Eigen::Vector2d(std::round(best_p.x() * 1e4) / 1e4,
+                                      std::round(best_p.y() * 1e4) / 1e4);
+          reach[s] = r_at(*leg.stand);
+          reach_centre[s] = r_at(c);
+        }
+        lean();
+      }
+      const Eigen::VectorXd tau_s = standing_torques({legs[0].stand_F(), legs[1].stand_F()});
+      std::string line = "the robot stands over";
+      std::pair<double, int> w{0.0, -1};
+      for (int s : {1, 0}) {
+        const Leg& leg = legs[s];
+        line += std::string(s == 1 ? " " : " and ") + "(" + fmt(leg.stand->x(), 4) + ", " +
+                fmt(leg.stand->y(), 4) + ") of the " + leg.side + " sole (centre (" +
+                fmt(leg.sole.center_F().x(), 4) + ", " + fmt(leg.sole.center_F().y(), 4) + "))";
+        const auto ws = worst(tau_s, leg);
+        if (ws.first > w.first) w = ws;
+      }
+      line +=
+          ", feet.<side>.stand_point in robot.yaml: the balance controller keeps the CoM over "
+          "their mid-point. From there a sole's CoP can move " +
+          fmt(1000.0 * std::min(reach[0].x(), reach[1].x()), 1) + " mm forward or back and " +
+          fmt(1000.0 * std::min(reach[0].y(), reach[1].y()), 1) +
+          " mm sideways before a leg joint reaches its effort or the CoP the sole's safe edge "
+          "(from the centre: " +
+          fmt(1000.0 * std::min(reach_centre[0].x(), reach_centre[1].x()), 1) + " and " +
+          fmt(1000.0 * std::min(reach_centre[0].y(), reach_centre[1].y()), 1) + " mm)";
+      if (w.second >= 0) {
+        line += "; there the most loaded leg joint, '" + m.joint_names[w.second] + "', needs " +
+                fmt(std::abs(tau_s[6 + w.second]), 1) + " N m, " + fmt(100.0 * w.first, 0) +
+                " % of its effort";
+        if (w.first > 0.5)
+          line +=
+              ": still more than half; the controller's corrections will saturate it (is the "
+              "effort the actuator's, or a motor's before a linkage?)";
+      }
+      checks.push_back(line);
+      set_posture(d);
+      (void)stance();
+    }
   }
 
   // ---- PD gains from the joint inertias at the nominal posture ----------------------------------
@@ -764,17 +910,25 @@ int run_init(const Options& opt) {
     } else {
       y << L.sole_frame;
     }
-    y << "\n    sole: {x_min: "
-      << fmt(L.sole.x_min) << ", x_max: " << fmt(L.sole.x_max) << ", y_min: " << fmt(L.sole.y_min)
-      << ", y_max: " << fmt(L.sole.y_max) << ", height: " << fmt(L.sole.height) << "}\n";
+    y << "\n    sole: {x_min: " << fmt(L.sole.x_min) << ", x_max: " << fmt(L.sole.x_max)
+      << ", y_min: " << fmt(L.sole.y_min) << ", y_max: " << fmt(L.sole.y_max)
+      << ", height: " << fmt(L.sole.height) << "}\n";
+    if (L.stand)
+      y << "    stand_point: [" << fmt(L.stand->x(), 4) << ", " << fmt(L.stand->y(), 4)
+        << "]   # the CoM stands over these points, not the sole centres: their leg joints' "
+           "efforts (robot init's check)\n";
   }
-  y << "\n# The robot's forward in the floating base's frame: the toes' direction (each sole's long\n"
+  y << "\n# The robot's forward in the floating base's frame: the toes' direction (each sole's "
+       "long\n"
        "# axis, toward the end farther from the ankle), both feet averaged.\n"
     << "forward_axis: [" << fmt(forward.x(), 6) << ", " << fmt(forward.y(), 6) << ", 0]\n";
   y << "\ncontact:\n  safety_margin: 0.01\n  friction_mu: 0.8\n  torsional_mu: 0.02\n\n"
     << "joint_groups:\n  legs: " << names(leg_joints) << "\n  upper_body: " << names(upper)
-    << "\n\n# Knees bent, hip + knee + ankle pitch = 0 (soles flat), legs leaned so the CoM is over "
-       "the\n# mid-point of the sole centres. Joints not listed are 0.\nnominal_posture:\n";
+    << "\n\n# Knees bent, hip + knee + ankle pitch = 0 (soles flat), legs leaned so the CoM is "
+       "over "
+       "the\n# mid-point of the "
+    << (legs[0].stand ? "stand points" : "sole centres")
+    << ". Joints not listed are 0.\nnominal_posture:\n";
   bool any = false;
   for (int j = 0; j < m.njoints; ++j)
     if (q[m.idx_q(j)] != 0.0) {
@@ -827,10 +981,10 @@ int run_init(const Options& opt) {
   }
   std::cout << "  forward_axis [" << fmt(forward.x(), 4) << ", " << fmt(forward.y(), 4)
             << ", 0] (base frame, from the toes)\n";
-  std::cout << "  upper body: " << names(upper) << "\n  nominal posture: knees "
-            << fmt(knee, 3) << " rad, lean " << fmt(d, 4) << " rad; CoM "
-            << fmt(st.com_error.x() * 1000, 2) << ", " << fmt(st.com_error.y() * 1000, 2)
-            << " mm from the sole centres' mid-point; CoM height "
+  std::cout << "  upper body: " << names(upper) << "\n  nominal posture: knees " << fmt(knee, 3)
+            << " rad, lean " << fmt(d, 4) << " rad; CoM " << fmt(st.com_error.x() * 1000, 2) << ", "
+            << fmt(st.com_error.y() * 1000, 2) << " mm from the "
+            << (legs[0].stand ? "stand points'" : "sole centres'") << " mid-point; CoM height "
             << fmt(data.com.z(), 3) << " m\n  gains (wn " << fmt(opt.wn, 1)
             << " rad/s on the swing inertia, kd damping the stance inertia where it is more than "
             << fmt(stance_ratio, 0) << " x; the whole robot's explicit PD loop becomes unstable at "
@@ -877,6 +1031,14 @@ int cli_main(int argc, char** argv) {
   init->add_option("--wn", opt.wn, "natural frequency of each joint's PD loop, rad/s")
       ->check(CLI::Range(1.0, 200.0))
       ->capture_default_str();
+  std::string stand = "auto";
+  init->add_option("--stand", stand,
+                   "where the robot stands on its soles: auto (the sole centres, as the paper, "
+                   "unless that needs more than half a leg joint's URDF effort: then stand "
+                   "points where the joints hold it, feet.<side>.stand_point) or centres (always "
+                   "the sole centres)")
+      ->check(CLI::IsMember({"auto", "centres"}))
+      ->capture_default_str();
   init->add_option("--knee", opt.knee_bend, "knee bend of the nominal posture, rad")
       ->check(CLI::Range(0.0, 1.5))
       ->capture_default_str();
@@ -885,6 +1047,7 @@ int cli_main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   }
+  opt.stand_centres = stand == "centres";
   try {
     if (*init) return run_init(opt);
   } catch (const std::exception& e) {

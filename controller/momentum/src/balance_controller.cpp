@@ -448,7 +448,7 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
 
     if (support) {
       ++num_support;
-      sole_mean += sole_center_W(X_WF_[i], foot.sole);
+      sole_mean += stand_point_W(X_WF_[i], foot);
       foot_vel_mean += V_WF_[i].head<3>();
       foot_acc_sum += foot_acc;
     }
@@ -478,6 +478,8 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
   }
 
   // ---- desired CoM (reference, or Sec. 4.2: above the mid-point of the supports) ---------------
+  // The supports' points are their stand points: the sole centres as in the paper, unless
+  // robot.yaml puts the robot's weight elsewhere on the soles (FootConfig::stand_point).
   diag_.support_acceleration_W.setZero();
   if (reference.has_com_target) {
     diag_.com_target_W = reference.com_W;
@@ -486,7 +488,7 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
     if (num_support == 0) {
       // No support (flight, or contact not detected yet): the rule over both feet.
       for (int i = 0; i < kFeet; ++i) {
-        sole_mean += sole_center_W(X_WF_[i], robot_.feet[i].sole);
+        sole_mean += stand_point_W(X_WF_[i], robot_.feet[i]);
         foot_vel_mean += V_WF_[i].head<3>();
       }
     }

@@ -7,6 +7,7 @@
 #include <array>
 #include <filesystem>
 #include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -46,6 +47,18 @@ struct FootConfig {
   /// fixed to the foot body; meshes are not simulated) relative to the sole plane, along the
   /// sole normal, in metres (negative: below the sole plane). NaN when the foot has none.
   double collision_bottom = std::numeric_limits<double>::quiet_NaN();
+  /// Where on this sole the robot stands: the balance controller's CoM target is above the
+  /// mid-point of its supports' stand points (paper Sec. 4.2 says the sole centres), and a
+  /// reference's `over` CoM moves end above them. In the foot frame, on the sole plane (x, y);
+  /// robot.yaml `feet.<side>.stand_point` (inside the sole rectangle), unset: the sole centre.
+  /// `poise robot init` sets it only when standing over the sole centre needs most of a leg
+  /// joint's effort (components/robot_init/README.md, "Standing within the efforts").
+  std::optional<Eigen::Vector2d> stand_point;
+  /// The stand point on the sole plane, in the foot frame (dim 3): stand_point, else the centre.
+  Eigen::Vector3d stand_point_F() const {
+    return stand_point ? Eigen::Vector3d(stand_point->x(), stand_point->y(), -sole.height)
+                       : sole.center_F();
+  }
 };
 
 struct JointGains {

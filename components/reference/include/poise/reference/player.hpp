@@ -100,7 +100,7 @@ class Player {
   Eigen::Vector3d origin_ = Eigen::Vector3d::Zero();
   int step_index_ = -1;
   model::SE3 X_stood_;
-  std::array<Eigen::Vector3d, 2> sole_F_;  // sole centres in the foot frames (ComOver)
+  std::array<Eigen::Vector3d, 2> sole_F_;  // stand points in the foot frames (ComOver)
 };
 
 }  // namespace poise::reference

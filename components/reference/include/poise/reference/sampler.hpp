@@ -41,7 +41,7 @@ class Sampler {
   Eigen::Vector3d origin_ = Eigen::Vector3d::Zero();
   int step_ = -1;  // index of the step whose stood pose is held
   model::SE3 X_stood_;
-  std::array<Eigen::Vector3d, 2> sole_F_;  // sole centres in the foot frames (ComOver)
+  std::array<Eigen::Vector3d, 2> sole_F_;  // stand points in the foot frames (ComOver)
 };
 
 /// The model joint index of each of the trajectory's swings. Throws std::runtime_error naming
@@ -50,9 +50,10 @@ class Sampler {
 std::vector<int> swing_joint_indices(const Trajectory& trajectory, const model::Model& model,
                                      const model::RobotConfig& robot);
 
-/// Each foot's sole centre in its foot frame (model::Side order): where a CoM move `over` a foot
-/// ends (ComOver). Shared by the sampler and the player.
-std::array<Eigen::Vector3d, 2> sole_centres_F(const model::RobotConfig& robot);
+/// Each foot's stand point in its foot frame (model::Side order; FootConfig::stand_point_F, the
+/// sole centre unless robot.yaml says): where a CoM move `over` a foot ends (ComOver). Shared by
+/// the sampler and the player.
+std::array<Eigen::Vector3d, 2> stand_points_F(const model::RobotConfig& robot);
 
 /// Foot reference of a step at time t from the stood pose: FOOT_SWING, target raised by the lift
 /// profile (vertical velocity as the target velocity). Shared by the DDS player.

@@ -9,9 +9,10 @@
 
 namespace poise::reference {
 
-/// Where a CoM move ends: `shift` as given, or (horizontally) over a foot's sole centre or the
-/// mid-point of both, taken when the move begins (resolve_com_moves): a file that says "over the
-/// left foot" fits any robot's stance.
+/// Where a CoM move ends: `shift` as given, or (horizontally) over a foot's stand point (its sole
+/// centre unless robot.yaml says, model::FootConfig::stand_point) or the mid-point of both, taken
+/// when the move begins (resolve_com_moves): a file that says "over the left foot" fits any
+/// robot's stance.
 enum class ComOver { kShift, kRight, kLeft, kBetween };
 
 /// The CoM target moves by `shift` [m] along a minimum-jerk profile in [start, start + duration].
@@ -69,7 +70,7 @@ Trajectory load_trajectory(const std::string& path);
 
 /// Gives each `over` move that has begun by time t (t >= start) and is not yet resolved its
 /// shift: the horizontal vector from the CoM target before it (origin + the earlier moves'
-/// shifts) to the sole centre it names, or the mid-point of both (`sole_centre_W`, indexed by
+/// shifts) to the stand point it names, or the mid-point of both (`*_sole_W`, indexed by
 /// model::Side: 0 right, 1 left, in W, measured now); no vertical change. Allocation-free.
 void resolve_com_moves(Trajectory& traj, double t, const Eigen::Vector3d& origin,
                        const Eigen::Vector3d& right_sole_W,

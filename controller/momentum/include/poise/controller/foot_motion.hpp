@@ -41,4 +41,10 @@ inline Eigen::Vector3d sole_center_W(const model::SE3& X_WF, const model::SoleRe
   return X_WF.act(sole.center_F());
 }
 
+/// Where the robot stands on this foot (model::FootConfig::stand_point_F: the sole centre unless
+/// robot.yaml says), on the sole plane, in world coordinates (dim 3).
+inline Eigen::Vector3d stand_point_W(const model::SE3& X_WF, const model::FootConfig& foot) {
+  return X_WF.act(foot.stand_point_F());
+}
+
 }  // namespace poise::controller
