@@ -423,6 +423,136 @@ TEST(RobotInit, WeakAnklesGetStandPointsWhereTheLegJointsHoldTheRobot) {
   }
 }
 
+// The nominal posture of a robot.yaml: each sole's tilt from flat [rad] and the two sole planes'
+// height difference [m], by forward kinematics of the written posture.
+std::pair<double, double> sole_tilt_and_step(const fs::path& yaml) {
+  const poise::model::RobotConfig cfg = poise::model::load_robot_config(yaml);
+  const poise::model::Model m = poise::model::load_robot_model(cfg);
+  poise::model::Data data(m);
+  poise::model::forward_kinematics(m, data, cfg.q_nominal);
+  poise::model::update_frame_placements(m, data);
+  double tilt = 0.0;
+  std::array<double, 2> z{};
+  for (int s : {0, 1}) {
+    const auto& f = cfg.feet[static_cast<std::size_t>(s)];
+    const poise::model::SE3 X = data.oMf[static_cast<std::size_t>(f.frame_id)];
+    tilt = std::max(tilt, std::acos(std::clamp(X.R.col(2).z(), -1.0, 1.0)));
+    z[static_cast<std::size_t>(s)] = X.act(Eigen::Vector3d(0, 0, -f.sole.height)).z();
+  }
+  return {tilt, std::abs(z[0] - z[1])};
+}
+
+// Hip pitch axes canted 15 deg about x (EngineAI's PM01): the bent-knee rule alone tilts the soles
+// (robot init refused PM01: "a sole is tilted by 0.0159 rad"); the leg IK makes them flat, and the
+// robot stands 10 s.
+TEST(RobotInit, CantedHipPitchAxesGetFlatSolesByLegIk) {
+  const fs::path dir = work_dir("canted_hips");
+  std::string xml =
+      read(fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/poise_humanoid.urdf");
+  for (const auto& [hip, axis] : {std::pair<std::string, std::string>{"l_hip_pitch", "0 0.96593 -0.25882"},
+                                  std::pair<std::string, std::string>{"r_hip_pitch", "0 0.96593 0.25882"}}) {
+    const auto j = xml.find("<joint name=\"" + hip + "\"");
+    ASSERT_NE(j, std::string::npos) << hip;
+    const auto a = xml.find("<axis xyz=\"", j);
+    const auto end = xml.find('"', a + 11);
+    xml.replace(a, end - a + 1, "<axis xyz=\"" + axis + "\"");
+  }
+  const fs::path urdf = dir / "canted.urdf";
+  std::ofstream(urdf) << xml;
+  init_and_stand(urdf, dir, false);
+  const auto [tilt, step] = sole_tilt_and_step(dir / "robot" / "robot.yaml");
+  std::printf("canted hips: sole tilt %.2e rad, step %.2e m\n", tilt, step);
+  EXPECT_LT(tilt, 3e-4);  // the posture is written to 1e-4 rad
+  EXPECT_LT(step, 1e-4);
+}
+
+// One foot's collision box 1.5 mm lower than the other's (EngineAI's SA01 meshes: 1.2 mm; robot
+// init refused it: "the soles differ in height by 1.2 mm"): the sole heights are each foot's own,
+// and the leg IK levels the two sole planes; the robot stands.
+TEST(RobotInit, FeetOfDifferentHeightsGetLevelSolesByLegIk) {
+  const fs::path dir = work_dir("uneven_feet");
+  std::string xml =
+      read(fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/poise_humanoid.urdf");
+  const auto foot = xml.find("<link name=\"l_foot\"");
+  ASSERT_NE(foot, std::string::npos);
+  const std::string from = "<origin xyz=\"0.03 0 -0.055\" rpy=\"0 0 0\"/>";
+  const auto c = xml.find(from, xml.find("<collision>", foot));
+  ASSERT_NE(c, std::string::npos);
+  xml.replace(c, from.size(), "<origin xyz=\"0.03 0 -0.0565\" rpy=\"0 0 0\"/>");
+  const fs::path urdf = dir / "uneven.urdf";
+  std::ofstream(urdf) << xml;
+  auto [code, text] = run_command(
+      {bin("poise"), "robot", "init", urdf.string(), "-o", (dir / "robot").string()}, 60s);
+  ASSERT_EQ(code, 0) << text;
+  const poise::model::RobotConfig cfg = poise::model::load_robot_config(dir / "robot" / "robot.yaml");
+  EXPECT_NEAR(cfg.feet[poise::model::kLeft].sole.height, 0.0815, 1e-6);
+  EXPECT_NEAR(cfg.feet[poise::model::kRight].sole.height, 0.08, 1e-6);
+  const auto [tilt, step] = sole_tilt_and_step(dir / "robot" / "robot.yaml");
+  std::printf("uneven feet: sole tilt %.2e rad, step %.2e m\n", tilt, step);
+  EXPECT_LT(tilt, 3e-4);
+  EXPECT_LT(step, 1e-4);
+  const fs::path scenario = dir / "standing.yaml";
+  std::ofstream(scenario) << "name: uneven_feet\nrobot: {config: " << (dir / "robot" / "robot.yaml").string()
+                          << "}\nduration: 3.0\ninitial: {posture: nominal, support: double}\n"
+                             "world:\n  ground: {friction: 0.8}\nsensors: {seed: 1}\nsuccess:\n"
+                             "  com_error_max_m: 0.02\n  com_error_final_m: 0.01\n"
+                             "  foot_slip_max_m: 0.01\n  min_base_height_m: 0.5\n";
+  auto [rc, rt] = run_command({bin("poise"), "run", scenario.string(), "--in-process", "-q", "-o",
+                               (dir / "standing.json").string()}, 120s);
+  EXPECT_EQ(rc, 0) << rt;
+  EXPECT_NE(rt.find("SURVIVED"), std::string::npos) << rt;
+}
+
+// A URDF whose floating base frame is turned 90 deg (its x to the robot's left: K-Scale's Zeroth
+// puts its legs side by side along the base's x; robot init looked for the second foot only at y
+// of the other sign and refused "no second leg"): the feet are found, forward_axis is the
+// base's +y, and the robot stands 10 s.
+TEST(RobotInit, LegsSideBySideAlongTheBaseXAreFound) {
+  const fs::path dir = work_dir("turned_base");
+  std::string xml =
+      read(fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/poise_humanoid.urdf");
+  const auto first = xml.find("<link name=\"pelvis\"");
+  ASSERT_NE(first, std::string::npos);
+  xml.insert(first, "<link name=\"turned_base\"/>\n  <joint name=\"turned_base_to_pelvis\" type=\"fixed\">"
+                    "<parent link=\"turned_base\"/><child link=\"pelvis\"/>"
+                    "<origin xyz=\"0 0 0\" rpy=\"0 0 1.5707963267948966\"/></joint>\n  ");
+  const fs::path urdf = dir / "turned.urdf";
+  std::ofstream(urdf) << xml;
+  const std::string text = init_and_stand(urdf, dir, false);
+  EXPECT_NE(text.find("are side by side along"), std::string::npos) << text;
+  const poise::model::RobotConfig cfg = poise::model::load_robot_config(dir / "robot" / "robot.yaml");
+  EXPECT_LT((cfg.forward_axis - Eigen::Vector3d(0, 1, 0)).norm(), 1e-3) << cfg.forward_axis.transpose();
+}
+
+// A floating base whose frame origin sits near the floor (Berkeley Humanoid Lite: its `base`
+// frame at floor level, 0.054 m below the ground standing, failed a 0.3 m min_base_height_m
+// with the robot upright): reported under "check" with the height, and not for the shipped robot.
+TEST(RobotInit, ABaseFrameNearTheFloorIsReported) {
+  const fs::path dir = work_dir("low_base");
+  std::string xml =
+      read(fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/poise_humanoid.urdf");
+  const auto first = xml.find("<link name=\"pelvis\"");
+  ASSERT_NE(first, std::string::npos);
+  xml.insert(first, "<link name=\"low_base\"/>\n  <joint name=\"low_base_to_pelvis\" type=\"fixed\">"
+                    "<parent link=\"low_base\"/><child link=\"pelvis\"/>"
+                    "<origin xyz=\"0 0 0.8\" rpy=\"0 0 0\"/></joint>\n  ");
+  std::ofstream(dir / "low.urdf") << xml;
+  auto [code, text] = run_command(
+      {bin("poise"), "robot", "init", (dir / "low.urdf").string(), "-o", (dir / "low").string()}, 60s);
+  ASSERT_EQ(code, 0) << text;
+  const auto at = text.find("the floating base's frame origin ('low_base') is ");
+  ASSERT_NE(at, std::string::npos) << text;
+  // The pelvis stands ~0.84 m above the soles (the shipped robot), its new root 0.8 m below it.
+  const double h = std::stod(text.substr(at + std::string("the floating base's frame origin ('low_base') is ").size()));
+  std::printf("base origin %.3f m above the soles\n", h);
+  EXPECT_LT(std::abs(h), 0.1);
+  auto [c2, t2] = run_command({bin("poise"), "robot", "init",
+                               (fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/poise_humanoid.urdf").string(),
+                               "-o", (dir / "shipped").string()}, 60s);
+  ASSERT_EQ(c2, 0) << t2;
+  EXPECT_EQ(t2.find("the floating base's frame origin"), std::string::npos) << t2;
+}
+
 // Mesh-only feet (a binary STL box, found through package://): the sole comes from the mesh.
 TEST(RobotInit, MeshOnlyFeetGetTheirSoleFromTheMesh) {
   const fs::path dir = work_dir("mesh_feet");
@@ -551,6 +681,31 @@ TEST(RobotInit, BadInputsAreRefusedWithAClearError) {
   EXPECT_EQ(c1, 1) << t1;
   EXPECT_NE(t1.find("no second leg"), std::string::npos) << t1;
   EXPECT_FALSE(fs::exists(dir / "one" / "robot.yaml"));
+
+  // The lowest links with collision geometry are not the legs' ends (K-Scale's K-Bot without its
+  // foot meshes: robot init wrote a robot.yaml with the CoM 0.033 m below its "soles", which the
+  // controller then refused): refused naming the links and what hangs below them.
+  std::ostringstream hang;
+  hang << "<robot name=\"hanging\"><link name=\"base\"><inertial><mass value=\"10\"/><inertia "
+          "ixx=\"0.1\" ixy=\"0\" ixz=\"0\" iyy=\"0.1\" iyz=\"0\" izz=\"0.1\"/></inertial>"
+          "<collision><geometry><box size=\"0.2 0.3 0.1\"/></geometry></collision></link>";
+  for (const std::string side : {"L", "R"}) {
+    hang << "<link name=\"" << side << "_hip\">" << link
+         << "<collision><origin xyz=\"0 0 -0.1\"/><geometry><box size=\"0.1 0.1 0.1\"/></geometry>"
+            "</collision></link><link name=\"" << side << "_leg\"><inertial><origin xyz=\"0 0 -0.4\"/>"
+            "<mass value=\"8\"/><inertia ixx=\"0.1\" ixy=\"0\" ixz=\"0\" iyy=\"0.1\" iyz=\"0\" "
+            "izz=\"0.01\"/></inertial></link>"
+         << joint(side + "_hip_roll", "base", side + "_hip", side == "L" ? "0 0.1 -0.05" : "0 -0.1 -0.05", "1 0 0")
+         << joint(side + "_hip_pitch", side + "_hip", side + "_leg", "0 0 -0.15", "0 1 0");
+  }
+  hang << "</robot>";
+  std::ofstream(dir / "hanging.urdf") << hang.str();
+  auto [ch, th] = run_command({bin("poise"), "robot", "init", (dir / "hanging.urdf").string(), "-o",
+                               (dir / "hanging").string()}, 30s);
+  EXPECT_EQ(ch, 1) << th;
+  EXPECT_NE(th.find("m below the soles of"), std::string::npos) << th;
+  EXPECT_NE(th.find("'L_hip' has 1 movable joint(s) below it"), std::string::npos) << th;
+  EXPECT_FALSE(fs::exists(dir / "hanging" / "robot.yaml"));
 
   // No links with joints at all.
   std::ofstream(dir / "empty.urdf") << "<robot name=\"empty\"><link name=\"base\"/></robot>";

@@ -307,12 +307,33 @@ int run_init(const Options& opt) {
     if (data.oMi[b].p.y() * ya >= 0.0) continue;
     if (b2 < 0 || lowest_z(b) < lowest_z(b2) - 1e-9) b2 = b;
   }
-  if (b2 < 0 || std::abs(ya) < 1e-4)
+  if (b2 < 0 || std::abs(ya) < 1e-4) {
+    // Legs side by side along the base's x (a URDF whose base frame is not x forward, y left,
+    // as REP 103 asks; K-Scale's Zeroth): the lowest body on another branch at the same height
+    // (within 1 cm) and at least 2 cm away horizontally. The robot's left and forward come
+    // from the feet later (forward_axis), whatever the base frame says.
+    int alt = -1;
+    for (int b = 1; b < m.nbodies; ++b) {
+      if (!has_shapes(b) || related(a, b)) continue;
+      if ((data.oMi[b].p - data.oMi[a].p).head<2>().norm() < 0.02) continue;
+      if (alt < 0 || lowest_z(b) < lowest_z(alt) - 1e-9) alt = b;
+    }
+    if (alt >= 0 && std::abs(lowest_z(alt) - lowest_z(a)) <= 0.01) {
+      b2 = alt;
+      checks.push_back("the feet '" + m.body_name[a] + "' and '" + m.body_name[b2] +
+                       "' are side by side along (" +
+                       fmt((data.oMi[b2].p - data.oMi[a].p).x(), 3) + ", " +
+                       fmt((data.oMi[b2].p - data.oMi[a].p).y(), 3) +
+                       ") in the floating base's frame, not along its y: its x is not the "
+                       "robot's forward (REP 103); forward_axis below comes from the toes");
+    }
+  }
+  if (b2 < 0)
     throw InitError("found one leg ending in '" + m.body_name[a] + "' (lowest collision point z = " +
                     fmt(lowest_z(a)) +
                     " m at the zero configuration) but no second leg: no other chain from the "
-                    "floating base ends on the other side (y of the other sign) in a link with "
-                    "collision geometry");
+                    "floating base ends on the other side (y of the other sign), or within 1 cm "
+                    "of its height 2 cm or more away, in a link with collision geometry");
   if (std::abs(lowest_z(a) - lowest_z(b2)) > 0.01)
     checks.push_back("the two feet are " + fmt(std::abs(lowest_z(a) - lowest_z(b2)) * 1000, 1) +
                      " mm apart in height at the zero configuration: are '" + m.body_name[a] +
@@ -505,14 +526,61 @@ int run_init(const Options& opt) {
       knee = 0.0;
     }
   }
+  // The rule above keeps a sole flat only when the hip, knee and ankle pitch axes are parallel,
+  // and both soles level only when the legs and feet are mirror images. Otherwise (EngineAI's
+  // PM01: hip pitch axes canted 15 deg; its SA01: foot meshes 1.2 mm apart in height) each leg's
+  // joints are corrected by a damped, weighted least-squares leg IK, the pelvis held: the sole's
+  // normal onto the vertical and its height onto the two soles' mean (weight 1), its horizontal
+  // place and heading kept (weight 0.1), joint limits clamped.
+  model::Matrix6X J_foot(6, m.nv);
+  auto level_soles = [&]() {
+    for (int it = 0; it < 60; ++it) {
+      model::compute_joint_jacobians(m, data, q);
+      std::array<Vector3, 2> p_sole, normal;
+      double z_mean = 0.0, worst = 0.0;
+      for (int s = 0; s < 2; ++s) {
+        const SE3 X = data.oMi[legs[s].foot_body] * legs[s].X_BA;
+        p_sole[s] = X.act(Vector3(0, 0, -legs[s].sole.height));
+        normal[s] = X.R.col(2);
+        z_mean += 0.5 * p_sole[s].z();
+      }
+      for (int s = 0; s < 2; ++s)
+        worst = std::max({worst, std::abs(z_mean - p_sole[s].z()),
+                          normal[s].cross(Vector3::UnitZ()).norm()});
+      // Left alone when already flat and level to 0.1 mm / 1e-4 rad (the rule's posture as it
+      // was, to the bit: iCub V2.7's soles are 2e-4 rad from flat there); else down to 1e-9.
+      if (worst < (it == 0 ? 1e-4 : 1e-9)) return;
+      for (int s = 0; s < 2; ++s) {
+        const Leg& leg = legs[s];
+        model::frame_point_jacobian(m, data, m.frame_id(leg.foot_frame),
+                                    leg.X_BA.act(Vector3(0, 0, -leg.sole.height)), J_foot);
+        Eigen::Matrix<double, 6, 1> r, w;
+        const Vector3 e = normal[s].cross(Vector3::UnitZ());  // rotates the normal up
+        r << 0.0, 0.0, z_mean - p_sole[s].z(), e.x(), e.y(), 0.0;
+        w << 0.1, 0.1, 1.0, 1.0, 1.0, 0.1;
+        const int n = static_cast<int>(leg.joints.size());
+        Eigen::MatrixXd A(6, n);
+        for (int k = 0; k < n; ++k) A.col(k) = w.cwiseProduct(J_foot.col(m.idx_v(leg.joints[k])));
+        const Eigen::VectorXd dq =
+            (A.transpose() * A + 1e-9 * Eigen::MatrixXd::Identity(n, n))
+                .ldlt()
+                .solve(A.transpose() * w.cwiseProduct(r));
+        for (int k = 0; k < n; ++k) {
+          const int j = leg.joints[k];
+          q[m.idx_q(j)] = clamp_limits(m, j, q[m.idx_q(j)] + dq[k]);
+        }
+      }
+    }
+  };
   auto set_posture = [&](double d) {
     q = m.neutral();
-    if (knee <= 0.0) return;
-    for (const Leg& leg : legs) {
-      q[m.idx_q(leg.knee)] = clamp_limits(m, leg.knee, knee * leg.s_knee);
-      q[m.idx_q(leg.hip)] = clamp_limits(m, leg.hip, (-0.5 * knee + d) * leg.s_hip);
-      q[m.idx_q(leg.ankle)] = clamp_limits(m, leg.ankle, (-0.5 * knee - d) * leg.s_ankle);
-    }
+    if (knee > 0.0)
+      for (const Leg& leg : legs) {
+        q[m.idx_q(leg.knee)] = clamp_limits(m, leg.knee, knee * leg.s_knee);
+        q[m.idx_q(leg.hip)] = clamp_limits(m, leg.hip, (-0.5 * knee + d) * leg.s_hip);
+        q[m.idx_q(leg.ankle)] = clamp_limits(m, leg.ankle, (-0.5 * knee - d) * leg.s_ankle);
+      }
+    level_soles();
   };
   struct Stance {
     Eigen::Vector2d com_error;  ///< CoM minus the mid-point of the stand points (world xy)
@@ -553,6 +621,9 @@ int run_init(const Options& opt) {
   };
   double d = 0.0;
   Stance st;
+  // The robot's forward and left on the ground (the base frame's x and y for a REP 103 URDF).
+  const Eigen::Vector2d fwd2 = forward.head<2>().normalized();
+  const Eigen::Vector2d left2(-fwd2.y(), fwd2.x());
   // Lean the legs (d) to put the CoM over the mid-point of the stand points: secant on d for the
   // CoM x error (sagittal). Leaves q at the posture found.
   auto lean = [&]() {
@@ -560,25 +631,25 @@ int run_init(const Options& opt) {
     set_posture(d);
     st = stance();
     if (!(knee > 0.0)) return;
-    double d0 = 0.0, e0 = st.com_error.x(), d1 = 0.05;
+    double d0 = 0.0, e0 = st.com_error.dot(fwd2), d1 = 0.05;
     set_posture(d1);
-    double e1 = stance().com_error.x();
+    double e1 = stance().com_error.dot(fwd2);
     for (int it = 0; it < 30 && std::abs(e1) > 1e-5 && std::abs(e1 - e0) > 1e-12; ++it) {
       const double d2 = std::clamp(d1 - e1 * (d1 - d0) / (e1 - e0), -0.5, 0.5);
       d0 = d1;
       e0 = e1;
       d1 = d2;
       set_posture(d1);
-      e1 = stance().com_error.x();
+      e1 = stance().com_error.dot(fwd2);
     }
     d = d1;
     set_posture(d);
     st = stance();
   };
   lean();
-  if (knee > 0.0 && std::abs(st.com_error.x()) > 0.005) {
+  if (knee > 0.0 && std::abs(st.com_error.dot(fwd2)) > 0.005) {
     checks.push_back("the CoM could not be put over the sole centres by leaning the legs (" +
-                     fmt(st.com_error.x() * 1000, 1) + " mm off in x)");
+                     fmt(st.com_error.dot(fwd2) * 1000, 1) + " mm off forward)");
   }
   if (st.tilt > 1e-3)
     throw InitError("in the nominal posture a sole is tilted by " + fmt(st.tilt, 4) +
@@ -590,8 +661,29 @@ int run_init(const Options& opt) {
     throw InitError("in the nominal posture the CoM is not above the feet (" +
                     fmt(st.com_error.x() * 1000, 1) + ", " + fmt(st.com_error.y() * 1000, 1) +
                     " mm from the mid-point of the sole centres)");
-  if (std::abs(st.com_error.y()) > 0.01)
-    checks.push_back("the CoM is " + fmt(st.com_error.y() * 1000, 1) +
+  if (!(data.com.z() > 0.0)) {
+    // The "feet" found are not the legs' ends (K-Scale's K-Bot without its foot meshes: two hip
+    // links, the real legs hanging below them as "upper body").
+    std::string below;
+    for (const Leg& leg : legs)
+      if (m.subtree_end[leg.foot_body] > leg.foot_body)
+        below += " '" + leg.foot_frame + "' has " +
+                 std::to_string(m.subtree_end[leg.foot_body] - leg.foot_body) +
+                 " movable joint(s) below it;";
+    throw InitError("in the nominal posture the CoM is " + fmt(-data.com.z(), 3) +
+                    " m below the soles of '" + legs[0].foot_frame + "' and '" +
+                    legs[1].foot_frame + "': these are not the feet." + below +
+                    " the feet are the lowest links with collision geometry (box, cylinder, "
+                    "sphere or a mesh that could be read): is the real feet's geometry missing?");
+  }
+  if (q[2] < 0.5 * data.com.z())
+    checks.push_back("the floating base's frame origin ('" + m.body_name[0] + "') is " +
+                     fmt(q[2], 3) + " m above the soles in the nominal posture, the CoM " +
+                     fmt(data.com.z(), 3) + " m: a scenario's success.min_base_height_m "
+                     "measures that origin (a fall criterion), so set it well below " +
+                     fmt(q[2], 3) + " m for this robot");
+  if (std::abs(st.com_error.dot(left2)) > 0.01)
+    checks.push_back("the CoM is " + fmt(st.com_error.dot(left2) * 1000, 1) +
                      " mm sideways from the mid-point of the soles: is the robot symmetric?");
 
   // ---- standing within the joints' effort limits ------------------------------------------------
