@@ -49,6 +49,22 @@ std::string read(const fs::path& p) {
   return s.str();
 }
 
+// Standing still in process for `seconds` on a robot.yaml (the test robots' success criteria):
+// the exit code and verdict line of `poise run`; the scenario and result go to `dir`.
+std::pair<int, std::string> stand_in_process(const fs::path& robot_yaml, const fs::path& dir,
+                                             double seconds) {
+  const fs::path scenario = dir / "standing.yaml";
+  std::ofstream(scenario) << "name: robot_init_standing\nrobot: {config: " << robot_yaml.string()
+                          << "}\nduration: " << seconds
+                          << "\ninitial: {posture: nominal, support: double}\n"
+                             "world:\n  ground: {friction: 0.8}\nsensors: {seed: 1}\nsuccess:\n"
+                             "  com_error_max_m: 0.02\n  com_error_final_m: 0.01\n"
+                             "  foot_slip_max_m: 0.01\n  allow_non_foot_contacts: false\n"
+                             "  min_base_height_m: 0.5\n";
+  return run_command({bin("poise"), "run", scenario.string(), "--in-process", "-q", "-o",
+                      (dir / "standing.json").string()}, 300s);
+}
+
 // init -> model info -> 10 s standing in process, the scenario pointing at the new robot.yaml.
 std::string init_and_stand(const fs::path& urdf, const fs::path& dir, bool expect_added) {
   const std::string before = read(urdf);
@@ -133,16 +149,7 @@ std::string init_and_stand(const fs::path& urdf, const fs::path& dir, bool expec
       run_command({bin("poise"), "model", "info", (out / "robot.yaml").string()}, 30s);
   EXPECT_EQ(info_code, 0) << info;
 
-  const fs::path scenario = dir / "standing.yaml";
-  std::ofstream(scenario) << "name: robot_init_standing\nrobot: {config: "
-                          << (out / "robot.yaml").string()
-                          << "}\nduration: 10.0\ninitial: {posture: nominal, support: double}\n"
-                             "world:\n  ground: {friction: 0.8}\nsensors: {seed: 1}\nsuccess:\n"
-                             "  com_error_max_m: 0.02\n  com_error_final_m: 0.01\n"
-                             "  foot_slip_max_m: 0.01\n  allow_non_foot_contacts: false\n"
-                             "  min_base_height_m: 0.5\n";
-  auto [run_code, run] = run_command({bin("poise"), "run", scenario.string(), "--in-process", "-q",
-                                  "-o", (dir / "standing.json").string()}, 120s);
+  auto [run_code, run] = stand_in_process(out / "robot.yaml", dir, 10.0);
   EXPECT_EQ(run_code, 0) << run;
   EXPECT_NE(run.find("SURVIVED"), std::string::npos) << run;
   return text;
@@ -398,21 +405,9 @@ TEST(RobotInit, WeakAnklesGetStandPointsWhereTheLegJointsHoldTheRobot) {
                                  out.string(), "--stand", stand},
                                 60s);
     ASSERT_EQ(c3, 0) << t3;
-    const fs::path scenario = out / "stand.yaml";
-    std::ofstream(scenario) << "name: weak_ankles_" << stand << "\n"
-                            << "description: 3 N m ankles, standing\n"
-                            << "robot:\n  config: " << (out / "robot.yaml").string() << "\n"
-                            << "duration: 3.0\n"
-                            << "initial: {posture: nominal, support: double}\n"
-                            << "world:\n  ground: {friction: 0.8}\n"
-                            << "sensors: {seed: 1}\n"
-                            << "success: {com_error_max_m: 0.02, com_error_final_m: 0.01, "
-                               "foot_slip_max_m: 0.01, min_base_height_m: 0.5}\n";
-    auto [rc, rt] = run_command({bin("poise"), "run", "--in-process", scenario.string(), "-q", "-o",
-                                 (out / "result.json").string()},
-                                300s);
+    auto [rc, rt] = stand_in_process(out / "robot.yaml", out, 3.0);
     std::printf("%s: %s", stand.c_str(), rt.c_str());
-    const std::string result = read(out / "result.json");
+    const std::string result = read(out / "standing.json");
     if (stand == "auto") {
       EXPECT_EQ(rc, 0) << rt;
       EXPECT_NE(result.find("\"survived\": true"), std::string::npos) << result;
@@ -491,14 +486,7 @@ TEST(RobotInit, FeetOfDifferentHeightsGetLevelSolesByLegIk) {
   std::printf("uneven feet: sole tilt %.2e rad, step %.2e m\n", tilt, step);
   EXPECT_LT(tilt, 3e-4);
   EXPECT_LT(step, 1e-4);
-  const fs::path scenario = dir / "standing.yaml";
-  std::ofstream(scenario) << "name: uneven_feet\nrobot: {config: " << (dir / "robot" / "robot.yaml").string()
-                          << "}\nduration: 3.0\ninitial: {posture: nominal, support: double}\n"
-                             "world:\n  ground: {friction: 0.8}\nsensors: {seed: 1}\nsuccess:\n"
-                             "  com_error_max_m: 0.02\n  com_error_final_m: 0.01\n"
-                             "  foot_slip_max_m: 0.01\n  min_base_height_m: 0.5\n";
-  auto [rc, rt] = run_command({bin("poise"), "run", scenario.string(), "--in-process", "-q", "-o",
-                               (dir / "standing.json").string()}, 120s);
+  auto [rc, rt] = stand_in_process(dir / "robot" / "robot.yaml", dir, 3.0);
   EXPECT_EQ(rc, 0) << rt;
   EXPECT_NE(rt.find("SURVIVED"), std::string::npos) << rt;
 }
