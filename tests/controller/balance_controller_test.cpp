@@ -15,6 +15,7 @@
 #include "poise/controller/contact_fallback.hpp"
 #include "poise/controller/foot_motion.hpp"
 #include "poise/model/centroidal.hpp"
+#include "poise/model/dynamics.hpp"
 #include "poise/model/kinematics.hpp"
 
 namespace poise::controller {
@@ -94,6 +95,92 @@ TEST(BalanceController, TheCoMTargetIsAboveTheStandPointsWhereRobotYamlPutsThem)
     else
       ADD_FAILURE() << "not single support on the left foot: " << trial;
   }
+}
+
+// RobotConfig::effort_limited_sole: the sole rectangle the contact problem gets keeps every joint
+// of that leg within its effort for a CoP anywhere in it, at the foot's measured load, checked by
+// an independent inverse dynamics (RNEA at rest, the load up at each corner of the rectangle) on
+// seeded random static postures with weakened ankles; the cut is tight (its edge 1 mm further
+// out takes some joint past its effort at the sole's full width); off, the sole as configured.
+TEST(BalanceController, AnEffortLimitedSoleKeepsEveryLegJointWithinItsEffort) {
+  model::Model m = humanoid().model;
+  for (const char* ankle : {"l_ankle_pitch", "r_ankle_pitch"}) m.limits[m.joint_index(ankle)].effort = 6.0;
+  for (const char* ankle : {"l_ankle_roll", "r_ankle_roll"}) m.limits[m.joint_index(ankle)].effort = 8.0;
+  model::RobotConfig robot = humanoid().robot;
+  robot.effort_limited_sole = true;
+  BalanceController c(m, robot, eq11_config());
+  BalanceController off(m, humanoid().robot, eq11_config());
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> load(100.0, 450.0);
+  const Eigen::Vector3d up(0, 0, 1);
+  const double w = 2.0 * robot.safety_margin + 0.004;
+  int cuts = 0, tight = 0;
+  for (int trial = 0; trial < 20; ++trial) {
+    RobotState s = test::random_state(c, rng, 0.05, 0.0);
+    std::array<double, 2> fz{load(rng), load(rng)};
+    for (int i = 0; i < 2; ++i) {
+      s.feet[i].in_contact = true;
+      s.feet[i].normal_force = fz[i];
+    }
+    BalanceReference ref = c.make_reference();
+    contact::ContactProblem p, p_off;
+    c.prepare(s, ref, p);
+    off.prepare(s, ref, p_off);
+    Eigen::VectorXd q, v;
+    configuration_of(m, s, q, v);
+    const Eigen::VectorXd zero = Eigen::VectorXd::Zero(m.nv);
+    for (int i = 0; i < 2; ++i) {
+      const auto& foot = robot.feet[i];
+      const auto& so = p.feet[i].sole;
+      const auto& full = p_off.feet[i].sole;
+      EXPECT_EQ(full.x_min, foot.sole.x_min);
+      EXPECT_EQ(full.y_max, foot.sole.y_max);
+      EXPECT_GE(so.x_min, full.x_min);
+      EXPECT_LE(so.x_max, full.x_max);
+      EXPECT_GE(so.y_min, full.y_min);
+      EXPECT_LE(so.y_max, full.y_max);
+      const bool x_cut = so.x_min > full.x_min || so.x_max < full.x_max;
+      const bool y_cut = so.y_min > full.y_min || so.y_max < full.y_max;
+      cuts += x_cut || y_cut;
+      const bool kept = std::abs(so.x_max - so.x_min - w) < 1e-12 ||
+                        std::abs(so.y_max - so.y_min - w) < 1e-12;
+      if (kept) continue;  // a joint that holds the load nowhere: the minimum width kept
+      // The leg's joints: the foot body's chain to the floating base.
+      std::vector<int> chain;
+      for (int b = m.frames[foot.frame_id].body; b > 0; b = m.parent[b]) chain.push_back(b - 1);
+      const model::SE3 X(p.feet[i].R_WF, p.feet[i].p_WF);
+      auto worst = [&](double x, double y) {  // largest |tau_j| / L_j of the leg, CoP at (x, y)
+        model::Data d(m);
+        model::clear_external_forces(d);
+        model::add_external_wrench(m, d, foot.frame_id,
+                                   X.act(Eigen::Vector3d(x, y, -foot.sole.height)), fz[i] * up,
+                                   Eigen::Vector3d::Zero());
+        const Eigen::VectorXd tau = model::rnea(m, d, q, zero, zero);
+        double r = 0.0;
+        for (int j : chain)
+          if (std::isfinite(m.limits[j].effort))
+            r = std::max(r, std::abs(tau[m.idx_v(j)]) / m.limits[j].effort);
+        return r;
+      };
+      for (double x : {so.x_min, so.x_max})
+        for (double y : {so.y_min, so.y_max})
+          EXPECT_LE(worst(x, y), 1.0 + 1e-9) << trial << " foot " << i << " at " << x << ", " << y;
+      // Tight: an x edge the cut moved, 1 mm further out, breaks some joint at a full-width y.
+      if (so.x_max < full.x_max - 1e-3) {
+        EXPECT_GT(std::max(worst(so.x_max + 1e-3, full.y_min), worst(so.x_max + 1e-3, full.y_max)),
+                  1.0) << trial;
+        ++tight;
+      }
+      if (so.x_min > full.x_min + 1e-3) {
+        EXPECT_GT(std::max(worst(so.x_min - 1e-3, full.y_min), worst(so.x_min - 1e-3, full.y_max)),
+                  1.0) << trial;
+        ++tight;
+      }
+    }
+  }
+  std::printf("effort-limited soles: %d of 40 cut, %d cut x edges checked tight\n", cuts, tight);
+  EXPECT_GE(cuts, 20);
+  EXPECT_GE(tight, 10);
 }
 
 TEST(BalanceController, ContactProblemMatchesKinematicsAndEquations10And11) {

@@ -50,17 +50,24 @@ std::string read(const fs::path& p) {
 }
 
 // Standing still in process for `seconds` on a robot.yaml (the test robots' success criteria):
-// the exit code and verdict line of `poise run`; the scenario and result go to `dir`.
+// the exit code and verdict line of `poise run`; the scenario and result go to `dir`. With
+// `push_n` > 0: a forward push of that force on the pelvis at 1 s for 0.1 s, and the CoM error
+// allowed 5 cm at most and 3 cm at the end (the robot must not fall).
 std::pair<int, std::string> stand_in_process(const fs::path& robot_yaml, const fs::path& dir,
-                                             double seconds) {
+                                             double seconds, double push_n = 0.0) {
   const fs::path scenario = dir / "standing.yaml";
-  std::ofstream(scenario) << "name: robot_init_standing\nrobot: {config: " << robot_yaml.string()
-                          << "}\nduration: " << seconds
-                          << "\ninitial: {posture: nominal, support: double}\n"
-                             "world:\n  ground: {friction: 0.8}\nsensors: {seed: 1}\nsuccess:\n"
-                             "  com_error_max_m: 0.02\n  com_error_final_m: 0.01\n"
-                             "  foot_slip_max_m: 0.01\n  allow_non_foot_contacts: false\n"
-                             "  min_base_height_m: 0.5\n";
+  std::ofstream out(scenario);
+  out << "name: robot_init_standing\nrobot: {config: " << robot_yaml.string()
+      << "}\nduration: " << seconds << "\ninitial: {posture: nominal, support: double}\n"
+      << "world:\n  ground: {friction: 0.8}\nsensors: {seed: 1}\n";
+  if (push_n > 0.0)
+    out << "disturbances:\n  pushes:\n    - {link: pelvis, point: [0, 0, 0], force: [" << push_n
+        << ", 0, 0], start: 1.0, duration: 0.1}\n";
+  out << "success:\n"
+      << (push_n > 0.0 ? "  com_error_max_m: 0.05\n  com_error_final_m: 0.03\n"
+                       : "  com_error_max_m: 0.02\n  com_error_final_m: 0.01\n")
+      << "  foot_slip_max_m: 0.01\n  allow_non_foot_contacts: false\n  min_base_height_m: 0.5\n";
+  out.close();
   return run_command({bin("poise"), "run", scenario.string(), "--in-process", "-q", "-o",
                       (dir / "standing.json").string()}, 300s);
 }
@@ -416,6 +423,30 @@ TEST(RobotInit, WeakAnklesGetStandPointsWhereTheLegJointsHoldTheRobot) {
       EXPECT_NE(result.find("\"survived\": false"), std::string::npos) << result;
     }
   }
+  // 6 N m ankles (7.1 N m needed at the sole centres) pushed forward with 60 N for 0.1 s: robot
+  // init's robot.yaml limits the soles by the joints' efforts (contact.effort_limited_sole,
+  // written with the stand points) and the robot rides it out (its trunk pitching: the hip
+  // strategy); the same robot.yaml without that line plans CoPs at the toes its ankles cannot
+  // hold, and falls.
+  std::ofstream(dir / "weak6.urdf") << weak_ankles(xml, "6");
+  const fs::path with = dir / "weak6_auto";
+  auto [c6, t6] = run_command({bin("poise"), "robot", "init", (dir / "weak6.urdf").string(), "-o",
+                               with.string()}, 60s);
+  ASSERT_EQ(c6, 0) << t6;
+  const std::string yaml = read(with / "robot.yaml");
+  ASSERT_NE(yaml.find("effort_limited_sole: true"), std::string::npos) << yaml;
+  const fs::path without = dir / "weak6_unlimited";
+  fs::create_directories(without);
+  std::ofstream(without / "robot.yaml")
+      << std::regex_replace(yaml, std::regex("  effort_limited_sole: true[^\n]*\n"), "");
+  ASSERT_EQ(read(without / "robot.yaml").find("effort_limited"), std::string::npos);
+  auto [pw, tw] = stand_in_process(with / "robot.yaml", with, 4.0, 60.0);
+  auto [po, to] = stand_in_process(without / "robot.yaml", without, 4.0, 60.0);
+  std::printf("60 N push, effort-limited soles: %s60 N push, the whole soles: %s", tw.c_str(),
+              to.c_str());
+  EXPECT_EQ(pw, 0) << tw;
+  EXPECT_NE(po, 0) << to;
+  EXPECT_NE(to.find("declared a fall"), std::string::npos) << to;
 }
 
 // The nominal posture of a robot.yaml: each sole's tilt from flat [rad] and the two sole planes'

@@ -359,7 +359,12 @@ void read_config_body(const YAML::Node& root, const Reader& r, Model& model,
   // ---- contact --------------------------------------------------------------------------------
   r.attempt([&] {
   const YAML::Node contact = r.child(root, "", "contact");
-  r.keys(contact, "contact", {"safety_margin", "friction_mu", "torsional_mu"});
+  r.keys(contact, "contact", {"safety_margin", "friction_mu", "torsional_mu", "effort_limited_sole"});
+  if (const YAML::Node e = contact["effort_limited_sole"]) {
+    if (!e.IsScalar() || (e.Scalar() != "true" && e.Scalar() != "false"))
+      r.fail("contact.effort_limited_sole", "expected true or false");
+    cfg.effort_limited_sole = e.Scalar() == "true";
+  }
   cfg.safety_margin =
       r.number(r.child(contact, "contact", "safety_margin"), "contact.safety_margin");
   cfg.friction_mu = r.number(r.child(contact, "contact", "friction_mu"), "contact.friction_mu");

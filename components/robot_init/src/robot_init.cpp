@@ -1014,7 +1014,11 @@ int run_init(const Options& opt) {
        "long\n"
        "# axis, toward the end farther from the ankle), both feet averaged.\n"
     << "forward_axis: [" << fmt(forward.x(), 6) << ", " << fmt(forward.y(), 6) << ", 0]\n";
-  y << "\ncontact:\n  safety_margin: 0.01\n  friction_mu: 0.8\n  torsional_mu: 0.02\n\n"
+  y << "\ncontact:\n  safety_margin: 0.01\n  friction_mu: 0.8\n  torsional_mu: 0.02\n";
+  if (legs[0].stand || legs[1].stand)
+    y << "  effort_limited_sole: true   # weak leg joints (stand points): the CoP only where they "
+         "hold the load\n";
+  y << "\n"
     << "joint_groups:\n  legs: " << names(leg_joints) << "\n  upper_body: " << names(upper)
     << "\n\n# Knees bent, hip + knee + ankle pitch = 0 (soles flat), legs leaned so the CoM is "
        "over "

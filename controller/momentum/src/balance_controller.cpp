@@ -110,6 +110,17 @@ BalanceController::BalanceController(const model::Model& model, const model::Rob
     kp_[j] = config_.feedback.gain_scale * robot_.gains[j].kp;
     kd_[j] = config_.feedback.gain_scale * robot_.gains[j].kd;
   }
+  if (robot_.effort_limited_sole)
+    for (int side = 0; side < kFeet; ++side) {
+      const int foot_body = model_.frames[robot_.feet[side].frame_id].body;
+      for (int b = foot_body; b > 0; b = model_.parent[b]) {
+        const int j = b - 1;
+        const bool revolute = model_.joint_type[b] == model::JointType::kRevolute ||
+                              model_.joint_type[b] == model::JointType::kContinuous;
+        if (revolute && std::isfinite(effort_[j]) && effort_[j] > 0.0)
+          foot_chain_[side].push_back(j);
+      }
+    }
   for (int j : robot_.upper_body_joint_indices) {
     if (j < 0 || j >= n)
       throw ConfigError("BalanceController: upper-body joint index out of range");
@@ -457,6 +468,10 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
     pf.in_contact = support;
     pf.R_WF = X_WF_[i].R;
     pf.p_WF = X_WF_[i].p;
+    if (robot_.effort_limited_sole) {
+      pf.sole = {foot.sole.x_min, foot.sole.x_max, foot.sole.y_min, foot.sole.y_max};
+      limit_sole_by_effort(i, meas.normal_force, foot.sole.height, pf.sole);
+    }
   }
   have_foot_velocity_ = true;
   have_hold_seen_ = true;
@@ -572,6 +587,68 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
   problem_.k_dot_desired = diag_.hdot_desired.head<3>();
   problem_.l_dot_desired = diag_.hdot_desired.tail<3>();
   problem = problem_;
+}
+
+// RobotConfig::effort_limited_sole. Statics of the leg below each joint j of the foot's chain
+// (axis u through o, world): with the normal force fz at the CoP p and gravity on the bodies
+// below j, the joint holds tau_j(p) = a . (g sum_k m_k (c_k - o) - fz (p - o)), a = up x u.
+// |tau_j| <= L_j is a slab a . p in [lo, hi]; on the sole plane (p = X_WF (x, y, -h)) a slab
+// along the sole's x or y. Each slab cuts the rectangle where it holds for every point of it
+// (x-like slabs first over the whole width, then y-like over the x left), conservative for a
+// slanted axis. A rectangle cut narrower than 2 margin + 4 mm keeps that width, centred where
+// the cuts point (clamped to the sole): the joint cannot hold the load anywhere there, and the
+// optimiser still needs a safe region. Horizontal forces and accelerations are not counted.
+void BalanceController::limit_sole_by_effort(int i, double fz, double h,
+                                             contact::SoleRectangle& sole) const noexcept {
+  const double g = model_.gravity.norm();
+  if (!(fz > 1e-3 * data_.mass * g)) return;
+  const Eigen::Vector3d up = -model_.gravity / g;
+  const model::SE3& X = X_WF_[i];
+  const contact::SoleRectangle full = sole;
+  double xl = full.x_min, xh = full.x_max, yl = full.y_min, yh = full.y_max;
+  for (int pass = 0; pass < 2; ++pass)
+    for (int j : foot_chain_[i]) {
+      const int b = j + 1;
+      const Eigen::Vector3d a = up.cross(data_.oMi[b].R * model_.axis[b]);
+      const Eigen::Vector3d aF = X.R.transpose() * a;
+      const bool along_x = std::abs(aF.x()) >= std::abs(aF.y());
+      if (along_x != (pass == 0) || std::max(std::abs(aF.x()), std::abs(aF.y())) < 1e-9) continue;
+      const Eigen::Vector3d& o = data_.oMi[b].p;
+      Eigen::Vector3d G = Eigen::Vector3d::Zero();
+      for (int k = b; k <= model_.subtree_end[b]; ++k)
+        G += model_.inertia[k].mass * (data_.oMi[k].act(model_.inertia[k].com) - o);
+      // tau = c0 - fz (aF.x x + aF.y y)
+      const double c0 = g * a.dot(G) + fz * a.dot(o) - fz * (a.dot(X.p) - aF.z() * h);
+      const double lo = (c0 - effort_[j]) / fz, hi = (c0 + effort_[j]) / fz;
+      if (along_x) {
+        const double t_lo = std::min(aF.y() * yl, aF.y() * yh), t_hi = std::max(aF.y() * yl, aF.y() * yh);
+        double x_a = (lo - t_lo) / aF.x(), x_b = (hi - t_hi) / aF.x();
+        if (aF.x() < 0.0) std::swap(x_a, x_b);
+        xl = std::max(xl, x_a);
+        xh = std::min(xh, x_b);
+      } else {
+        const double t_lo = std::min(aF.x() * xl, aF.x() * xh), t_hi = std::max(aF.x() * xl, aF.x() * xh);
+        double y_a = (lo - t_lo) / aF.y(), y_b = (hi - t_hi) / aF.y();
+        if (aF.y() < 0.0) std::swap(y_a, y_b);
+        yl = std::max(yl, y_a);
+        yh = std::min(yh, y_b);
+      }
+    }
+  const double w = 2.0 * robot_.safety_margin + 0.004;
+  auto keep_width = [w](double& l, double& hgh, double full_l, double full_h) {
+    if (hgh - l >= w || full_h - full_l < w) {
+      l = std::clamp(l, full_l, full_h);
+      hgh = std::clamp(hgh, full_l, full_h);
+      if (hgh - l < w) l = full_l, hgh = full_h;
+      return;
+    }
+    const double c = std::clamp(0.5 * (l + hgh), full_l + 0.5 * w, full_h - 0.5 * w);
+    l = c - 0.5 * w;
+    hgh = c + 0.5 * w;
+  };
+  keep_width(xl, xh, full.x_min, full.x_max);
+  keep_width(yl, yh, full.y_min, full.y_max);
+  sole = {xl, xh, yl, yh};
 }
 
 void BalanceController::detect_fall(const Eigen::Matrix3d& R_WB) noexcept {

@@ -91,6 +91,12 @@ struct RobotConfig {
   /// Warnings found at load (e.g. a sole plane that is not the foot's collision bottom), one
   /// line each; load_robot_config() also prints them once to stderr.
   std::vector<std::string> warnings;
+  /// robot.yaml contact.effort_limited_sole (default false): each tick the balance controller
+  /// gives the contact optimiser only the part of each sole where a CoP keeps every joint of that
+  /// leg within its URDF effort at the foot's measured load (statics of the leg; controller/
+  /// momentum/README.md, "Soles limited by the joints' efforts"). `poise robot init` sets it
+  /// with stand points (weak joints).
+  bool effort_limited_sole = false;
 };
 
 /// Adds the frames robot.yaml defines (sole and foot frames given as offset + rotation) to a

@@ -218,6 +218,13 @@ class BalanceController {
   TickDiagnostics diag_;
   // FeedbackConfig::velocity_leak_hz: exp(-2 pi f dt), the velocity error kept per tick (1 = off).
   double velocity_keep_ = 1.0;
+  // RobotConfig::effort_limited_sole: each foot's chain of joints to the floating base (model
+  // joint indices, those with a finite effort), and the sole rectangle it leaves this tick.
+  std::array<std::vector<int>, 2> foot_chain_;
+  /// Shrinks `sole` (foot i's rectangle in F, on the sole plane h below F) to where a CoP keeps
+  /// every joint of foot_chain_[i] within its effort with the normal force fz on the foot and
+  /// gravity on the leg below each joint (statics). No allocation.
+  void limit_sole_by_effort(int i, double fz, double h, contact::SoleRectangle& sole) const noexcept;
 };
 
 }  // namespace poise::controller
