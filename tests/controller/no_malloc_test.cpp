@@ -106,6 +106,40 @@ TEST_P(NoMallocTick, ControllerTickPhasesAndFallbacks) {
 INSTANTIATE_TEST_SUITE_P(SupportAccelerationFeedForward, NoMallocTick,
                          ::testing::Values(0.0, 0.01));
 
+// RobotConfig::effort_limited_sole (ankles weakened so that the soles are cut every tick): the
+// per-tick cut allocates nothing either.
+TEST(NoMalloc, EffortLimitedSoles) {
+  model::Model m = test::humanoid().model;
+  for (const char* ankle : {"l_ankle_pitch", "r_ankle_pitch"}) m.limits[m.joint_index(ankle)].effort = 6.0;
+  model::RobotConfig robot = test::humanoid().robot;
+  robot.effort_limited_sole = true;
+  BalanceController c(m, robot, ControllerConfig{});
+  std::mt19937 rng(9);
+  std::vector<RobotState> states;
+  for (int k = 0; k < 20; ++k) {
+    states.push_back(test::random_state(c, rng));
+    for (auto& f : states.back().feet) f.normal_force = 300.0;
+  }
+  BalanceReference ref = c.make_reference();
+  contact::ContactOptimizer opt;
+  contact::ContactProblem p;
+  contact::ContactSolution sol;
+  JointCommand cmd = c.make_command();
+  int cut = 0;
+  Eigen::internal::set_is_malloc_allowed(false);
+  const long before = g_news.load();
+  for (int k = 0; k < 20; ++k) {
+    c.prepare(states[k], ref, p);
+    cut += p.feet[0].sole.x_max < robot.feet[0].sole.x_max ? 1 : 0;
+    opt.solve(p, sol);
+    c.finish(sol, cmd);
+  }
+  const long after = g_news.load();
+  Eigen::internal::set_is_malloc_allowed(true);
+  EXPECT_EQ(after, before) << "operator new called inside the tick";
+  EXPECT_EQ(cut, 20);
+}
+
 // Eq (33) with active joint bounds: the primal active set (and DualQp, its fallback) allocate
 // nothing either. Seeded random problems with tight bounds, sizes of the humanoid.
 TEST(NoMalloc, Eq33WithActiveBounds) {
