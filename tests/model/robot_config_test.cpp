@@ -99,6 +99,8 @@ TEST(RobotConfig, AStandPointIsReadInTheFootFrameOnTheSolePlane) {
   EXPECT_EQ(cfg.feet[kRight].stand_point_F(), Eigen::Vector3d(-0.0125, 0.02, -0.08));
   EXPECT_EQ(cfg.feet[kLeft].stand_point_F(), cfg.feet[kLeft].sole.center_F());
   EXPECT_LT((cfg.feet[kLeft].stand_point_F() - Eigen::Vector3d(0.03, 0.0, -0.08)).norm(), 1e-15);
+  EXPECT_FALSE(cfg.effort_limited_sole);  // absent: off
+
 }
 
 TEST(RobotConfig, ErrorsNameTheProblem) {
@@ -120,6 +122,8 @@ TEST(RobotConfig, ErrorsNameTheProblem) {
   expect_config_error(sole, sole + "\n    stand_point: [0.0]", "stand_point");
   expect_config_error(sole, sole + "\n    stand_point: [0.0, .nan]", "stand_point[1]");
   expect_config_error(sole, sole + "\n    stand_pont: [0.0, 0.0]", "stand_pont");
+  expect_config_error("torsional_mu: 0.02", "torsional_mu: 0.02\n  effort_limited_sole: yes",
+                      "contact.effort_limited_sole");
   EXPECT_THROW(load_robot_config("/nonexistent/robot.yaml"), ModelError);
 }
 
