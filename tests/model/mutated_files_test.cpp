@@ -453,6 +453,55 @@ TEST(MutatedUrdf, AJointWithZeroEffortOrVelocityIsFrozenAsNotActuated) {
   expect_names(urdf_error(bad), {"'r_finger_joint'", "effort", ">= 0"}, "negative effort");
 }
 
+// A massless `world` root whose only joint is `floating` to the pelvis (URDFs for Drake, from
+// MJCF, for Gazebo): that joint is the floating base; the model is the robot's own, to the
+// digit. A floating joint anywhere else, or from a root with mass or geometry, is refused naming
+// it.
+TEST(MutatedUrdf, AFloatingJointFromAMasslessRootIsTheFloatingBase) {
+  const std::string xml = urdf_text();
+  const auto pelvis = xml.find("<link name=\"pelvis\"");
+  ASSERT_NE(pelvis, std::string::npos);
+  auto with_root = [&](const std::string& root_link, const std::string& type) {
+    std::string x = xml;
+    x.insert(pelvis, root_link + "\n<joint name=\"world_to_pelvis\" type=\"" + type +
+                         "\"><parent link=\"world\"/><child link=\"pelvis\"/>"
+                         "<origin xyz=\"0.3 -0.2 1.0\" rpy=\"0 0 0.5\"/></joint>\n");
+    return x;
+  };
+  const Model ref = build_model_from_urdf_string(xml);
+  for (const std::string world : {std::string("<link name=\"world\"/>"),
+                                  std::string("<link name=\"world\"><inertial><mass value=\"0\"/>"
+                                              "<inertia ixx=\"0\" ixy=\"0\" ixz=\"0\" iyy=\"0\" "
+                                              "iyz=\"0\" izz=\"0\"/></inertial></link>")}) {
+    const Model m = build_model_from_urdf_string(with_root(world, "floating"));
+    EXPECT_EQ(m.body_name[0], "pelvis");
+    EXPECT_EQ(m.nbodies, ref.nbodies);
+    EXPECT_EQ(m.njoints, ref.njoints);
+    EXPECT_EQ(m.joint_names, ref.joint_names);
+    EXPECT_EQ(m.total_mass, ref.total_mass);
+    for (int b = 0; b < m.nbodies; ++b) {
+      EXPECT_EQ(m.inertia[b].mass, ref.inertia[b].mass) << b;
+      EXPECT_EQ(m.inertia[b].com, ref.inertia[b].com) << b;
+    }
+  }
+  // A root with mass, or with geometry: not a dummy; the floating joint is refused.
+  expect_names(urdf_error(with_root("<link name=\"world\"><inertial><mass value=\"1\"/><inertia "
+                                    "ixx=\"0.01\" ixy=\"0\" ixz=\"0\" iyy=\"0.01\" iyz=\"0\" "
+                                    "izz=\"0.01\"/></inertial></link>",
+                                    "floating")),
+               {"'world_to_pelvis'", "floating", "massless root"}, "root with mass");
+  expect_names(urdf_error(with_root("<link name=\"world\"><collision><geometry><box size=\"1 1 "
+                                    "0.1\"/></geometry></collision></link>",
+                                    "floating")),
+               {"'world_to_pelvis'", "floating"}, "root with geometry");
+  // A floating joint inside the robot.
+  std::string inner = xml;
+  const std::string wrist = "<joint name=\"l_wrist_fixed\" type=\"fixed\">";
+  ASSERT_NE(inner.find(wrist), std::string::npos);
+  inner.replace(inner.find(wrist), wrist.size(), "<joint name=\"l_wrist_fixed\" type=\"floating\">");
+  expect_names(urdf_error(inner), {"'l_wrist_fixed'", "floating"}, "floating inside");
+}
+
 TEST(MutatedUrdf, MimicOnFixedJointIsIgnored) {
   std::string xml = urdf_text();
   const std::string a = "<joint name=\"neck_fixed\" type=\"fixed\">";

@@ -543,6 +543,24 @@ TEST(RobotInit, LegsSideBySideAlongTheBaseXAreFound) {
   EXPECT_LT((cfg.forward_axis - Eigen::Vector3d(0, 1, 0)).norm(), 1e-3) << cfg.forward_axis.transpose();
 }
 
+// A URDF that gives its floating base as a `floating` joint from a massless `world` link (written
+// for Drake, from MJCF, for Gazebo; refused before 2026-12-05: "unsupported type 'floating'"): the
+// pelvis is the floating base, and the robot stands 10 s (simulator and model read it alike).
+TEST(RobotInit, AFloatingJointFromAWorldLinkIsTheFloatingBase) {
+  const fs::path dir = work_dir("floating_joint");
+  std::string xml =
+      read(fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/poise_humanoid.urdf");
+  const auto first = xml.find("<link name=\"pelvis\"");
+  ASSERT_NE(first, std::string::npos);
+  xml.insert(first, "<link name=\"world\"/>\n  <joint name=\"world_to_pelvis\" type=\"floating\">"
+                    "<parent link=\"world\"/><child link=\"pelvis\"/>"
+                    "<origin xyz=\"0 0 1.0\" rpy=\"0 0 0\"/></joint>\n  ");
+  const fs::path urdf = dir / "floating.urdf";
+  std::ofstream(urdf) << xml;
+  const std::string text = init_and_stand(urdf, dir, false);
+  EXPECT_NE(text.find("floating base: pelvis,"), std::string::npos) << text;
+}
+
 // A floating base whose frame origin sits near the floor (Berkeley Humanoid Lite: its `base`
 // frame at floor level, 0.054 m below the ground standing, failed a 0.3 m min_base_height_m
 // with the robot upright): reported under "check" with the height, and not for the shipped robot.

@@ -17,6 +17,7 @@
 #include <optional>
 #include <string_view>
 #include <fstream>
+#include <cstdlib>
 #include <map>
 #include <mutex>
 #include <set>
@@ -294,7 +295,13 @@ class RawChecker {
     if (!kTypes.count(j.type)) {
       err(where, "unsupported type '" + j.type +
                      "' (only fixed, revolute, continuous and prismatic joints "
-                     "below the floating base)");
+                     "below the floating base" +
+                     (j.type == "floating"
+                          ? std::string("; a floating joint is taken as the floating base only "
+                                        "from a massless root link without geometry whose only "
+                                        "joint it is")
+                          : std::string()) +
+                     ")");
       return;
     }
     if (j.type == "fixed") return;  // axis, limits, dynamics and <mimic> of a fixed joint unused
@@ -364,6 +371,48 @@ std::string precheck_xml(const std::string& xml, const std::string& origin) {
   if (robot->NextSiblingElement("robot") != nullptr)
     throw ModelError("URDF " + origin + ": more than one <robot> element");
 
+  // A massless root link whose only joint is a `floating` one to the robot (URDFs written for
+  // Drake, converted from MJCF, or for Gazebo: `world` -> floating -> pelvis): that joint is the
+  // floating base Poise adds anyway; the dummy link and the joint are dropped below and the
+  // joint's child is the root. A `floating` joint anywhere else is refused (RawChecker::joint).
+  std::string dummy_root, root_floating_joint;
+  {
+    std::map<std::string, int> joints_below;
+    std::set<std::string> child_links;
+    const TiXmlElement* floating = nullptr;
+    int nfloating = 0;
+    for (const TiXmlElement* e = robot->FirstChildElement("joint"); e != nullptr;
+         e = e->NextSiblingElement("joint")) {
+      const TiXmlElement* p = e->FirstChildElement("parent");
+      const TiXmlElement* c = e->FirstChildElement("child");
+      if (p && p->Attribute("link")) ++joints_below[p->Attribute("link")];
+      if (c && c->Attribute("link")) child_links.insert(c->Attribute("link"));
+      const char* type = e->Attribute("type");
+      if (type && std::string(type) == "floating") {
+        floating = e;
+        ++nfloating;
+      }
+    }
+    const TiXmlElement* fp = floating ? floating->FirstChildElement("parent") : nullptr;
+    if (nfloating == 1 && fp && fp->Attribute("link") && floating->Attribute("name")) {
+      const std::string parent = fp->Attribute("link");
+      const TiXmlElement* link = nullptr;
+      for (const TiXmlElement* e = robot->FirstChildElement("link"); e != nullptr;
+           e = e->NextSiblingElement("link"))
+        if (e->Attribute("name") && parent == e->Attribute("name")) link = e;
+      double mass = 0.0;
+      if (link)
+        if (const TiXmlElement* in = link->FirstChildElement("inertial"))
+          if (const TiXmlElement* me = in->FirstChildElement("mass"))
+            if (me->Attribute("value")) mass = std::strtod(me->Attribute("value"), nullptr);
+      if (link && !child_links.count(parent) && joints_below[parent] == 1 && mass == 0.0 &&
+          !link->FirstChildElement("collision") && !link->FirstChildElement("visual")) {
+        dummy_root = parent;
+        root_floating_joint = floating->Attribute("name");
+      }
+    }
+  }
+
   RawChecker ck(origin);
   std::set<std::string> links;
   std::size_t nlinks = 0, njoints = 0;
@@ -384,6 +433,7 @@ std::string precheck_xml(const std::string& xml, const std::string& origin) {
       ck.err("a <link>", "has no name");
       continue;
     }
+    if (name == dummy_root) continue;
     if (!links.insert(name).second) ck.err("link '" + std::string(name) + "'", "defined twice");
     ck.link(e, name);
   }
@@ -409,6 +459,7 @@ std::string precheck_xml(const std::string& xml, const std::string& origin) {
     }
     j.name = name;
     j.type = type ? type : "";
+    if (j.name == root_floating_joint) continue;
     ck.joint(e, j, joint_names);
     const TiXmlElement* p = e->FirstChildElement("parent");
     const TiXmlElement* c = e->FirstChildElement("child");
@@ -510,6 +561,18 @@ std::string precheck_xml(const std::string& xml, const std::string& origin) {
   if (!ck.errors.empty()) throw ModelError(join_lines(ck.errors));
 
   bool stripped = false;
+  if (!dummy_root.empty()) {
+    TiXmlElement* r = doc.FirstChildElement("robot");
+    for (const char* kind : {"link", "joint"})
+      for (TiXmlElement* e = r->FirstChildElement(kind); e != nullptr;) {
+        TiXmlElement* next = e->NextSiblingElement(kind);
+        const char* n = e->Attribute("name");
+        if (n && std::string(n) == (std::string(kind) == "link" ? dummy_root : root_floating_joint))
+          r->RemoveChild(e);
+        e = next;
+      }
+    stripped = true;
+  }
   // <visual> elements: Poise draws nothing, and urdfdom 3.0 refuses some that other tools accept
   // (a <material> without a name: the link is then dropped with its collisions; Unitree's H1-2).
   // Their geometry was checked above.
