@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <random>
 
 #include "controller_test_util.hpp"
@@ -177,6 +178,24 @@ TEST(BalanceController, AnEffortLimitedSoleKeepsEveryLegJointWithinItsEffort) {
         ++tight;
       }
     }
+  }
+  // A load the controller cannot use (NaN, negative, zero: a failed F/T reading or a foot in the
+  // air) leaves the sole whole, this tick, whatever the previous tick cut.
+  for (const double bad : {std::numeric_limits<double>::quiet_NaN(), -50.0, 0.0}) {
+    RobotState s = test::random_state(c, rng, 0.05, 0.0);
+    s.feet[0].normal_force = 400.0;  // cut the left foot first
+    s.feet[1].normal_force = 400.0;
+    BalanceReference ref = c.make_reference();
+    contact::ContactProblem p;
+    c.prepare(s, ref, p);
+    ASSERT_LT(p.feet[1].sole.x_max, robot.feet[1].sole.x_max);
+    s.feet[1].normal_force = bad;
+    c.prepare(s, ref, p);
+    EXPECT_EQ(p.feet[1].sole.x_min, robot.feet[1].sole.x_min) << bad;
+    EXPECT_EQ(p.feet[1].sole.x_max, robot.feet[1].sole.x_max) << bad;
+    EXPECT_EQ(p.feet[1].sole.y_min, robot.feet[1].sole.y_min) << bad;
+    EXPECT_EQ(p.feet[1].sole.y_max, robot.feet[1].sole.y_max) << bad;
+    EXPECT_LT(p.feet[0].sole.x_max, robot.feet[0].sole.x_max) << bad;
   }
   std::printf("effort-limited soles: %d of 40 cut, %d cut x edges checked tight\n", cuts, tight);
   EXPECT_GE(cuts, 20);

@@ -49,6 +49,25 @@ std::string read(const fs::path& p) {
   return s.str();
 }
 
+// The project humanoid's URDF text, the base of the mutated robots below.
+std::string shipped_urdf() {
+  return read(fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/poise_humanoid.urdf");
+}
+
+// The project humanoid under a new root link `root` (no inertia, no geometry), joined to its
+// pelvis by a joint of `type` at `xyz` / `rpy`.
+std::string under_new_root(const std::string& root, const std::string& type,
+                           const std::string& xyz, const std::string& rpy) {
+  std::string xml = shipped_urdf();
+  const auto pelvis = xml.find("<link name=\"pelvis\"");
+  EXPECT_NE(pelvis, std::string::npos);
+  xml.insert(pelvis, "<link name=\"" + root + "\"/>\n  <joint name=\"" + root +
+                         "_to_pelvis\" type=\"" + type + "\"><parent link=\"" + root +
+                         "\"/><child link=\"pelvis\"/><origin xyz=\"" + xyz + "\" rpy=\"" +
+                         rpy + "\"/></joint>\n  ");
+  return xml;
+}
+
 // Standing still in process for `seconds` on a robot.yaml (the test robots' success criteria):
 // the exit code and verdict line of `poise run`; the scenario and result go to `dir`. With
 // `push_n` > 0: a forward push of that force on the pelvis at 1 s for 0.1 s, and the CoM error
@@ -206,7 +225,7 @@ TEST(RobotInit, AUrdfWithoutSoleLinksGetsSoleOffsetsAndStands) {
 // (model::urdf_for_urdfdom): init, the model, the simulator and the stand all work.
 TEST(RobotInit, AVisualMaterialWithoutANameIsIgnored) {
   const fs::path dir = work_dir("nameless_material");
-  std::string xml = read(fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/poise_humanoid.urdf");
+  std::string xml = shipped_urdf();
   xml = std::regex_replace(xml, std::regex("</visual>"),
                            "  <material><color rgba=\"0.1 0.1 0.1 1\"/></material>\n    </visual>");
   ASSERT_NE(xml.find("<material><color"), std::string::npos);
@@ -231,8 +250,7 @@ TEST(RobotInit, AVisualMaterialWithoutANameIsIgnored) {
 // simulator did not read until 2026-12-05): said under "check"; with its box it is not.
 TEST(RobotInit, AFloatingBaseWithoutCollisionIsReported) {
   const fs::path dir = work_dir("base_without_collision");
-  const std::string xml =
-      read(fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/poise_humanoid.urdf");
+  const std::string xml = shipped_urdf();
   const std::string collision =
       "    <collision>\n      <origin xyz=\"0 0 -0.02\" rpy=\"0 0 0\"/>\n      <geometry><box "
       "size=\"0.18 0.26 0.14\"/></geometry>\n    </collision>\n";
@@ -258,6 +276,19 @@ TEST(RobotInit, AFloatingBaseWithoutCollisionIsReported) {
 // each ankle with the torque of a moment balance about the ankle axis computed here from the
 // model, independently of robot init's inverse dynamics: half the weight up at the sole centre,
 // the weight of the foot below the ankle down at its COM. With the URDF's efforts: no line.
+// A robot.yaml loaded, its model, and the kinematics and CoM of its nominal posture.
+struct NominalPose {
+  explicit NominalPose(const fs::path& yaml)
+      : cfg(poise::model::load_robot_config(yaml)), m(poise::model::load_robot_model(cfg)), data(m) {
+    poise::model::forward_kinematics(m, data, cfg.q_nominal);
+    poise::model::update_frame_placements(m, data);
+    poise::model::center_of_mass(m, data, cfg.q_nominal);
+  }
+  const poise::model::RobotConfig cfg;
+  const poise::model::Model m;
+  poise::model::Data data;
+};
+
 // The project humanoid with its ankle pitch efforts cut to `effort` N m.
 std::string weak_ankles(const std::string& xml, const std::string& effort) {
   std::string weak = xml;
@@ -300,8 +331,7 @@ double printed_need(const std::string& text, const std::string& key) {
 
 TEST(RobotInit, AJointThatNeedsMostOfItsEffortToStandIsReported) {
   const fs::path dir = work_dir("standing_effort");
-  const std::string xml =
-      read(fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/poise_humanoid.urdf");
+  const std::string xml = shipped_urdf();
   std::ofstream(dir / "weak.urdf") << weak_ankles(xml, "1");
   std::ofstream(dir / "shipped.urdf") << xml;
   auto [ok_code, ok_text] = run_command(
@@ -317,12 +347,8 @@ TEST(RobotInit, AJointThatNeedsMostOfItsEffortToStandIsReported) {
                                   60s);
   ASSERT_EQ(code, 0) << text;
   EXPECT_NE(text.find("will saturate it (--stand centres"), std::string::npos) << text;
-  const poise::model::RobotConfig cfg =
-      poise::model::load_robot_config(dir / "weak" / "robot.yaml");
-  const poise::model::Model m = poise::model::load_robot_model(cfg);
-  poise::model::Data data(m);
-  poise::model::forward_kinematics(m, data, cfg.q_nominal);
-  poise::model::update_frame_placements(m, data);
+  const NominalPose pose(dir / "weak" / "robot.yaml");
+  const auto& [cfg, m, data] = pose;
   const double weight = m.total_mass * m.gravity.norm();
   for (const auto& [ankle, side] : {std::pair<std::string, int>{"l_ankle_pitch", 1},
                                     std::pair<std::string, int>{"r_ankle_pitch", 0}}) {
@@ -351,21 +377,15 @@ TEST(RobotInit, AJointThatNeedsMostOfItsEffortToStandIsReported) {
 // 3 s and falls over the sole centres.
 TEST(RobotInit, WeakAnklesGetStandPointsWhereTheLegJointsHoldTheRobot) {
   const fs::path dir = work_dir("stand_points");
-  const std::string xml =
-      read(fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/poise_humanoid.urdf");
+  const std::string xml = shipped_urdf();
   std::ofstream(dir / "weak.urdf") << weak_ankles(xml, "1");
   auto [code, text] = run_command(
       {bin("poise"), "robot", "init", (dir / "weak.urdf").string(), "-o", (dir / "weak").string()},
       60s);
   ASSERT_EQ(code, 0) << text;
   ASSERT_NE(text.find("robot.yaml stands the robot over stand points"), std::string::npos) << text;
-  const poise::model::RobotConfig cfg =
-      poise::model::load_robot_config(dir / "weak" / "robot.yaml");
-  const poise::model::Model m = poise::model::load_robot_model(cfg);
-  poise::model::Data data(m);
-  poise::model::forward_kinematics(m, data, cfg.q_nominal);
-  poise::model::update_frame_placements(m, data);
-  poise::model::center_of_mass(m, data, cfg.q_nominal);
+  const NominalPose pose(dir / "weak" / "robot.yaml");
+  const auto& [cfg, m, data] = pose;
   const double weight = m.total_mass * m.gravity.norm();
   Eigen::Vector3d mid = Eigen::Vector3d::Zero();
   std::array<Eigen::Vector3d, 2> point;
@@ -452,11 +472,8 @@ TEST(RobotInit, WeakAnklesGetStandPointsWhereTheLegJointsHoldTheRobot) {
 // The nominal posture of a robot.yaml: each sole's tilt from flat [rad] and the two sole planes'
 // height difference [m], by forward kinematics of the written posture.
 std::pair<double, double> sole_tilt_and_step(const fs::path& yaml) {
-  const poise::model::RobotConfig cfg = poise::model::load_robot_config(yaml);
-  const poise::model::Model m = poise::model::load_robot_model(cfg);
-  poise::model::Data data(m);
-  poise::model::forward_kinematics(m, data, cfg.q_nominal);
-  poise::model::update_frame_placements(m, data);
+  const NominalPose pose(yaml);
+  const auto& [cfg, m, data] = pose;
   double tilt = 0.0;
   std::array<double, 2> z{};
   for (int s : {0, 1}) {
@@ -473,8 +490,7 @@ std::pair<double, double> sole_tilt_and_step(const fs::path& yaml) {
 // robot stands 10 s.
 TEST(RobotInit, CantedHipPitchAxesGetFlatSolesByLegIk) {
   const fs::path dir = work_dir("canted_hips");
-  std::string xml =
-      read(fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/poise_humanoid.urdf");
+  std::string xml = shipped_urdf();
   for (const auto& [hip, axis] : {std::pair<std::string, std::string>{"l_hip_pitch", "0 0.96593 -0.25882"},
                                   std::pair<std::string, std::string>{"r_hip_pitch", "0 0.96593 0.25882"}}) {
     const auto j = xml.find("<joint name=\"" + hip + "\"");
@@ -497,8 +513,7 @@ TEST(RobotInit, CantedHipPitchAxesGetFlatSolesByLegIk) {
 // and the leg IK levels the two sole planes; the robot stands.
 TEST(RobotInit, FeetOfDifferentHeightsGetLevelSolesByLegIk) {
   const fs::path dir = work_dir("uneven_feet");
-  std::string xml =
-      read(fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/poise_humanoid.urdf");
+  std::string xml = shipped_urdf();
   const auto foot = xml.find("<link name=\"l_foot\"");
   ASSERT_NE(foot, std::string::npos);
   const std::string from = "<origin xyz=\"0.03 0 -0.055\" rpy=\"0 0 0\"/>";
@@ -528,13 +543,7 @@ TEST(RobotInit, FeetOfDifferentHeightsGetLevelSolesByLegIk) {
 // base's +y, and the robot stands 10 s.
 TEST(RobotInit, LegsSideBySideAlongTheBaseXAreFound) {
   const fs::path dir = work_dir("turned_base");
-  std::string xml =
-      read(fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/poise_humanoid.urdf");
-  const auto first = xml.find("<link name=\"pelvis\"");
-  ASSERT_NE(first, std::string::npos);
-  xml.insert(first, "<link name=\"turned_base\"/>\n  <joint name=\"turned_base_to_pelvis\" type=\"fixed\">"
-                    "<parent link=\"turned_base\"/><child link=\"pelvis\"/>"
-                    "<origin xyz=\"0 0 0\" rpy=\"0 0 1.5707963267948966\"/></joint>\n  ");
+  const std::string xml = under_new_root("turned_base", "fixed", "0 0 0", "0 0 1.5707963267948966");
   const fs::path urdf = dir / "turned.urdf";
   std::ofstream(urdf) << xml;
   const std::string text = init_and_stand(urdf, dir, false);
@@ -548,13 +557,7 @@ TEST(RobotInit, LegsSideBySideAlongTheBaseXAreFound) {
 // pelvis is the floating base, and the robot stands 10 s (simulator and model read it alike).
 TEST(RobotInit, AFloatingJointFromAWorldLinkIsTheFloatingBase) {
   const fs::path dir = work_dir("floating_joint");
-  std::string xml =
-      read(fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/poise_humanoid.urdf");
-  const auto first = xml.find("<link name=\"pelvis\"");
-  ASSERT_NE(first, std::string::npos);
-  xml.insert(first, "<link name=\"world\"/>\n  <joint name=\"world_to_pelvis\" type=\"floating\">"
-                    "<parent link=\"world\"/><child link=\"pelvis\"/>"
-                    "<origin xyz=\"0 0 1.0\" rpy=\"0 0 0\"/></joint>\n  ");
+  const std::string xml = under_new_root("world", "floating", "0 0 1.0", "0 0 0");
   const fs::path urdf = dir / "floating.urdf";
   std::ofstream(urdf) << xml;
   const std::string text = init_and_stand(urdf, dir, false);
@@ -566,13 +569,7 @@ TEST(RobotInit, AFloatingJointFromAWorldLinkIsTheFloatingBase) {
 // with the robot upright): reported under "check" with the height, and not for the shipped robot.
 TEST(RobotInit, ABaseFrameNearTheFloorIsReported) {
   const fs::path dir = work_dir("low_base");
-  std::string xml =
-      read(fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/poise_humanoid.urdf");
-  const auto first = xml.find("<link name=\"pelvis\"");
-  ASSERT_NE(first, std::string::npos);
-  xml.insert(first, "<link name=\"low_base\"/>\n  <joint name=\"low_base_to_pelvis\" type=\"fixed\">"
-                    "<parent link=\"low_base\"/><child link=\"pelvis\"/>"
-                    "<origin xyz=\"0 0 0.8\" rpy=\"0 0 0\"/></joint>\n  ");
+  const std::string xml = under_new_root("low_base", "fixed", "0 0 0.8", "0 0 0");
   std::ofstream(dir / "low.urdf") << xml;
   auto [code, text] = run_command(
       {bin("poise"), "robot", "init", (dir / "low.urdf").string(), "-o", (dir / "low").string()}, 60s);

@@ -129,9 +129,7 @@ struct Leg {
   model::SoleRectangle sole;
   /// Where the robot stands on this sole (robot.yaml feet.<side>.stand_point; unset: the centre).
   std::optional<Eigen::Vector2d> stand;
-  Vector3 stand_F() const {
-    return stand ? Vector3(stand->x(), stand->y(), -sole.height) : sole.center_F();
-  }
+  Vector3 stand_F() const { return sole.stand_point_F(stand); }
   std::string sole_frame;
   bool sole_added = false;
   SE3 X_BA;                  ///< foot frame in the foot body (an added upright frame or I)

@@ -26,6 +26,10 @@ struct SoleRectangle {
   Eigen::Vector3d center_F() const {
     return {0.5 * (x_min + x_max), 0.5 * (y_min + y_max), -height};
   }
+  /// A stand point (x, y) on the sole plane in the foot frame (dim 3); unset: the centre.
+  Eigen::Vector3d stand_point_F(const std::optional<Eigen::Vector2d>& p) const {
+    return p ? Eigen::Vector3d(p->x(), p->y(), -height) : center_F();
+  }
 };
 
 struct FootConfig {
@@ -55,10 +59,7 @@ struct FootConfig {
   /// joint's effort (components/robot_init/README.md, "Standing within the efforts").
   std::optional<Eigen::Vector2d> stand_point;
   /// The stand point on the sole plane, in the foot frame (dim 3): stand_point, else the centre.
-  Eigen::Vector3d stand_point_F() const {
-    return stand_point ? Eigen::Vector3d(stand_point->x(), stand_point->y(), -sole.height)
-                       : sole.center_F();
-  }
+  Eigen::Vector3d stand_point_F() const { return sole.stand_point_F(stand_point); }
 };
 
 struct JointGains {

@@ -223,7 +223,9 @@ class BalanceController {
   std::array<std::vector<int>, 2> foot_chain_;
   /// Shrinks `sole` (foot i's rectangle in F, on the sole plane h below F) to where a CoP keeps
   /// every joint of foot_chain_[i] within its effort with the normal force fz on the foot and
-  /// gravity on the leg below each joint (statics). No allocation.
+  /// gravity on the leg below each joint (statics). A load that is not finite or at most 0.1 %
+  /// of the weight (a foot in the air, a failed F/T reading) leaves the sole whole. No
+  /// allocation.
   void limit_sole_by_effort(int i, double fz, double h, contact::SoleRectangle& sole) const noexcept;
 };
 
