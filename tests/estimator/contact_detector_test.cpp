@@ -290,6 +290,72 @@ TEST(ContactDetector, ALightTouchIsFlaggedFromItsStepAboveTheReadingInTheAir) {
   }
 }
 
+// A planned swing's foot that tips about its heel edge with a light load keeps its contact (the
+// heel corners stay on the ground, as the simulator's truth says: contact lasts while one corner
+// touches); once the whole sole leaves, accelerating from rest, the corner rule flags the
+// lift-off within a few ticks. Geometry built here independently: a 0.2 m x 0.1 m sole turned by
+// theta about its heel edge, then translated up.
+TEST(ContactDetector, APlannedSwingEndsWhenEveryCornerOfTheSoleLeaves) {
+  // The resting rule on: the foot, unloaded to 1 N before its swing, keeps its contact at any
+  // load (without it the load rule ends the contact below swing_off_force whatever the sole).
+  ContactThresholds t{75.0, 5.0};
+  t.touch_force = 10.0;
+  t.rest_time = 0.02;
+  const double length = 0.2, dt = 0.001;
+  const auto kinematics = [&](double theta, double lift, bool corners) {
+    FootKinematics k;
+    k.dt = dt;
+    k.plan = FootPlan::kSwing;
+    // Heel corners (x = 0) at the lift; toe corners (x = length) raised by the tip.
+    const double toe = lift + length * std::sin(theta);
+    k.sole_z = lift + 0.5 * length * std::sin(theta);  // the sole centre
+    if (corners) k.corner_z = {lift, lift, toe, toe};
+    return k;
+  };
+  for (const bool corners : {true, false}) {
+    ContactDetector c(t);
+    FootKinematics k0 = kinematics(0.0, 0.0, corners);
+    k0.plan = FootPlan::kNone;
+    ASSERT_TRUE(c.update(wrench_with_fz(200.0), k0));
+    // Unloaded by a weight shift (8 N: below touch_force, above off_force) for 30 ms: it rests.
+    for (int i = 0; i < 30; ++i) ASSERT_TRUE(c.update(wrench_with_fz(8.0), k0)) << i;
+    ASSERT_TRUE(c.resting());
+    // 80 ms of tipping about the heel edge at 0.05 rad/s under 1 N (below swing_off_force
+    // 2.5 N): the toe rises 0.8 mm, the centre 0.4 mm, the heel corners stay down.
+    int ended = -1;
+    for (int i = 1; i <= 80 && ended < 0; ++i)
+      if (!c.update(wrench_with_fz(1.0), kinematics(5e-3 * i * dt * 10.0, 0.0, corners)))
+        ended = i;
+    if (!corners) {
+      // The sole centre's rule takes the tip for a lift-off (the centre 0.03 mm up).
+      EXPECT_GT(ended, 0);
+      continue;
+    }
+    EXPECT_EQ(ended, -1) << "the heel corners never left the ground";
+    // The whole sole leaves at 0.5 m/s^2 from rest: 5 um of rise within 5 ms after ~4.5 ms.
+    const double theta = 5e-3 * 80 * dt * 10.0;
+    for (int i = 1; i <= 20 && ended < 0; ++i) {
+      const double s = i * dt;
+      if (!c.update(wrench_with_fz(1.0), kinematics(theta, 0.5 * 0.5 * s * s, true))) ended = i;
+    }
+    EXPECT_GE(ended, 4);
+    EXPECT_LE(ended, 6);
+  }
+  // Heights from another reference (the estimator switched from W to the other sole's plane):
+  // the jump is not a lift; the history restarts.
+  ContactDetector d(t);
+  FootKinematics k = kinematics(0.0, 0.0, true);
+  k.plan = FootPlan::kNone;
+  ASSERT_TRUE(d.update(wrench_with_fz(200.0), k));
+  for (int i = 0; i < 30; ++i) ASSERT_TRUE(d.update(wrench_with_fz(8.0), k));
+  k.plan = FootPlan::kSwing;
+  for (int i = 0; i < 10; ++i) ASSERT_TRUE(d.update(wrench_with_fz(1.0), k));
+  k.corner_reference = 1;
+  for (double& z : k.corner_z) z += 0.8;  // the same foot seen from elsewhere
+  k.sole_z = 0.0;
+  for (int i = 0; i < 10; ++i) EXPECT_TRUE(d.update(wrench_with_fz(1.0), k)) << i;
+}
+
 TEST(ContactDetector, RejectsBadThresholds) {
   EXPECT_THROW(ContactDetector(ContactThresholds{10.0, 10.0}), std::invalid_argument);
   EXPECT_THROW(ContactDetector(ContactThresholds{10.0, -1.0}), std::invalid_argument);
@@ -314,6 +380,12 @@ TEST(ContactDetector, RejectsBadThresholds) {
   EXPECT_THROW(ContactDetector{t}, std::invalid_argument);
   t = ContactThresholds{100.0, 10.0};
   t.light_noise = -0.5;
+  EXPECT_THROW(ContactDetector{t}, std::invalid_argument);
+  t = ContactThresholds{100.0, 10.0};
+  t.swing_corner_rise = std::nan("");
+  EXPECT_THROW(ContactDetector{t}, std::invalid_argument);
+  t = ContactThresholds{100.0, 10.0};
+  t.swing_corner_window = 0.0;
   EXPECT_THROW(ContactDetector{t}, std::invalid_argument);
   t = ContactThresholds{100.0, 10.0};
   t.light_baseline_time = 0.0;

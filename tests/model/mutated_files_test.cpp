@@ -469,7 +469,7 @@ TEST(MutatedUrdf, AFloatingJointFromAMasslessRootIsTheFloatingBase) {
     return x;
   };
   const Model ref = build_model_from_urdf_string(xml);
-  for (const std::string world : {std::string("<link name=\"world\"/>"),
+  for (const std::string& world : {std::string("<link name=\"world\"/>"),
                                   std::string("<link name=\"world\"><inertial><mass value=\"0\"/>"
                                               "<inertia ixx=\"0\" ixy=\"0\" ixz=\"0\" iyy=\"0\" "
                                               "iyz=\"0\" izz=\"0\"/></inertial></link>")}) {

@@ -123,6 +123,8 @@ InProcessLoop::InProcessLoop(const scenario::Scenario& scenario, const LoopOptio
       ecfg.stance_rate_filter_hz = scenario_.estimator.stance_rate_hz;
     if (const double n = scenario::estimator_contact_ft_noise(scenario_); std::isfinite(n))
       ecfg.contact_ft_noise = n;
+    if (std::isfinite(scenario_.estimator.contact_rest_time))
+      ecfg.contact_rest_time = scenario_.estimator.contact_rest_time;
     ecfg.imu_delay_ticks = scenario::estimator_imu_delay_ticks(scenario_);
     // Where the soles start: the scenario's estimator section, or the platforms at t = 0.
     const scenario::EstimatorStart start = scenario::estimator_start(scenario_);

@@ -502,6 +502,8 @@ std::vector<std::string> estimator_scenario_args(const scenario::Scenario& sc,
     a.insert(a.end(), {"--stance-rate-hz", exact(sc.estimator.stance_rate_hz)});
   if (const double n = scenario::estimator_contact_ft_noise(sc); std::isfinite(n))
     a.insert(a.end(), {"--contact-ft-noise", exact(n)});
+  if (std::isfinite(sc.estimator.contact_rest_time))
+    a.insert(a.end(), {"--contact-rest-time", exact(sc.estimator.contact_rest_time)});
   if (const int d = scenario::estimator_imu_delay_ticks(sc); d > 0)
     a.insert(a.end(), {"--imu-delay-ticks", std::to_string(d)});
   return a;

@@ -70,7 +70,7 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
   if (const YAML::Node e = root["estimator"]) {
     c.allow(e, "estimator",
             {"type", "supports", "ground_height", "support_height", "stance_rate_hz",
-             "contact_ft_noise", "imu_delay_ticks"});
+             "contact_ft_noise", "contact_rest_time", "imu_delay_ticks"});
     if (e["imu_delay_ticks"]) {
       const double d = c.num(e["imu_delay_ticks"], "estimator.imu_delay_ticks");
       if (!(d >= 0.0 && d <= 100.0) || d != std::floor(d))
@@ -86,6 +86,13 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
         c.fail("estimator.contact_ft_noise",
                "must be a finite number >= 0 (N, the F/T normal-force noise; 0: the light-touch "
                "rule off)");
+    }
+    if (e["contact_rest_time"]) {
+      sc.estimator.contact_rest_time = c.num(e["contact_rest_time"], "estimator.contact_rest_time");
+      if (!(sc.estimator.contact_rest_time >= 0.0) || !(sc.estimator.contact_rest_time <= 10.0))
+        c.fail("estimator.contact_rest_time",
+               "must be a number of seconds within 0..10 (the contact detector's resting rule; "
+               "0: off)");
     }
     if (e["stance_rate_hz"]) {
       sc.estimator.stance_rate_hz = c.num(e["stance_rate_hz"], "estimator.stance_rate_hz");

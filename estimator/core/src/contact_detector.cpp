@@ -35,6 +35,10 @@ ContactDetector::ContactDetector(const ContactThresholds& thresholds) : threshol
   if (t.swing_off_force > t.off_force) fail("swing_off_force must be <= off_force");
   if (!(t.swing_lift_height >= 0.0) || !std::isfinite(t.swing_lift_height))
     fail("swing_lift_height must be finite and >= 0");
+  if (!(t.swing_corner_rise >= 0.0) || !std::isfinite(t.swing_corner_rise))
+    fail("swing_corner_rise must be finite and >= 0");
+  if (!(t.swing_corner_window > 0.0) || !std::isfinite(t.swing_corner_window))
+    fail("swing_corner_window must be finite and > 0");
   if (!(t.light_noise >= 0.0) || !std::isfinite(t.light_noise))
     fail("light_noise must be finite and >= 0");
   if (!(t.light_baseline_time > 0.0) || !std::isfinite(t.light_baseline_time))
@@ -53,6 +57,7 @@ void ContactDetector::reset(bool in_contact) noexcept {
   light_ = false;
   baseline_age_ = 0.0;
   cusum_ = 0.0;
+  corner_count_ = 0;
 }
 
 bool ContactDetector::update(const Force& wrench_Fo_F, const FootKinematics& kin) noexcept {
@@ -76,14 +81,50 @@ bool ContactDetector::update(const Force& wrench_Fo_F, const FootKinematics& kin
   } else {
     have_z_ = false;
   }
-  // The plan: the lowest sole height since it said swing.
+  // The sole's corners: their heights over the last swing_corner_window.
+  const bool have_corners = have_kin && std::isfinite(kin.corner_z[0]) &&
+                            std::isfinite(kin.corner_z[1]) && std::isfinite(kin.corner_z[2]) &&
+                            std::isfinite(kin.corner_z[3]);
+  bool corners_lifted = false;
+  if (have_corners && kin.corner_reference != corner_reference_) {
+    // Heights from another reference: the history and the swing's and rest's starts restart.
+    corner_count_ = 0;
+    corner_reference_ = kin.corner_reference;
+    swing_start_corner_ = kin.corner_z;
+    rest_start_corner_ = kin.corner_z;
+  }
+  if (have_corners) {
+    corner_clock_ += kin.dt;
+    // Every corner rose more than swing_corner_rise since the newest sample at least
+    // swing_corner_window old (none that old yet: not lifted).
+    for (int k = 1; k <= corner_count_; ++k) {
+      const int i = (corner_next_ - k + kCornerHistory) % kCornerHistory;
+      if (corner_clock_ - corner_time_[i] < t.swing_corner_window - 1e-9) continue;
+      corners_lifted = true;
+      for (int c = 0; c < 4; ++c)
+        corners_lifted = corners_lifted && kin.corner_z[c] - corner_ring_[i][c] > t.swing_corner_rise;
+      break;
+    }
+    corner_ring_[corner_next_] = kin.corner_z;
+    corner_time_[corner_next_] = corner_clock_;
+    corner_next_ = (corner_next_ + 1) % kCornerHistory;
+    corner_count_ = std::min(corner_count_ + 1, kCornerHistory);
+  } else {
+    corner_count_ = 0;
+  }
+  // The plan: the lowest sole height since it said swing, and the corners then.
   const bool swing = kin.plan == FootPlan::kSwing;
   if (swing && have_kin) {
+    if (!swing_seen_ && have_corners) swing_start_corner_ = kin.corner_z;
     swing_low_z_ = swing_seen_ ? std::min(swing_low_z_, kin.sole_z) : kin.sole_z;
     swing_seen_ = true;
   } else {
     swing_seen_ = false;
   }
+  bool swing_corners_lifted = corners_lifted && swing_seen_;
+  if (swing_corners_lifted)
+    for (int c = 0; c < 4; ++c)
+      swing_corners_lifted = swing_corners_lifted && kin.corner_z[c] > swing_start_corner_[c];
 
   // F/T offset: learnt while the foot is clearly in the air (the reading is then the offset).
   if (!in_contact_ && have_kin && height > t.tare_height) {
@@ -113,16 +154,26 @@ bool ContactDetector::update(const Force& wrench_Fo_F, const FootKinematics& kin
     light_time_ = fn < t.touch_force ? light_time_ + step : 0.0;
     // Resting (rule on when rest_time > 0): lightly loaded for rest_time with the sole where it
     // stood (kinematics given).
+    const bool was_resting = resting_;
     resting_ = t.rest_time > 0.0 && have_kin && !(height > t.lift_height) &&
                light_time_ >= t.rest_time;
-    const bool lifted = have_kin && height > t.lift_height && rising;
+    if (resting_ && !was_resting && have_corners) rest_start_corner_ = kin.corner_z;
+    // A resting foot (no load to tell) leaves the ground when its corners do, as a planned
+    // swing's (the corner rule), or once its sole is lift_height up.
+    bool rest_lifted = resting_ && was_resting && have_corners && corners_lifted;
+    if (rest_lifted)
+      for (int c = 0; c < 4; ++c)
+        rest_lifted = rest_lifted && kin.corner_z[c] > rest_start_corner_[c];
+    const bool lifted = (have_kin && height > t.lift_height && rising) || rest_lifted;
     // Planned swing: the load must fall to swing_off_force (the controller unloads the foot to
     // zero), or below it the sole leaves its lowest height since the swing began. A light
     // contact's load is measured from its baseline.
     const double off = swing_seen_ ? t.swing_off_force : t.off_force;
     const double load = light_ ? fn - baseline_ : fn;
-    const bool swing_lifted = swing_seen_ && load < (light_ ? 0.0 : off) && rising &&
-                              kin.sole_z - swing_low_z_ > t.swing_lift_height;
+    const bool swing_left_ground =
+        have_corners ? swing_corners_lifted
+                     : rising && kin.sole_z - swing_low_z_ > t.swing_lift_height;
+    const bool swing_lifted = swing_seen_ && load < (light_ ? 0.0 : off) && swing_left_ground;
     if (lifted || swing_lifted) {
       in_contact_ = false;
       pending_ = 0;

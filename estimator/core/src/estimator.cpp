@@ -125,6 +125,11 @@ Estimator::Estimator(const model::Model& model, const model::RobotConfig& robot,
     sole_height_[f] = robot.feet[f].sole.height;
     require(std::isfinite(sole_height_[f]) && sole_height_[f] >= 0.0,
             "sole height of foot '" + robot.feet[f].frame + "' must be finite and >= 0");
+    const model::SoleRectangle& sole = robot.feet[f].sole;
+    std::size_t c = 0;
+    for (double x : {sole.x_min, sole.x_max})
+      for (double y : {sole.y_min, sole.y_max})
+        sole_corners_F_[f][c++] = Vector3(x, y, -sole.height);
   }
   weight_ = model_.total_mass * model_.gravity.norm();
   require(positive_finite(weight_), "the model's weight (total mass * |g|) must be > 0");
@@ -522,6 +527,16 @@ StatusFlags Estimator::update(const SensorFrame& frame, EstimatorState& out) noe
       const InvariantEkf::Mean& m = ekf_.mean();
       const Vector3 sole_B = legs_.X_BF[f].act(Vector3(0.0, 0.0, -sole_height_[f]));
       kin.sole_z = (m.p_WI + m.R_WI * X_IB_.act(sole_B)).z();
+      // The sole's corners: above the other sole's plane while that foot carries the weight
+      // (the legs' kinematics alone: no attitude error; that sole lies on its support), else in W.
+      const int o = 1 - f;
+      const bool other_stands = contact_[o].in_contact() && legs_.normal_force[o] > 0.02 * weight_;
+      for (std::size_t c = 0; c < 4; ++c) {
+        const Vector3 corner_B = legs_.X_BF[f].act(sole_corners_F_[f][c]);
+        kin.corner_z[c] = other_stands ? legs_.X_BF[o].act_inv(corner_B).z() + sole_height_[o]
+                                       : (m.p_WI + m.R_WI * X_IB_.act(corner_B)).z();
+      }
+      kin.corner_reference = other_stands ? 1 + o : 0;
     }
     legs_.contact[f] = contact_[f].update(frame.foot_wrench_Fo_F[f], kin);
     legs_.normal_force[f] = frame.foot_wrench_Fo_F[f][2];

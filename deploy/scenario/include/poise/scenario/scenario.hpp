@@ -43,6 +43,9 @@ struct EstimatorHints {
   /// `contact_ft_noise: N`: the contact detector's light-touch rule, the F/T normal-force noise
   /// (EstimatorConfig::contact_ft_noise; 0: off); NaN: not given (estimator_contact_ft_noise()).
   double contact_ft_noise = std::numeric_limits<double>::quiet_NaN();
+  /// `contact_rest_time: S`: the contact detector's resting rule (EstimatorConfig::
+  /// contact_rest_time; 0: off); NaN: not given (the estimator's default).
+  double contact_rest_time = std::numeric_limits<double>::quiet_NaN();
   /// `imu_delay_ticks: N`: the IMU's latency the estimator allows for with an IMU behind joints
   /// (EstimatorConfig::imu_delay_ticks); -1: not given (estimator_imu_delay_ticks()).
   int imu_delay_ticks = -1;

@@ -14,10 +14,15 @@
 //   plan       FootPlan::kSwing (the balance reference's FOOT_SWING): the controller unloads
 //              the foot to zero, so the load must fall below swing_off_force (default
 //              off_force / 2) for confirm_ticks ticks, or below it the sole (kinematics given)
-//              must rise swing_lift_height (0.03 mm) above the lowest it was since the plan
-//              said swing (the lift of a swing starts at zero velocity: the 4 mm of lift_height
-//              come ~0.1 s after the sole left). kNone / kSupport: the rules above (a planned
-//              support may still be lifted by a push);
+//              must leave the ground: with the sole's corners given (FootKinematics::corner_z),
+//              every corner rose more than swing_corner_rise (5 um) within the last
+//              swing_corner_window (5 ms) and is higher than it was when the plan said swing (a
+//              foot unloading to zero tips about an edge, and the truth's contact lasts while
+//              one corner stays down: its centre rises 0.1 mm before it leaves); without
+//              corners the sole centre must rise swing_lift_height (0.03 mm) above the lowest
+//              it was since the plan said swing (the lift of a swing starts at zero velocity:
+//              the 4 mm of lift_height come ~0.1 s after the sole left). kNone / kSupport: the
+//              rules above (a planned support may still be lifted by a push);
 //   resting    with rest_time > 0 (0 here and in EstimatorConfig::contact_rest_time: off by
 //              default, see there; poise-estimator --contact-rest-time S), a foot whose load
 //              stayed below touch_force for rest_time with its sole within lift_height of where
@@ -48,6 +53,7 @@
 //              plan rules (the plan's with the reading at or below the baseline), and becomes an ordinary contact above touch_force (confirm_ticks);
 // A sliding foot keeps its load, so neither rule fires while it slides (no chatter).
 
+#include <array>
 #include <limits>
 
 #include "poise/estimator/types.hpp"
@@ -76,6 +82,12 @@ struct ContactThresholds {
   /// With the plan kSwing and fn < swing_off_force: lift-off once the sole is this far above the
   /// lowest it was since the plan said swing, and rising [m] (>= 0).
   double swing_lift_height = 3e-5;
+  /// With the plan kSwing, fn < swing_off_force and the corners given: lift-off once every
+  /// corner of the sole rose more than swing_corner_rise within the last swing_corner_window
+  /// and stands above where it was when the plan said swing [m] (>= 0; 5 um: 3 sigma of the
+  /// estimated sole's tick-to-tick noise in the simulator's closed loop, idl/README.md).
+  double swing_corner_rise = 5e-6;
+  double swing_corner_window = 0.005;  ///< [s] (> 0; at most kCornerHistory ticks are kept)
   /// The F/T normal-force noise (1 sigma) for the light-touch rule [N] (>= 0; 0: the rule is off,
   /// the default of the detector alone; the Estimator's is EstimatorConfig::contact_ft_noise).
   double light_noise = 0.0;
@@ -88,6 +100,15 @@ struct ContactThresholds {
 struct FootKinematics {
   double sole_z = std::numeric_limits<double>::quiet_NaN();  ///< sole centre height in W [m]
   double dt = 0.001;                                         ///< since the previous tick [s]
+  /// Heights in W of the sole rectangle's four corners [m] (NaN: unknown; the plan's swing rule
+  /// then uses sole_z).
+  std::array<double, 4> corner_z{std::numeric_limits<double>::quiet_NaN(),
+                                 std::numeric_limits<double>::quiet_NaN(),
+                                 std::numeric_limits<double>::quiet_NaN(),
+                                 std::numeric_limits<double>::quiet_NaN()};
+  /// What corner_z is measured from (0: W; another value: another frame, e.g. the other foot's
+  /// sole); the detector compares heights of one reference only.
+  int corner_reference = 0;
   FootPlan plan = FootPlan::kNone;  ///< the plan in force (not kinematics: the detector's prior)
 };
 
@@ -97,7 +118,8 @@ class ContactDetector {
   ContactDetector() = default;
   /// Throws std::invalid_argument unless 0 <= off_force < on_force and the other fields are
   /// finite and in range (touch_force < on_force, touch_rate > 0, confirm_ticks >= 1, heights
-  /// >= 0, tare_time > 0, rest_time >= 0, swing_off_force <= off_force, swing_lift_height >= 0).
+  /// >= 0, tare_time > 0, rest_time >= 0, swing_off_force <= off_force, swing_lift_height >= 0,
+  /// swing_corner_rise >= 0, swing_corner_window > 0).
   explicit ContactDetector(const ContactThresholds& thresholds);
 
   /// Feeds one wrench [force; torque] at Fo in F axes, and optionally the foot's kinematics;
@@ -129,6 +151,17 @@ class ContactDetector {
   bool swing_seen_ = false;  ///< the plan says kSwing (and said so at the previous update)
   double swing_low_z_ = 0.0;  ///< lowest sole height since then [m]
   bool light_ = false;        ///< in contact by the light-touch rule
+  /// The sole corners' heights of the last ticks (ring) and the time they were taken, for the
+  /// plan's corner rule; the corners when the plan said swing.
+  static constexpr int kCornerHistory = 64;
+  std::array<std::array<double, 4>, kCornerHistory> corner_ring_{};
+  std::array<double, kCornerHistory> corner_time_{};
+  int corner_next_ = 0;
+  int corner_count_ = 0;
+  int corner_reference_ = 0;
+  double corner_clock_ = 0.0;
+  std::array<double, 4> swing_start_corner_{};
+  std::array<double, 4> rest_start_corner_{};  ///< the corners when the foot began to rest
   double baseline_ = 0.0;     ///< mean reading out of contact [N]
   double baseline_age_ = 0.0;  ///< how long it has been learnt [s]
   double cusum_ = 0.0;        ///< the touch (out of contact) or release (light) CUSUM [N]

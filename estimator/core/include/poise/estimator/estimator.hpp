@@ -361,6 +361,8 @@ class Estimator {
   bool ring_full_ = false;
   model::Data imu_data_;
   Eigen::VectorXd q_imu_, v_imu_;
+  /// The corners of each sole rectangle in its foot frame (the contact detector's swing rule).
+  std::array<std::array<Vector3, 4>, kNumFeet> sole_corners_F_{};
 };
 
 }  // namespace poise::estimator
