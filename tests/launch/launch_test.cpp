@@ -727,8 +727,9 @@ TEST(Launch, SecuredStackKeepsOutsidersAndEnforcesWhoWritesWhat) {
 // step in place is played by a poise-reference process that `poise run` starts from the
 // scenario's `reference:` key. The in-process twins are tests/estimator/contact_events_test.cpp
 // and tests/controller/step_in_place_test.cpp.
-// The scenario's estimator: {contact_ft_noise: N} (the contact detector's light-touch rule) reaches
-// the distributed estimator (its summary says what it ran with); without it, the rule is off.
+// The scenario's estimator: {contact_ft_noise: N} (the contact detector's light-touch rule) and
+// {contact_rest_time: S} (its resting rule) reach the distributed estimator (its summary says what
+// it ran with).
 TEST(Launch, TheScenarioSetsTheEstimatorsLightTouchRule) {
   // scenario::estimator_contact_ft_noise: the estimator section's value (0: the rule off), else
   // the simulated F/T's noise (sensors.foot_ft.force_noise_std), else the default sensors' 0.5 N.
@@ -740,9 +741,10 @@ TEST(Launch, TheScenarioSetsTheEstimatorsLightTouchRule) {
   struct Case {
     std::string name, section;
     double expected;
+    double rest_time = 0.0;  ///< the resting rule (estimator: {contact_rest_time: S}; off by default)
   };
   const std::vector<Case> cases{
-      {"set", "estimator: {contact_ft_noise: 0.25}\n", 0.25},
+      {"set", "estimator: {contact_ft_noise: 0.25, contact_rest_time: 0.02}\n", 0.25, 0.02},
       {"off", "estimator: {contact_ft_noise: 0}\n", 0.0},
       {"from_sensor", "sensors: {foot_ft: {force_noise_std: 0.8}}\n", 0.8},
       {"default", "", default_ft.force_noise_std}};
@@ -762,6 +764,8 @@ TEST(Launch, TheScenarioSetsTheEstimatorsLightTouchRule) {
     const Json summary = Json::parse(summary_file);
     ASSERT_TRUE(summary.contains("contact_ft_noise")) << summary.dump(2);
     EXPECT_DOUBLE_EQ(summary["contact_ft_noise"].get<double>(), c.expected) << c.name;
+    ASSERT_TRUE(summary.contains("contact_rest_time")) << summary.dump(2);
+    EXPECT_DOUBLE_EQ(summary["contact_rest_time"].get<double>(), c.rest_time) << c.name;
   }
 }
 

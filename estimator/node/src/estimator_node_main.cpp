@@ -326,7 +326,7 @@ int run(int argc, char** argv) {
                 "\"filter_resets\": %llu, "
                 "\"rejected_frames\": %llu, \"dropped_frames\": %llu, \"frozen_imu_ticks\": %llu, "
                 "\"orientation_rejections\": %llu, \"stance_rate_hz\": %g, \"stance_rate_gated_ticks\": %llu, "
-                "\"contact_ft_noise\": %g, \"imu_delay_ticks\": %d, "
+                "\"contact_ft_noise\": %g, \"contact_rest_time\": %g, \"imu_delay_ticks\": %d, "
                 "\"out_of_sequence\": %llu, \"stream_restarts\": %llu, "
                 "\"stale_events\": %llu, \"plans_received\": %llu, \"plan_overflows\": %llu}",
                 ground_truth_state ? "ground_truth" : "estimator",
@@ -337,7 +337,7 @@ int run(int argc, char** argv) {
                 static_cast<unsigned long long>(d.orientation_rejections),
                 config.stance_rate_filter_hz,
                 static_cast<unsigned long long>(d.stance_rate_gated_ticks),
-                config.contact_ft_noise, config.imu_delay_ticks,
+                config.contact_ft_noise, config.contact_rest_time, config.imu_delay_ticks,
                 static_cast<unsigned long long>(sequencer.rejected()),
                 static_cast<unsigned long long>(sequencer.restarts()),
                 static_cast<unsigned long long>(node.stale_events()),

@@ -27,7 +27,9 @@
 //              default, see there; poise-estimator --contact-rest-time S), a foot whose load
 //              stayed below touch_force for rest_time with its sole within lift_height of where
 //              it stood keeps its contact whatever its load, until
-//              its sole rises (lift_height) or the plan's swing rule fires: the flag then means
+//              its sole rises (lift_height), every corner of its sole (corners given) rose as
+//              the plan's corner rule asks above where it was when the foot began to rest, or
+//              the plan's swing rule fires: the flag then means
 //              "touching", not "loaded" (a foot the weight shifted off rests on the ground with
 //              3-10 N). The balance controller rests a foot (Sec. 4.2, its CoP rule) on the
 //              measured load, not on this flag (ControllerConfig::resting_force_fraction).

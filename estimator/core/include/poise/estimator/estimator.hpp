@@ -153,7 +153,10 @@ struct EstimatorConfig {
   /// <= 9 ms from 2 % to 1 %, shorter than the weight moves off a foot that stays down,
   /// 40-58 ms) the step in place's flags matched the truth in process and lockstep, but in real
   /// time its swing lift-off was flagged 5-9 ms late and a 170 ms true separation not at all
-  /// (contact_detector.hpp). >= 0.
+  /// (contact_detector.hpp). With the corner rule of the plan's swing (2026-12-05) the swing's
+  /// lift-offs are +2..+6 ms in process and lockstep, but a landed foot unloaded within 20 ms
+  /// still loses its flag while it touches (idl/README.md "The corner rule"). Scenario key
+  /// `estimator: {contact_rest_time: S}`. >= 0.
   double contact_rest_time = 0.0;
   /// The contact detector's light-touch rule (ContactThresholds::light_noise): the foot F/T's
   /// normal-force noise, 1 sigma [N]. A touch too light for the load thresholds (a foot that
