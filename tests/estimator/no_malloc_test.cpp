@@ -1,7 +1,8 @@
 // One estimator tick allocates nothing: built against copies of the estimator and model libraries
 // compiled with EIGEN_RUNTIME_NO_MALLOC (Eigen asserts on any heap allocation while forbidden);
 // the global operator new is counted as well (std:: containers). Covers the normal tick, a
-// rejected frame, dropped frames, the frozen-IMU fallback and lift-off, with every support model
+// rejected frame, dropped frames, the frozen-IMU fallback, a planned swing (the corner rule) and
+// lift-off, with every support model
 // (moving / translating with a short calibration, so their free-contact path runs).
 #include <gtest/gtest.h>
 
@@ -36,6 +37,7 @@ TEST_P(EstimatorNoMalloc, EveryKindOfTickIsAllocationFree) {
   EstimatorConfig config;
   config.supports = std::get<0>(GetParam());
   config.moving_support_calibration = 0.05;  // within the warm-up
+  config.contact_rest_time = 0.01;  // the resting rule on
   model::RobotConfig rc = robot.config;
   if (std::get<1>(GetParam())) {
     rc.imu_frame = "torso";
@@ -65,6 +67,11 @@ TEST_P(EstimatorNoMalloc, EveryKindOfTickIsAllocationFree) {
     frames[i].imu_specific_force_I = frames[49].imu_specific_force_I;
     frames[i].imu_q_WI = frames[49].imu_q_WI;
   }
+  for (int i = 130; i < 200; ++i)
+    frames[i].foot_plan[0] = FootPlan::kSwing;  // the plan's swing (its corner rule) ...
+  for (int i = 130; i < 136; ++i)
+    frames[i].foot_wrench_Fo_F[0] *= 0.01;  // ... on a light foot (not yet resting: the lift-off
+                                            // below still ends its contact by the load)
   for (int i = 150; i < 200; ++i)
     frames[i].foot_wrench_Fo_F[0].setZero();  // lift-off
   for (int i = 200; i < 210; ++i) {           // no contact
