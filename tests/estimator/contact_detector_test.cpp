@@ -318,14 +318,14 @@ TEST(ContactDetector, APlannedSwingEndsWhenEveryCornerOfTheSoleLeaves) {
     k0.plan = FootPlan::kNone;
     ASSERT_TRUE(c.update(wrench_with_fz(200.0), k0));
     // Unloaded by a weight shift (8 N: below touch_force, above off_force) for 30 ms: it rests.
-    for (int i = 0; i < 30; ++i) ASSERT_TRUE(c.update(wrench_with_fz(8.0), k0)) << i;
+    for (int i = 0; i < 30; ++i)
+      ASSERT_TRUE(c.update(wrench_with_fz(8.0), k0)) << i;
     ASSERT_TRUE(c.resting());
     // 80 ms of tipping about the heel edge at 0.05 rad/s under 1 N (below swing_off_force
     // 2.5 N): the toe rises 0.8 mm, the centre 0.4 mm, the heel corners stay down.
     int ended = -1;
     for (int i = 1; i <= 80 && ended < 0; ++i)
-      if (!c.update(wrench_with_fz(1.0), kinematics(5e-3 * i * dt * 10.0, 0.0, corners)))
-        ended = i;
+      if (!c.update(wrench_with_fz(1.0), kinematics(5e-3 * i * dt * 10.0, 0.0, corners))) ended = i;
     if (!corners) {
       // The sole centre's rule takes the tip for a lift-off (the centre 0.03 mm up).
       EXPECT_GT(ended, 0);
@@ -347,13 +347,17 @@ TEST(ContactDetector, APlannedSwingEndsWhenEveryCornerOfTheSoleLeaves) {
   FootKinematics k = kinematics(0.0, 0.0, true);
   k.plan = FootPlan::kNone;
   ASSERT_TRUE(d.update(wrench_with_fz(200.0), k));
-  for (int i = 0; i < 30; ++i) ASSERT_TRUE(d.update(wrench_with_fz(8.0), k));
+  for (int i = 0; i < 30; ++i)
+    ASSERT_TRUE(d.update(wrench_with_fz(8.0), k));
   k.plan = FootPlan::kSwing;
-  for (int i = 0; i < 10; ++i) ASSERT_TRUE(d.update(wrench_with_fz(1.0), k));
+  for (int i = 0; i < 10; ++i)
+    ASSERT_TRUE(d.update(wrench_with_fz(1.0), k));
   k.corner_reference = 1;
-  for (double& z : k.corner_z) z += 0.8;  // the same foot seen from elsewhere
+  for (double& z : k.corner_z)
+    z += 0.8;  // the same foot seen from elsewhere
   k.sole_z = 0.0;
-  for (int i = 0; i < 10; ++i) EXPECT_TRUE(d.update(wrench_with_fz(1.0), k)) << i;
+  for (int i = 0; i < 10; ++i)
+    EXPECT_TRUE(d.update(wrench_with_fz(1.0), k)) << i;
 }
 
 TEST(ContactDetector, RejectsBadThresholds) {

@@ -13,8 +13,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <cstdlib>
 #include <cstdio>
+#include <cstdlib>
 #include <limits>
 #include <string>
 #include <vector>
@@ -55,7 +55,10 @@ std::FILE* open_csv(std::string file) {
   const char* dir = std::getenv("POISE_CONTACT_EVENTS_CSV");
   if (dir == nullptr || *dir == 0) return nullptr;
   std::FILE* out = std::fopen((std::string(dir) + "/" + file + ".csv").c_str(), "w");
-  if (out) std::fprintf(out, "tick,side,truth,est,fn_meas,fn_true,foot_z_true,mode,foot_z_est,foot_x_true,foot_y_true,c0_true,c1_true,c2_true,c3_true,c0_est,c1_est,c2_est,c3_est\n");
+  if (out)
+    std::fprintf(out,
+                 "tick,side,truth,est,fn_meas,fn_true,foot_z_true,mode,foot_z_est,foot_x_true,foot_"
+                 "y_true,c0_true,c1_true,c2_true,c3_true,c0_est,c1_est,c2_est,c3_est\n");
   return out;
 }
 
@@ -151,8 +154,7 @@ using Reference = std::function<void(InProcessLoop&, double)>;
 /// POISE_CONTACT_EVENTS_CONTROLLER=FILE another one for every run); ground_friction: the ground's
 /// Coulomb coefficient (NaN: the scenario's).
 Result run(const std::string& file, double duration, const Reference& reference = {},
-           double push_scale = 1.0, std::uint64_t seed = 0,
-           const std::string& controller_file = {},
+           double push_scale = 1.0, std::uint64_t seed = 0, const std::string& controller_file = {},
            double ground_friction = std::numeric_limits<double>::quiet_NaN()) {
   scenario::Scenario sc =
       scenario::load_scenario(std::string(POISE_SOURCE_DIR) + "/deploy/scenarios/" + file);
@@ -164,7 +166,8 @@ Result run(const std::string& file, double duration, const Reference& reference 
   // default F/T's noise; POISE_CONTACT_EVENTS_FT_NOISE=N another value (0: off).
   const char* ft_noise = std::getenv("POISE_CONTACT_EVENTS_FT_NOISE");
   sc.estimator.contact_ft_noise = ft_noise ? std::atof(ft_noise) : 0.5;
-  // POISE_CONTACT_EVENTS_REST_TIME=S: the detector's resting rule (scenario estimator.contact_rest_time).
+  // POISE_CONTACT_EVENTS_REST_TIME=S: the detector's resting rule (scenario
+  // estimator.contact_rest_time).
   if (const char* rest = std::getenv("POISE_CONTACT_EVENTS_REST_TIME"))
     sc.estimator.contact_rest_time = std::atof(rest);
   LoopOptions opt;
@@ -210,12 +213,14 @@ Result run(const std::string& file, double duration, const Reference& reference 
                      loop.state().feet[side].normal_force, fn_true[side], z_true[side],
                      static_cast<int>(loop.reference().feet[side].mode),
                      loop.state().feet[side].X_WF.p.z(), x_true[side], y_true[side]);
-    if (csv) {
-      const auto& X = loop.state().feet[side].X_WF;
-      for (double z : corner_true[side]) std::fprintf(csv, ",%.7f", z);
-      for (double z : corner_z(rc.feet[side].sole, X.R, X.p)) std::fprintf(csv, ",%.7f", z);
-      std::fprintf(csv, "\n");
-    }
+      if (csv) {
+        const auto& X = loop.state().feet[side].X_WF;
+        for (double z : corner_true[side])
+          std::fprintf(csv, ",%.7f", z);
+        for (double z : corner_z(rc.feet[side].sole, X.R, X.p))
+          std::fprintf(csv, ",%.7f", z);
+        std::fprintf(csv, "\n");
+      }
     }
   }
   if (csv) std::fclose(csv);

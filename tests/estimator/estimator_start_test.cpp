@@ -71,7 +71,8 @@ TEST(EstimatorStart, ScenarioKeysAndDefaults) {
       parse("sensors: {foot_ft: {force_noise_std: 0}}\n"))));
   // The contact detector's resting rule: NaN (the estimator's default, off) unless given.
   EXPECT_TRUE(std::isnan(plain.estimator.contact_rest_time));
-  EXPECT_DOUBLE_EQ(parse("estimator: {contact_rest_time: 0.02}\n").estimator.contact_rest_time, 0.02);
+  EXPECT_DOUBLE_EQ(parse("estimator: {contact_rest_time: 0.02}\n").estimator.contact_rest_time,
+                   0.02);
   // The IMU latency allowed for with an IMU behind joints: the key, else the simulated IMU's.
   EXPECT_EQ(plain.estimator.imu_delay_ticks, -1);
   EXPECT_EQ(scenario::estimator_imu_delay_ticks(plain), plain.sim.imu.delay_ticks);
@@ -102,8 +103,9 @@ TEST(EstimatorStart, BadValuesAreRefusedNamingTheKey) {
             std::string::npos);
   EXPECT_NE(message("estimator: {stance_rate_hz: fast}\n").find("estimator.stance_rate_hz"),
             std::string::npos);
-  for (const char* bad : {"estimator: {contact_rest_time: -0.1}\n", "estimator: {contact_rest_time: .nan}\n",
-                          "estimator: {contact_rest_time: 20}\n", "estimator: {contact_rest_time: soon}\n"})
+  for (const char* bad :
+       {"estimator: {contact_rest_time: -0.1}\n", "estimator: {contact_rest_time: .nan}\n",
+        "estimator: {contact_rest_time: 20}\n", "estimator: {contact_rest_time: soon}\n"})
     EXPECT_NE(message(bad).find("estimator.contact_rest_time"), std::string::npos) << bad;
   EXPECT_NE(message("estimator: {contact_ft_noise: -0.5}\n").find("estimator.contact_ft_noise"),
             std::string::npos);

@@ -37,7 +37,7 @@ TEST_P(EstimatorNoMalloc, EveryKindOfTickIsAllocationFree) {
   EstimatorConfig config;
   config.supports = std::get<0>(GetParam());
   config.moving_support_calibration = 0.05;  // within the warm-up
-  config.contact_rest_time = 0.01;  // the resting rule on
+  config.contact_rest_time = 0.01;           // the resting rule on
   model::RobotConfig rc = robot.config;
   if (std::get<1>(GetParam())) {
     rc.imu_frame = "torso";

@@ -741,7 +741,8 @@ TEST(Launch, TheScenarioSetsTheEstimatorsLightTouchRule) {
   struct Case {
     std::string name, section;
     double expected;
-    double rest_time = 0.0;  ///< the resting rule (estimator: {contact_rest_time: S}; off by default)
+    /// The resting rule (estimator: {contact_rest_time: S}; off by default).
+    double rest_time = 0.0;
   };
   const std::vector<Case> cases{
       {"set", "estimator: {contact_ft_noise: 0.25, contact_rest_time: 0.02}\n", 0.25, 0.02},

@@ -470,9 +470,9 @@ TEST(MutatedUrdf, AFloatingJointFromAMasslessRootIsTheFloatingBase) {
   };
   const Model ref = build_model_from_urdf_string(xml);
   for (const std::string& world : {std::string("<link name=\"world\"/>"),
-                                  std::string("<link name=\"world\"><inertial><mass value=\"0\"/>"
-                                              "<inertia ixx=\"0\" ixy=\"0\" ixz=\"0\" iyy=\"0\" "
-                                              "iyz=\"0\" izz=\"0\"/></inertial></link>")}) {
+                                   std::string("<link name=\"world\"><inertial><mass value=\"0\"/>"
+                                               "<inertia ixx=\"0\" ixy=\"0\" ixz=\"0\" iyy=\"0\" "
+                                               "iyz=\"0\" izz=\"0\"/></inertial></link>")}) {
     const Model m = build_model_from_urdf_string(with_root(world, "floating"));
     EXPECT_EQ(m.body_name[0], "pelvis");
     EXPECT_EQ(m.nbodies, ref.nbodies);

@@ -102,7 +102,8 @@ bool ContactDetector::update(const Force& wrench_Fo_F, const FootKinematics& kin
       if (corner_clock_ - corner_time_[i] < t.swing_corner_window - 1e-9) continue;
       corners_lifted = true;
       for (int c = 0; c < 4; ++c)
-        corners_lifted = corners_lifted && kin.corner_z[c] - corner_ring_[i][c] > t.swing_corner_rise;
+        corners_lifted =
+            corners_lifted && kin.corner_z[c] - corner_ring_[i][c] > t.swing_corner_rise;
       break;
     }
     corner_ring_[corner_next_] = kin.corner_z;
@@ -170,9 +171,9 @@ bool ContactDetector::update(const Force& wrench_Fo_F, const FootKinematics& kin
     // contact's load is measured from its baseline.
     const double off = swing_seen_ ? t.swing_off_force : t.off_force;
     const double load = light_ ? fn - baseline_ : fn;
-    const bool swing_left_ground =
-        have_corners ? swing_corners_lifted
-                     : rising && kin.sole_z - swing_low_z_ > t.swing_lift_height;
+    const bool swing_left_ground = have_corners
+                                       ? swing_corners_lifted
+                                       : rising && kin.sole_z - swing_low_z_ > t.swing_lift_height;
     const bool swing_lifted = swing_seen_ && load < (light_ ? 0.0 : off) && swing_left_ground;
     if (lifted || swing_lifted) {
       in_contact_ = false;

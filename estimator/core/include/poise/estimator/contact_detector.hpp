@@ -52,7 +52,8 @@
 //              noise alone needs several 2 sigma excesses in a row. The light contact ends by
 //              the mirror CUSUM of (baseline + sigma) - fn passing 6 sigma (the dead band
 //              between sigma and 2 sigma keeps a load there from chattering), by the lift and
-//              plan rules (the plan's with the reading at or below the baseline), and becomes an ordinary contact above touch_force (confirm_ticks);
+//              plan rules (the plan's with the reading at or below the baseline), and becomes an
+//              ordinary contact above touch_force (confirm_ticks);
 // A sliding foot keeps its load, so neither rule fires while it slides (no chatter).
 
 #include <array>
@@ -104,10 +105,9 @@ struct FootKinematics {
   double dt = 0.001;                                         ///< since the previous tick [s]
   /// Heights in W of the sole rectangle's four corners [m] (NaN: unknown; the plan's swing rule
   /// then uses sole_z).
-  std::array<double, 4> corner_z{std::numeric_limits<double>::quiet_NaN(),
-                                 std::numeric_limits<double>::quiet_NaN(),
-                                 std::numeric_limits<double>::quiet_NaN(),
-                                 std::numeric_limits<double>::quiet_NaN()};
+  std::array<double, 4> corner_z{
+      std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN(),
+      std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
   /// What corner_z is measured from (0: W; another value: another frame, e.g. the other foot's
   /// sole); the detector compares heights of one reference only.
   int corner_reference = 0;
