@@ -181,6 +181,12 @@ std::string init_and_stand(const fs::path& urdf, const fs::path& dir, bool expec
   return text;
 }
 
+// init_and_stand() on a URDF text written to `urdf` first (a mutated copy of a test robot).
+std::string write_init_and_stand(const std::string& xml, const fs::path& urdf, bool expect_added) {
+  std::ofstream(urdf) << xml;
+  return init_and_stand(urdf, urdf.parent_path(), expect_added);
+}
+
 }  // namespace
 
 TEST(RobotInit, TheShippedUrdfGetsARobotYamlThatStands) {
@@ -197,8 +203,7 @@ TEST(RobotInit, AUrdfWithoutSoleLinksGetsSoleOffsetsAndStands) {
   xml = std::regex_replace(xml, std::regex(R"(<link name="[lr]_sole">\s*</link>)"), "");
   ASSERT_EQ(xml.find("_sole"), std::string::npos);
   const fs::path urdf = dir / "no_soles.urdf";
-  std::ofstream(urdf) << xml;
-  init_and_stand(urdf, dir, true);
+  write_init_and_stand(xml, urdf, true);
   const std::string yaml = read(dir / "robot" / "robot.yaml");
   EXPECT_NE(yaml.find("urdf: " + urdf.string()), std::string::npos) << yaml;
   EXPECT_NE(yaml.find("sole_frame: {offset: [0, 0, -0.08], rpy: [0, 0, 0]}"), std::string::npos)
@@ -499,9 +504,7 @@ TEST(RobotInit, CantedHipPitchAxesGetFlatSolesByLegIk) {
     const auto end = xml.find('"', a + 11);
     xml.replace(a, end - a + 1, "<axis xyz=\"" + axis + "\"");
   }
-  const fs::path urdf = dir / "canted.urdf";
-  std::ofstream(urdf) << xml;
-  init_and_stand(urdf, dir, false);
+  write_init_and_stand(xml, dir / "canted.urdf", false);
   const auto [tilt, step] = sole_tilt_and_step(dir / "robot" / "robot.yaml");
   std::printf("canted hips: sole tilt %.2e rad, step %.2e m\n", tilt, step);
   EXPECT_LT(tilt, 3e-4);  // the posture is written to 1e-4 rad
@@ -544,9 +547,7 @@ TEST(RobotInit, FeetOfDifferentHeightsGetLevelSolesByLegIk) {
 TEST(RobotInit, LegsSideBySideAlongTheBaseXAreFound) {
   const fs::path dir = work_dir("turned_base");
   const std::string xml = under_new_root("turned_base", "fixed", "0 0 0", "0 0 1.5707963267948966");
-  const fs::path urdf = dir / "turned.urdf";
-  std::ofstream(urdf) << xml;
-  const std::string text = init_and_stand(urdf, dir, false);
+  const std::string text = write_init_and_stand(xml, dir / "turned.urdf", false);
   EXPECT_NE(text.find("are side by side along"), std::string::npos) << text;
   const poise::model::RobotConfig cfg = poise::model::load_robot_config(dir / "robot" / "robot.yaml");
   EXPECT_LT((cfg.forward_axis - Eigen::Vector3d(0, 1, 0)).norm(), 1e-3) << cfg.forward_axis.transpose();
@@ -558,9 +559,7 @@ TEST(RobotInit, LegsSideBySideAlongTheBaseXAreFound) {
 TEST(RobotInit, AFloatingJointFromAWorldLinkIsTheFloatingBase) {
   const fs::path dir = work_dir("floating_joint");
   const std::string xml = under_new_root("world", "floating", "0 0 1.0", "0 0 0");
-  const fs::path urdf = dir / "floating.urdf";
-  std::ofstream(urdf) << xml;
-  const std::string text = init_and_stand(urdf, dir, false);
+  const std::string text = write_init_and_stand(xml, dir / "floating.urdf", false);
   EXPECT_NE(text.find("floating base: pelvis,"), std::string::npos) << text;
 }
 
@@ -619,9 +618,7 @@ TEST(RobotInit, MeshOnlyFeetGetTheirSoleFromTheMesh) {
       f.write("\0\0", 2);
     }
   }
-  const fs::path urdf = dir / "mesh_feet.urdf";
-  std::ofstream(urdf) << xml;
-  const std::string text = init_and_stand(urdf, dir, true);
+  const std::string text = write_init_and_stand(xml, dir / "mesh_feet.urdf", true);
   EXPECT_NE(text.find("left sole comes from the mesh " + (dir / "meshes" / "foot.stl").string()),
             std::string::npos) << text;
 }
