@@ -341,6 +341,31 @@ TEST(ContactDetector, APlannedSwingEndsWhenEveryCornerOfTheSoleLeaves) {
     EXPECT_GE(ended, 4);
     EXPECT_LE(ended, 6);
   }
+  // Without a plan, a resting foot ends its contact when its corners leave the ground in the
+  // same way (well before its sole is lift_height, 4 mm, up), not while it tips about an edge.
+  {
+    ContactDetector r(t);
+    FootKinematics k = kinematics(0.0, 0.0, true);
+    k.plan = FootPlan::kNone;
+    ASSERT_TRUE(r.update(wrench_with_fz(200.0), k));
+    for (int i = 0; i < 30; ++i)
+      ASSERT_TRUE(r.update(wrench_with_fz(8.0), k));
+    ASSERT_TRUE(r.resting());
+    for (int i = 1; i <= 80; ++i) {
+      k = kinematics(5e-5 * i, 0.0, true);
+      k.plan = FootPlan::kNone;
+      EXPECT_TRUE(r.update(wrench_with_fz(1.0), k)) << "tipping, tick " << i;
+    }
+    int ended = -1;
+    for (int i = 1; i <= 20 && ended < 0; ++i) {
+      const double s = i * dt;
+      k = kinematics(5e-5 * 80, 0.25 * s * s, true);
+      k.plan = FootPlan::kNone;
+      if (!r.update(wrench_with_fz(1.0), k)) ended = i;
+    }
+    EXPECT_GE(ended, 4);
+    EXPECT_LE(ended, 6);
+  }
   // Heights from another reference (the estimator switched from W to the other sole's plane):
   // the jump is not a lift; the history restarts.
   ContactDetector d(t);

@@ -519,6 +519,12 @@ StatusFlags Estimator::update(const SensorFrame& frame, EstimatorState& out) noe
   // Contact: F/T load, and the sole's height from this tick's leg kinematics placed by the
   // previous tick's filter state (contact_detector.hpp).
   compute_leg_kinematics(frame);
+  // Which foot carries the weight (in contact at the previous tick, this tick's load above 2 %
+  // of W): the other foot's corners are measured above its sole. Both decided before either
+  // detector updates, so neither foot sees the other's newer state.
+  std::array<bool, kNumFeet> stands{};
+  for (int f = 0; f < kNumFeet; ++f)
+    stands[f] = contact_[f].in_contact() && frame.foot_wrench_Fo_F[f][2] > 0.02 * weight_;
   for (int f = 0; f < kNumFeet; ++f) {
     FootKinematics kin;
     kin.dt = dt;
@@ -530,7 +536,7 @@ StatusFlags Estimator::update(const SensorFrame& frame, EstimatorState& out) noe
       // The sole's corners: above the other sole's plane while that foot carries the weight
       // (the legs' kinematics alone: no attitude error; that sole lies on its support), else in W.
       const int o = 1 - f;
-      const bool other_stands = contact_[o].in_contact() && legs_.normal_force[o] > 0.02 * weight_;
+      const bool other_stands = stands[o];
       for (std::size_t c = 0; c < 4; ++c) {
         const Vector3 corner_B = legs_.X_BF[f].act(sole_corners_F_[f][c]);
         kin.corner_z[c] = other_stands ? legs_.X_BF[o].act_inv(corner_B).z() + sole_height_[o]
