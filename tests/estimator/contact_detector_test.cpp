@@ -302,66 +302,52 @@ TEST(ContactDetector, APlannedSwingEndsWhenEveryCornerOfTheSoleLeaves) {
   t.touch_force = 10.0;
   t.rest_time = 0.02;
   const double length = 0.2, dt = 0.001;
-  const auto kinematics = [&](double theta, double lift, bool corners) {
+  const auto kinematics = [&](double theta, double lift, bool corners, FootPlan plan) {
     FootKinematics k;
     k.dt = dt;
-    k.plan = FootPlan::kSwing;
+    k.plan = plan;
     // Heel corners (x = 0) at the lift; toe corners (x = length) raised by the tip.
     const double toe = lift + length * std::sin(theta);
     k.sole_z = lift + 0.5 * length * std::sin(theta);  // the sole centre
     if (corners) k.corner_z = {lift, lift, toe, toe};
     return k;
   };
-  for (const bool corners : {true, false}) {
-    ContactDetector c(t);
-    FootKinematics k0 = kinematics(0.0, 0.0, corners);
-    k0.plan = FootPlan::kNone;
-    ASSERT_TRUE(c.update(wrench_with_fz(200.0), k0));
-    // Unloaded by a weight shift (8 N: below touch_force, above off_force) for 30 ms: it rests.
+  // Loaded, then unloaded by a weight shift (8 N: below touch_force, above off_force) for 30 ms:
+  // it rests.
+  const auto rest = [&](ContactDetector& c, bool corners) {
+    const FootKinematics k0 = kinematics(0.0, 0.0, corners, FootPlan::kNone);
+    c.update(wrench_with_fz(200.0), k0);
     for (int i = 0; i < 30; ++i)
-      ASSERT_TRUE(c.update(wrench_with_fz(8.0), k0)) << i;
-    ASSERT_TRUE(c.resting());
+      c.update(wrench_with_fz(8.0), k0);
+    return c.in_contact() && c.resting();
+  };
+  // The plan's swing with and without the corners; without a plan (the resting foot's own
+  // corner rule: well before its sole is lift_height, 4 mm, up).
+  struct Case {
+    FootPlan plan;
+    bool corners;
+  };
+  for (const Case& cs : {Case{FootPlan::kSwing, true}, Case{FootPlan::kSwing, false},
+                         Case{FootPlan::kNone, true}}) {
+    ContactDetector c(t);
+    ASSERT_TRUE(rest(c, cs.corners));
     // 80 ms of tipping about the heel edge at 0.05 rad/s under 1 N (below swing_off_force
     // 2.5 N): the toe rises 0.8 mm, the centre 0.4 mm, the heel corners stay down.
     int ended = -1;
     for (int i = 1; i <= 80 && ended < 0; ++i)
-      if (!c.update(wrench_with_fz(1.0), kinematics(5e-3 * i * dt * 10.0, 0.0, corners))) ended = i;
-    if (!corners) {
+      if (!c.update(wrench_with_fz(1.0), kinematics(5e-5 * i, 0.0, cs.corners, cs.plan)))
+        ended = i;
+    if (!cs.corners) {
       // The sole centre's rule takes the tip for a lift-off (the centre 0.03 mm up).
       EXPECT_GT(ended, 0);
       continue;
     }
     EXPECT_EQ(ended, -1) << "the heel corners never left the ground";
     // The whole sole leaves at 0.5 m/s^2 from rest: 5 um of rise within 5 ms after ~4.5 ms.
-    const double theta = 5e-3 * 80 * dt * 10.0;
     for (int i = 1; i <= 20 && ended < 0; ++i) {
       const double s = i * dt;
-      if (!c.update(wrench_with_fz(1.0), kinematics(theta, 0.5 * 0.5 * s * s, true))) ended = i;
-    }
-    EXPECT_GE(ended, 4);
-    EXPECT_LE(ended, 6);
-  }
-  // Without a plan, a resting foot ends its contact when its corners leave the ground in the
-  // same way (well before its sole is lift_height, 4 mm, up), not while it tips about an edge.
-  {
-    ContactDetector r(t);
-    FootKinematics k = kinematics(0.0, 0.0, true);
-    k.plan = FootPlan::kNone;
-    ASSERT_TRUE(r.update(wrench_with_fz(200.0), k));
-    for (int i = 0; i < 30; ++i)
-      ASSERT_TRUE(r.update(wrench_with_fz(8.0), k));
-    ASSERT_TRUE(r.resting());
-    for (int i = 1; i <= 80; ++i) {
-      k = kinematics(5e-5 * i, 0.0, true);
-      k.plan = FootPlan::kNone;
-      EXPECT_TRUE(r.update(wrench_with_fz(1.0), k)) << "tipping, tick " << i;
-    }
-    int ended = -1;
-    for (int i = 1; i <= 20 && ended < 0; ++i) {
-      const double s = i * dt;
-      k = kinematics(5e-5 * 80, 0.25 * s * s, true);
-      k.plan = FootPlan::kNone;
-      if (!r.update(wrench_with_fz(1.0), k)) ended = i;
+      if (!c.update(wrench_with_fz(1.0), kinematics(5e-5 * 80, 0.25 * s * s, true, cs.plan)))
+        ended = i;
     }
     EXPECT_GE(ended, 4);
     EXPECT_LE(ended, 6);
@@ -369,12 +355,8 @@ TEST(ContactDetector, APlannedSwingEndsWhenEveryCornerOfTheSoleLeaves) {
   // Heights from another reference (the estimator switched from W to the other sole's plane):
   // the jump is not a lift; the history restarts.
   ContactDetector d(t);
-  FootKinematics k = kinematics(0.0, 0.0, true);
-  k.plan = FootPlan::kNone;
-  ASSERT_TRUE(d.update(wrench_with_fz(200.0), k));
-  for (int i = 0; i < 30; ++i)
-    ASSERT_TRUE(d.update(wrench_with_fz(8.0), k));
-  k.plan = FootPlan::kSwing;
+  ASSERT_TRUE(rest(d, true));
+  FootKinematics k = kinematics(0.0, 0.0, true, FootPlan::kSwing);
   for (int i = 0; i < 10; ++i)
     ASSERT_TRUE(d.update(wrench_with_fz(1.0), k));
   k.corner_reference = 1;
