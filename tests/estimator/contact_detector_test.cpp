@@ -156,12 +156,14 @@ TEST(ContactDetector, AFootRestingLightlyKeepsItsContactWhenTheRuleIsOn) {
   EXPECT_FALSE(c.update(wrench_with_fz(1.0), k));
   EXPECT_FALSE(c.resting());
 
-  // A foot unloaded fast (a push): below touch_force for 3 ticks only, then below off: the
-  // force rule ends its contact as without the resting rule.
+  // A foot that stood loaded (longer than rest_time: not a landing's impact) and is unloaded
+  // fast (a push): below touch_force for 3 ticks only, then below off: the force rule ends its
+  // contact as without the resting rule.
   ContactDetector d(t);
   k = FootKinematics{};
   k.sole_z = 0.0;
-  EXPECT_TRUE(d.update(wrench_with_fz(200.0), k));
+  for (int i = 0; i < 60; ++i)
+    EXPECT_TRUE(d.update(wrench_with_fz(200.0), k));
   EXPECT_TRUE(d.update(wrench_with_fz(9.0), k));
   EXPECT_TRUE(d.update(wrench_with_fz(4.0), k));
   EXPECT_FALSE(d.update(wrench_with_fz(1.0), k));
@@ -365,6 +367,74 @@ TEST(ContactDetector, APlannedSwingEndsWhenEveryCornerOfTheSoleLeaves) {
   k.sole_z = 0.0;
   for (int i = 0; i < 10; ++i)
     EXPECT_TRUE(d.update(wrench_with_fz(1.0), k)) << i;
+}
+
+TEST(ContactDetector, ALandingWhoseLoadFallsBackKeepsItsContactUntilTheSoleLeaves) {
+  // The step in place's landing: the impact carries the foot above touch_force for ~12 ms, then
+  // the weight stays on the other foot and this one touches with 2-5 N. The resting rule alone
+  // needs rest_time below touch_force before the load may fall below off_force; a landing that
+  // never carried its load for rest_time rests at once instead, and leaves by the sole or its
+  // corners. A foot that stood loaded longer and is unloaded fast (a push) still leaves by load.
+  ContactThresholds t{75.0, 5.0};
+  t.touch_force = 10.0;
+  const double dt = 0.001;
+  const auto at = [&](double lift, bool corners) {
+    FootKinematics k;
+    k.dt = dt;
+    k.sole_z = lift;
+    if (corners) k.corner_z = {lift, lift, lift, lift};
+    return k;
+  };
+  struct Case {
+    double rest_time;
+    bool corners;
+    bool kept;  // the contact outlives 200 ms of 3 N
+  };
+  for (const Case& cs : {Case{0.02, true, true}, Case{0.02, false, true}, Case{0.0, true, false}}) {
+    t.rest_time = cs.rest_time;
+    ContactDetector c(t);
+    // Coming down from 10 cm in the air (the F/T reads nothing).
+    for (int i = 0; i < 100; ++i)
+      c.update(wrench_with_fz(0.0), at(0.1 - 0.001 * i, cs.corners));
+    ASSERT_FALSE(c.in_contact());
+    // The impact: 120 N for 12 ms (touch-down at once), then 3 N, the sole still.
+    for (int i = 0; i < 12; ++i)
+      EXPECT_TRUE(c.update(wrench_with_fz(120.0), at(0.0, cs.corners))) << i;
+    int dropped = -1;
+    for (int i = 1; i <= 200 && dropped < 0; ++i)
+      if (!c.update(wrench_with_fz(3.0), at(0.0, cs.corners))) dropped = i;
+    if (!cs.kept) {
+      EXPECT_EQ(dropped, t.confirm_ticks) << "the rule off: the load rule ends it";
+      continue;
+    }
+    EXPECT_EQ(dropped, -1) << "rest " << cs.rest_time << " corners " << cs.corners;
+    EXPECT_TRUE(c.resting());
+    // The sole then leaves at 0.5 m/s^2: the corners' rule within ~6 ms, the sole's lift_height
+    // (4 mm, rising) after ~127 ms without corners.
+    for (int i = 1; i <= 200 && dropped < 0; ++i) {
+      const double s = i * dt;
+      if (!c.update(wrench_with_fz(0.0), at(0.25 * s * s, cs.corners))) dropped = i;
+    }
+    if (cs.corners) {
+      EXPECT_GE(dropped, 4);
+      EXPECT_LE(dropped, 6);
+    } else {
+      EXPECT_GE(dropped, 126);
+      EXPECT_LE(dropped, 128);
+    }
+  }
+  // Stood loaded for longer than rest_time after the landing, then unloaded within a tick (a push
+  // lifts the foot): the load rule ends the contact after confirm_ticks, before the sole moves.
+  t.rest_time = 0.02;
+  ContactDetector p(t);
+  for (int i = 0; i < 100; ++i)
+    p.update(wrench_with_fz(0.0), at(0.1 - 0.001 * i, true));
+  for (int i = 0; i < 30; ++i)
+    ASSERT_TRUE(p.update(wrench_with_fz(200.0), at(0.0, true)));
+  int dropped = -1;
+  for (int i = 1; i <= 10 && dropped < 0; ++i)
+    if (!p.update(wrench_with_fz(0.0), at(0.0, true))) dropped = i;
+  EXPECT_EQ(dropped, t.confirm_ticks);
 }
 
 TEST(ContactDetector, RejectsBadThresholds) {

@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 #include <poise/dds/dds.hpp>
 #include <poise/msg/joint_command.h>
+#include <poise/estimator/estimator.hpp>
 #include <poise/sim/sim_config.hpp>
 
 #include "child_process.hpp"
@@ -741,12 +742,12 @@ TEST(Launch, TheScenarioSetsTheEstimatorsLightTouchRule) {
   struct Case {
     std::string name, section;
     double expected;
-    /// The resting rule (estimator: {contact_rest_time: S}; off by default).
-    double rest_time = 0.0;
+    /// The resting rule (estimator: {contact_rest_time: S}; EstimatorConfig's when not given).
+    double rest_time = poise::estimator::EstimatorConfig{}.contact_rest_time;
   };
   const std::vector<Case> cases{
-      {"set", "estimator: {contact_ft_noise: 0.25, contact_rest_time: 0.02}\n", 0.25, 0.02},
-      {"off", "estimator: {contact_ft_noise: 0}\n", 0.0},
+      {"set", "estimator: {contact_ft_noise: 0.25, contact_rest_time: 0.05}\n", 0.25, 0.05},
+      {"off", "estimator: {contact_ft_noise: 0, contact_rest_time: 0}\n", 0.0, 0.0},
       {"from_sensor", "sensors: {foot_ft: {force_noise_std: 0.8}}\n", 0.8},
       {"default", "", default_ft.force_noise_std}};
   for (const Case& c : cases) {

@@ -58,6 +58,8 @@ void ContactDetector::reset(bool in_contact) noexcept {
   baseline_age_ = 0.0;
   cusum_ = 0.0;
   corner_count_ = 0;
+  landed_ = false;
+  loaded_time_ = 0.0;
 }
 
 bool ContactDetector::update(const Force& wrench_Fo_F, const FootKinematics& kin) noexcept {
@@ -153,11 +155,14 @@ bool ContactDetector::update(const Force& wrench_Fo_F, const FootKinematics& kin
       }
     }
     light_time_ = fn < t.touch_force ? light_time_ + step : 0.0;
+    loaded_time_ = fn > t.touch_force ? loaded_time_ + step : 0.0;
+    if (loaded_time_ >= t.rest_time) landed_ = false;
     // Resting (rule on when rest_time > 0): lightly loaded for rest_time with the sole where it
-    // stood (kinematics given).
+    // stood (kinematics given), or lightly loaded after a landing that never carried the load
+    // for rest_time (the impact's transient is not a load the foot stood on).
     const bool was_resting = resting_;
     resting_ = t.rest_time > 0.0 && have_kin && !(height > t.lift_height) &&
-               light_time_ >= t.rest_time;
+               (light_time_ >= t.rest_time || (landed_ && fn < t.touch_force));
     if (resting_ && !was_resting && have_corners) rest_start_corner_ = kin.corner_z;
     // A resting foot (no load to tell) leaves the ground when its corners do, as a planned
     // swing's (the corner rule), or once its sole is lift_height up.
@@ -193,6 +198,7 @@ bool ContactDetector::update(const Force& wrench_Fo_F, const FootKinematics& kin
     }
     if (!in_contact_) {
       light_time_ = 0.0;
+      landed_ = false;
       resting_ = false;
       light_ = false;
       cusum_ = 0.0;
@@ -228,6 +234,8 @@ bool ContactDetector::update(const Force& wrench_Fo_F, const FootKinematics& kin
     }
     if (in_contact_) {
       cusum_ = 0.0;
+      landed_ = true;
+      loaded_time_ = 0.0;
     } else if (cusum_ == 0.0) {
       // The baseline learns while no touch is suspected (a mean over light_baseline_time).
       const double a = baseline_age_ > 0.0 ? std::min(1.0, step / t.light_baseline_time) : 1.0;

@@ -167,6 +167,10 @@ class ContactDetector {
   double baseline_ = 0.0;     ///< mean reading out of contact [N]
   double baseline_age_ = 0.0;  ///< how long it has been learnt [s]
   double cusum_ = 0.0;        ///< the touch (out of contact) or release (light) CUSUM [N]
+  /// The contact began by a touch-down and the foot has not yet carried more than touch_force
+  /// for rest_time since (a landing whose load falls back rests at once: the header comment).
+  bool landed_ = false;
+  double loaded_time_ = 0.0;  ///< how long the load has stayed above touch_force [s]
 };
 
 /// Centre of pressure on the sole plane z = -sole_height of the foot frame F, in F coordinates:

@@ -157,7 +157,7 @@ struct EstimatorConfig {
   /// lift-offs are +2..+6 ms in process and lockstep, but a landed foot unloaded within 20 ms
   /// still loses its flag while it touches (idl/README.md "The corner rule"). Scenario key
   /// `estimator: {contact_rest_time: S}`. >= 0.
-  double contact_rest_time = 0.0;
+  double contact_rest_time = 0.02;
   /// The contact detector's light-touch rule (ContactThresholds::light_noise): the foot F/T's
   /// normal-force noise, 1 sigma [N]. A touch too light for the load thresholds (a foot that
   /// re-touches with 2 N while the weight is on the other one) is flagged from the step it makes
