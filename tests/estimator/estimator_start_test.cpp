@@ -69,7 +69,7 @@ TEST(EstimatorStart, ScenarioKeysAndDefaults) {
                    0.8);
   EXPECT_TRUE(std::isnan(scenario::estimator_contact_ft_noise(
       parse("sensors: {foot_ft: {force_noise_std: 0}}\n"))));
-  // The contact detector's resting rule: NaN (the estimator's default, off) unless given.
+  // The contact detector's resting rule: NaN (the estimator's default, 0.02 s) unless given.
   EXPECT_TRUE(std::isnan(plain.estimator.contact_rest_time));
   EXPECT_DOUBLE_EQ(parse("estimator: {contact_rest_time: 0.02}\n").estimator.contact_rest_time,
                    0.02);

@@ -116,7 +116,8 @@ int run(int argc, char** argv) {
   double contact_rest_time = estimator::EstimatorConfig{}.contact_rest_time;
   app.add_option("--contact-rest-time", contact_rest_time,
                  "contact detector's resting rule: a foot whose load stayed below 2 % of the "
-                 "weight this long with its sole still keeps its contact (the flag means "
+                 "weight this long with its sole still, or that landed and never carried 2 % "
+                 "this long since, keeps its contact until its sole leaves (the flag means "
                  "touching); 0: off, the flag drops below 1 % of the weight [s]")
       ->check(CLI::Range(0.0, 10.0))
       ->capture_default_str();

@@ -23,10 +23,14 @@
 //              it was since the plan said swing (the lift of a swing starts at zero velocity:
 //              the 4 mm of lift_height come ~0.1 s after the sole left). kNone / kSupport: the
 //              rules above (a planned support may still be lifted by a push);
-//   resting    with rest_time > 0 (0 here and in EstimatorConfig::contact_rest_time: off by
-//              default, see there; poise-estimator --contact-rest-time S), a foot whose load
-//              stayed below touch_force for rest_time with its sole within lift_height of where
-//              it stood keeps its contact whatever its load, until
+//   resting    with rest_time > 0 (0 here: off by default for the detector alone; 0.02 s in
+//              EstimatorConfig::contact_rest_time, see there; poise-estimator
+//              --contact-rest-time S), a foot whose load stayed below touch_force for rest_time
+//              with its sole within lift_height of where it stood, or whose contact began with a
+//              touch-down and has not carried more than touch_force for rest_time since (a
+//              landing: its impact is not a load it stood on, and on the step in place the
+//              landed foot's load fell below off_force 12-15 ms after the impact while it kept
+//              touching with 2-5 N), keeps its contact whatever its load, until
 //              its sole rises (lift_height), every corner of its sole (corners given) rose as
 //              the plan's corner rule asks above where it was when the foot began to rest, or
 //              the plan's swing rule fires: the flag then means

@@ -148,14 +148,16 @@ struct EstimatorConfig {
   double contact_off_fraction = 0.01;
   /// The detector's resting rule (ContactThresholds::rest_time): a foot whose load stayed below
   /// 2 % of the weight this long with its sole where it stood keeps its contact at any load, so
-  /// the flag means "touching" (idl/README.md "Contact flags") [s]. 0 (off: the flag drops
-  /// below contact_off_fraction) by default: with 0.02 s (longer than a push unloads a foot,
-  /// <= 9 ms from 2 % to 1 %, shorter than the weight moves off a foot that stays down,
-  /// 40-58 ms) the step in place's flags matched the truth in process and lockstep, but in real
-  /// time its swing lift-off was flagged 5-9 ms late and a 170 ms true separation not at all
-  /// (contact_detector.hpp). With the corner rule of the plan's swing (2026-12-05) the swing's
-  /// lift-offs are +2..+6 ms in process and lockstep, but a landed foot unloaded within 20 ms
-  /// still loses its flag while it touches (idl/README.md "The corner rule"). Scenario key
+  /// the flag means "touching" (idl/README.md "Contact flags") [s]; a landed foot whose load
+  /// falls back before it carried 2 % of the weight this long rests at once (the landing rule).
+  /// 0.02 s by default since 2026-12-05: longer than a push unloads a foot (<= 9 ms from 2 % to
+  /// 1 %), shorter than the weight moves off a foot that stays down (40-58 ms); with the plan's
+  /// corner rule and the landing rule every true event of the step in place is flagged within
+  /// -3..+6 ms in process and lockstep (idl/README.md "The landing rule"). 0: off, the flag
+  /// drops below contact_off_fraction ("loaded"): the swing's lift-off of a foot the weight left
+  /// then went unflagged (the flag was off 0.06-0.4 s before it) in 6 of 8 seeds. Measured limit
+  /// with it: a resting foot that peels off slowly about an edge (config/ankle_first.yaml's
+  /// pre-swing roll-off) is flagged +30 ms (-5 ms without). Scenario key
   /// `estimator: {contact_rest_time: S}`. >= 0.
   double contact_rest_time = 0.02;
   /// The contact detector's light-touch rule (ContactThresholds::light_noise): the foot F/T's
