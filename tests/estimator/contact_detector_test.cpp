@@ -423,6 +423,33 @@ TEST(ContactDetector, ALandingWhoseLoadFallsBackKeepsItsContactUntilTheSoleLeave
       EXPECT_LE(dropped, 128);
     }
   }
+  // A foot rocking on its edge taps the ground with a corner (a 265 N push at 45 deg: 12 N for
+  // 3 ticks, the foot rolling at ~0.3 rad/s, its high corners coming down 0.1-0.2 mm per 5 ms
+  // while the low ones leave): not at rest, so no rule holds it; the load rule ends the contact
+  // as without the resting rule (a rest there kept the flag on for 113 ms in the air).
+  {
+    t.rest_time = 0.02;
+    ContactDetector r(t);
+    const double width = 0.1, rate = 0.3;  // across the sole [m], roll rate [rad/s]
+    double theta = 0.15;                    // the heel-to-toe roll; low edge on the ground
+    const auto rocking = [&](double low) {
+      FootKinematics k;
+      k.dt = dt;
+      const double high = low + width * std::sin(theta);
+      k.sole_z = 0.5 * (low + high);
+      k.corner_z = {low, high, low, high};
+      return k;
+    };
+    for (int i = 0; i < 100; ++i, theta -= rate * dt)
+      r.update(wrench_with_fz(0.0), rocking(0.002 - 0.00002 * i));
+    ASSERT_FALSE(r.in_contact());
+    for (int i = 0; i < 3; ++i, theta -= rate * dt)
+      EXPECT_TRUE(r.update(wrench_with_fz(12.0), rocking(0.0))) << i;
+    int ended = -1;
+    for (int i = 1; i <= 20 && ended < 0; ++i, theta -= rate * dt)
+      if (!r.update(wrench_with_fz(0.5), rocking(1e-6 * i))) ended = i;
+    EXPECT_EQ(ended, t.confirm_ticks) << "the rocking foot was taken to rest";
+  }
   // Stood loaded for longer than rest_time after the landing, then unloaded within a tick (a push
   // lifts the foot): the load rule ends the contact after confirm_ticks, before the sole moves.
   t.rest_time = 0.02;
@@ -470,6 +497,9 @@ TEST(ContactDetector, RejectsBadThresholds) {
   EXPECT_THROW(ContactDetector{t}, std::invalid_argument);
   t = ContactThresholds{100.0, 10.0};
   t.light_baseline_time = 0.0;
+  EXPECT_THROW(ContactDetector{t}, std::invalid_argument);
+  t = ContactThresholds{100.0, 10.0};
+  t.rest_corner_motion = -1e-5;
   EXPECT_THROW(ContactDetector{t}, std::invalid_argument);
 }
 

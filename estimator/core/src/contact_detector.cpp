@@ -43,6 +43,8 @@ ContactDetector::ContactDetector(const ContactThresholds& thresholds) : threshol
     fail("light_noise must be finite and >= 0");
   if (!(t.light_baseline_time > 0.0) || !std::isfinite(t.light_baseline_time))
     fail("light_baseline_time must be > 0");
+  if (!(t.rest_corner_motion >= 0.0) || !std::isfinite(t.rest_corner_motion))
+    fail("rest_corner_motion must be finite and >= 0");
 }
 
 void ContactDetector::reset(bool in_contact) noexcept {
@@ -88,6 +90,7 @@ bool ContactDetector::update(const Force& wrench_Fo_F, const FootKinematics& kin
                             std::isfinite(kin.corner_z[1]) && std::isfinite(kin.corner_z[2]) &&
                             std::isfinite(kin.corner_z[3]);
   bool corners_lifted = false;
+  bool corners_still = !have_corners;  // no corners: the sole height's rule alone
   if (have_corners && kin.corner_reference != corner_reference_) {
     // Heights from another reference: the history and the swing's and rest's starts restart.
     corner_count_ = 0;
@@ -103,9 +106,12 @@ bool ContactDetector::update(const Force& wrench_Fo_F, const FootKinematics& kin
       const int i = (corner_next_ - k + kCornerHistory) % kCornerHistory;
       if (corner_clock_ - corner_time_[i] < t.swing_corner_window - 1e-9) continue;
       corners_lifted = true;
-      for (int c = 0; c < 4; ++c)
-        corners_lifted =
-            corners_lifted && kin.corner_z[c] - corner_ring_[i][c] > t.swing_corner_rise;
+      corners_still = true;
+      for (int c = 0; c < 4; ++c) {
+        const double moved = kin.corner_z[c] - corner_ring_[i][c];
+        corners_lifted = corners_lifted && moved > t.swing_corner_rise;
+        corners_still = corners_still && std::abs(moved) < t.rest_corner_motion;
+      }
       break;
     }
     corner_ring_[corner_next_] = kin.corner_z;
@@ -162,7 +168,8 @@ bool ContactDetector::update(const Force& wrench_Fo_F, const FootKinematics& kin
     // for rest_time (the impact's transient is not a load the foot stood on).
     const bool was_resting = resting_;
     resting_ = t.rest_time > 0.0 && have_kin && !(height > t.lift_height) &&
-               (light_time_ >= t.rest_time || (landed_ && fn < t.touch_force));
+               (light_time_ >= t.rest_time || (landed_ && fn < t.touch_force)) &&
+               (was_resting || corners_still);
     if (resting_ && !was_resting && have_corners) rest_start_corner_ = kin.corner_z;
     // A resting foot (no load to tell) leaves the ground when its corners do, as a planned
     // swing's (the corner rule), or once its sole is lift_height up.
