@@ -30,7 +30,10 @@
 //              touch-down and has not carried more than touch_force for rest_time since (a
 //              landing: its impact is not a load it stood on, and on the step in place the
 //              landed foot's load fell below off_force 12-15 ms after the impact while it kept
-//              touching with 2-5 N), keeps its contact whatever its load, until
+//              touching with 2-5 N), keeps its contact whatever its load -- provided the
+//              sole was still when it began to rest (corners given: every corner moved less
+//              than rest_corner_motion within swing_corner_window; a foot rocking on its edge
+//              that taps the ground with a corner is not resting) -- until
 //              its sole rises (lift_height), every corner of its sole (corners given) rose as
 //              the plan's corner rule asks above where it was when the foot began to rest, or
 //              the plan's swing rule fires: the flag then means
