@@ -431,7 +431,7 @@ TEST(ContactDetector, ALandingWhoseLoadFallsBackKeepsItsContactUntilTheSoleLeave
     t.rest_time = 0.02;
     ContactDetector r(t);
     const double width = 0.1, rate = 0.3;  // across the sole [m], roll rate [rad/s]
-    double theta = 0.15;                    // the heel-to-toe roll; low edge on the ground
+    double theta = 0.15;                   // the heel-to-toe roll; low edge on the ground
     const auto rocking = [&](double low) {
       FootKinematics k;
       k.dt = dt;

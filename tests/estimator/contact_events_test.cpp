@@ -13,9 +13,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <functional>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <limits>
 #include <string>
 #include <vector>
@@ -246,8 +246,8 @@ Result run(const std::string& file, double duration, const Reference& reference 
     long in_air = 0;
     for (std::size_t k = 0; k < log[side].est.size(); ++k) {
       in_air = log[side].est[k] && !log[side].truth[k] ? in_air + 1 : 0;
-      r.longest_flag_in_air_ms =
-          std::max(r.longest_flag_in_air_ms, static_cast<double>(in_air) * loop.simulator().dt() * 1e3);
+      r.longest_flag_in_air_ms = std::max(
+          r.longest_flag_in_air_ms, static_cast<double>(in_air) * loop.simulator().dt() * 1e3);
     }
     r.truth_raw_transitions += transitions(log[side].truth);
     r.truth_loaded_transitions += transitions(log[side].truth_loaded);
@@ -333,10 +333,10 @@ TEST(ContactEvents, StepInPlace) {
   // resting with 2-8 N that peels off about an edge, is flagged +30 ms (the estimated corners
   // follow the true ones within ~20 um only, the F/T reads its 1.7 N offset at zero load:
   // idl/README.md "The landing rule").
-  const Result r = run("step_in_place.yaml", 8.0, {}, 1.0, 0,
-                       std::string(POISE_SOURCE_DIR) +
-                           "/controller/momentum/config/ankle_first.yaml",
-                       std::numeric_limits<double>::quiet_NaN(), 0.0);
+  const Result r =
+      run("step_in_place.yaml", 8.0, {}, 1.0, 0,
+          std::string(POISE_SOURCE_DIR) + "/controller/momentum/config/ankle_first.yaml",
+          std::numeric_limits<double>::quiet_NaN(), 0.0);
   EXPECT_TRUE(r.survived);
   ASSERT_GE(r.swing_start, 0);
   int swing_lift_offs = 0, landings = 0, before_swing = 0;

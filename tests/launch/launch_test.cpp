@@ -14,9 +14,9 @@
 #include <thread>
 #include <vector>
 
+#include <poise/msg/joint_command.h>
 #include <nlohmann/json.hpp>
 #include <poise/dds/dds.hpp>
-#include <poise/msg/joint_command.h>
 #include <poise/estimator/estimator.hpp>
 #include <poise/sim/sim_config.hpp>
 
