@@ -267,9 +267,9 @@ Result run(const std::string& file, double duration, const Reference& reference 
     if (!m.matched) ++r.loaded_unmatched;
   std::printf(
       "%-32s survived %d | truth events %d (raw changes %d, loaded > 1 %% W changes %d), "
-      "estimate changes %d, unmatched %d\n",
+      "estimate changes %d, unmatched %d, longest flag on in the air %.0f ms\n",
       file.c_str(), r.survived, r.truth_transitions, r.truth_raw_transitions,
-      r.truth_loaded_transitions, r.est_transitions, r.unmatched);
+      r.truth_loaded_transitions, r.est_transitions, r.unmatched, r.longest_flag_in_air_ms);
   return r;
 }
 
@@ -294,6 +294,13 @@ int chatter_bound(const Result& r) {
   return std::max(r.truth_raw_transitions, r.truth_loaded_transitions);
 }
 
+// A flag on a foot in the air makes it a support for the controller: it may stay on after a
+// true lift-off only as long as a lift-off is flagged late (the 5 ms target, +6 ms measured over
+// the step's noise seeds), with margin. A rocking foot taken to rest kept it 110-113 ms.
+void expect_no_flag_long_in_the_air(const Result& r) {
+  EXPECT_LE(r.longest_flag_in_air_ms, 10.0);
+}
+
 TEST(ContactEvents, DropOntoTheFeet) {
   const Result r = run("drop_onto_feet.yaml", 1.5);
   EXPECT_TRUE(r.survived);
@@ -302,6 +309,7 @@ TEST(ContactEvents, DropOntoTheFeet) {
   // No chatter: the flags change no more often than the truth, whose impact bounces (a few ms
   // off the ground) they follow.
   EXPECT_LE(r.est_transitions, chatter_bound(r));
+  expect_no_flag_long_in_the_air(r);
 }
 
 TEST(ContactEvents, LateralPushLiftsAFoot) {
@@ -311,6 +319,7 @@ TEST(ContactEvents, LateralPushLiftsAFoot) {
   EXPECT_GE(r.touch_down_ms.size(), 1u);
   expect_delays_within(r, 5.0, 5.0);
   EXPECT_LE(r.est_transitions, chatter_bound(r));
+  expect_no_flag_long_in_the_air(r);
 }
 
 TEST(ContactEvents, StepInPlace) {
@@ -354,6 +363,7 @@ TEST(ContactEvents, StepInPlace) {
   EXPECT_EQ(swing_lift_offs, 1);  // the right foot leaves the ground once after the swing began
   EXPECT_EQ(landings, 1);         // and lands once
   EXPECT_LE(r.est_transitions, chatter_bound(r));
+  expect_no_flag_long_in_the_air(r);
 }
 
 // The step in place with the estimator's and the controller's defaults (seed 1): the right
@@ -380,6 +390,7 @@ TEST(ContactEvents, StepInPlaceWithTheDefaults) {
   // The flag changes exactly as often as the true contact (not as the 1 % load, which crosses
   // several times while the foot rests).
   EXPECT_EQ(r.est_transitions, r.truth_raw_transitions);
+  expect_no_flag_long_in_the_air(r);
 }
 
 TEST(ContactEvents, AFootRockingOnItsEdgeIsNotFlaggedInTheAir) {
@@ -393,10 +404,9 @@ TEST(ContactEvents, AFootRockingOnItsEdgeIsNotFlaggedInTheAir) {
                          for (sim::Push& p : sc.sim.pushes)
                            p.force_W = 265.0 * Eigen::Vector3d(std::sqrt(0.5), std::sqrt(0.5), 0.0);
                        });
-  std::printf("  longest flag on with the foot in the air: %.0f ms\n", r.longest_flag_in_air_ms);
   EXPECT_GE(r.truth_raw_transitions, 6) << "the foot must rock for this check to mean anything";
-  EXPECT_LE(r.longest_flag_in_air_ms, 20.0);
   EXPECT_LE(r.est_transitions, chatter_bound(r));
+  expect_no_flag_long_in_the_air(r);
 }
 
 TEST(ContactEvents, NoChatterWhileTheFeetSlide) {
@@ -408,6 +418,7 @@ TEST(ContactEvents, NoChatterWhileTheFeetSlide) {
   const Result r = run("forward_push_double_support.yaml", 3.0, {}, 200.0 / 120.0, 0, {}, 0.15);
   EXPECT_GT(r.foot_slip_max_m, 0.005) << "the feet must slide for this check to mean anything";
   EXPECT_LE(r.est_transitions, chatter_bound(r));
+  expect_no_flag_long_in_the_air(r);
   expect_delays_within(r, 5.0, 5.0);
 }
 
