@@ -155,16 +155,14 @@ using Reference = std::function<void(InProcessLoop&, double)>;
 
 /// controller_file: a controller YAML for the run (empty: the defaults;
 /// POISE_CONTACT_EVENTS_CONTROLLER=FILE another one for every run); ground_friction: the ground's
-/// Coulomb coefficient (NaN: the scenario's); rest_time: the detector's resting rule (NaN: the
-/// estimator's default, or POISE_CONTACT_EVENTS_REST_TIME).
+/// Coulomb coefficient (NaN: the scenario's); edit: changes to the scenario, applied last (they
+/// win over the POISE_CONTACT_EVENTS_* variables).
 Result run(const std::string& file, double duration, const Reference& reference = {},
            double push_scale = 1.0, std::uint64_t seed = 0, const std::string& controller_file = {},
            double ground_friction = std::numeric_limits<double>::quiet_NaN(),
-           double rest_time = std::numeric_limits<double>::quiet_NaN(),
            const std::function<void(scenario::Scenario&)>& edit = {}) {
   scenario::Scenario sc =
       scenario::load_scenario(std::string(POISE_SOURCE_DIR) + "/deploy/scenarios/" + file);
-  if (edit) edit(sc);
   for (sim::Push& p : sc.sim.pushes)
     p.force_W *= push_scale;
   if (seed != 0) sc.sim.imu.seed = seed;
@@ -177,7 +175,7 @@ Result run(const std::string& file, double duration, const Reference& reference 
   // estimator.contact_rest_time).
   if (const char* rest = std::getenv("POISE_CONTACT_EVENTS_REST_TIME"))
     sc.estimator.contact_rest_time = std::atof(rest);
-  if (std::isfinite(rest_time)) sc.estimator.contact_rest_time = rest_time;
+  if (edit) edit(sc);
   LoopOptions opt;
   opt.duration = duration;
   opt.controller_config_file = controller_file;
@@ -345,7 +343,8 @@ TEST(ContactEvents, StepInPlace) {
   const Result r =
       run("step_in_place.yaml", 8.0, {}, 1.0, 0,
           std::string(POISE_SOURCE_DIR) + "/controller/momentum/config/ankle_first.yaml",
-          std::numeric_limits<double>::quiet_NaN(), 0.0);
+          std::numeric_limits<double>::quiet_NaN(),
+          [](scenario::Scenario& sc) { sc.estimator.contact_rest_time = 0.0; });
   EXPECT_TRUE(r.survived);
   ASSERT_GE(r.swing_start, 0);
   int swing_lift_offs = 0, landings = 0, before_swing = 0;
@@ -399,7 +398,6 @@ TEST(ContactEvents, AFootRockingOnItsEdgeIsNotFlaggedInTheAir) {
   // A rest taken at such a tap (the landing rule without the stillness gate) kept the flag on
   // for 113 ms with the foot in the air; a flag on a foot in the air makes it a support.
   const Result r = run("forward_push_double_support.yaml", 3.0, {}, 1.0, 0, {},
-                       std::numeric_limits<double>::quiet_NaN(),
                        std::numeric_limits<double>::quiet_NaN(), [](scenario::Scenario& sc) {
                          for (sim::Push& p : sc.sim.pushes)
                            p.force_W = 265.0 * Eigen::Vector3d(std::sqrt(0.5), std::sqrt(0.5), 0.0);
