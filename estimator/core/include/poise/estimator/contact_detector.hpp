@@ -109,6 +109,9 @@ struct ContactThresholds {
   /// rocking on an edge or tapping the ground with a corner is not resting, and a resting
   /// foot's contact ends only when every corner rises (a rocking foot's high corners come down
   /// while its low ones leave: 0.1-0.2 mm per 5 ms, measured on a 265 N push at 45 deg).
+  /// Until swing_corner_window of corners is kept (the first ticks, after a change of
+  /// corner_reference or a tick without corners) no foot begins to rest; without corners at
+  /// all the gate is off (the sole height's rules alone).
   double rest_corner_motion = 5e-5;
 };
 
