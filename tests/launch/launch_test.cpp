@@ -5,13 +5,16 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <set>
 #include <sstream>
 #include <string>
 #include <string_view>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 #include <poise/msg/joint_command.h>
@@ -792,4 +795,69 @@ TEST(Launch, ScenariosInWhichContactsChangeSurviveDistributed) {
                 name.c_str(), r["survived"].get<bool>() ? 1 : 0,
                 r.value("com_error_max_m", -1.0) * 1e3, r.value("foot_slip_max_m", -1.0) * 1e3);
   }
+}
+
+// Two runs at once of scenarios with one name (a parallel sweep, two copies of a scenario) each
+// report their own run. `poise run` reads its components' results from its log directory: with a
+// shared results/<name>.logs each read the other's files and said nothing (found running two
+// pushes of one scenario at once, 2026-12-05). Now a run holds its log directory (log_dir.hpp):
+// the second default one takes <name>.2.logs and <name>.2.json; a --log-dir in use is refused
+// naming the run that holds it, and is free again once that run is gone, however it ended.
+TEST(Launch, TwoRunsOfOneScenarioAtOnceEachReportTheirOwn) {
+  const fs::path dir = work_dir("twin");
+  const std::string robot =
+      (fs::path(POISE_SOURCE_DIR) / "deploy/robots/poise_humanoid/robot.yaml").string();
+  const std::vector<double> durations{0.5, 1.0};
+  for (double d : durations)
+    std::ofstream(dir / ("twin_" + std::to_string(static_cast<int>(d * 10)) + ".yaml"))
+        << "name: twin\nrobot: {config: " << robot << "}\nduration: " << d << "\n";
+  // Default output and log directory, both started in `dir`.
+  std::vector<std::unique_ptr<ChildProcess>> runs;
+  for (double d : durations) {
+    const std::string file = "twin_" + std::to_string(static_cast<int>(d * 10)) + ".yaml";
+    runs.push_back(std::make_unique<ChildProcess>(
+        std::vector<std::string>{
+            "/bin/sh", "-c",
+            "cd '" + dir.string() + "' && exec '" + bin("poise") + "' run -q " + file},
+        std::vector<std::string>{}, false, true));
+  }
+  for (auto& r : runs) {
+    const auto code = r->wait_for(180s);
+    EXPECT_EQ(code.value_or(-1), 0) << r->output();
+  }
+  std::set<double> reported;
+  for (const char* name : {"twin.json", "twin.2.json"}) {
+    std::ifstream in(dir / "results" / name);
+    ASSERT_TRUE(in.good()) << "no " << name;
+    const Json r = Json::parse(in);
+    reported.insert(std::round(r.at("sim_time_s").get<double>() * 10) / 10);
+  }
+  EXPECT_EQ(reported, (std::set<double>{0.5, 1.0})) << "each run reports its own simulated time";
+  for (const char* logs : {"twin.logs", "twin.2.logs"})
+    EXPECT_TRUE(fs::exists(dir / "results" / logs / "sim.summary.json")) << logs;
+
+  // A --log-dir in use is refused, naming the run that holds it.
+  const fs::path shared = dir / "shared.logs";
+  const fs::path file = dir / "twin_10.yaml";
+  ChildProcess holder({bin("poise"), "run", file.string(), "--realtime", "--duration", "60",
+                       "--domain", std::to_string(poise::testing::unique_domain_id()), "-o",
+                       (dir / "holder.json").string(), "--log-dir", shared.string()},
+                      {}, false, true);
+  ASSERT_TRUE(holder.wait_for_output("t=1.0 s", 60s)) << holder.output();
+  auto [code, out] = run_command({bin("poise"), "run", file.string(), "-q", "-o",
+                                  (dir / "second.json").string(), "--log-dir", shared.string()},
+                                 60s);
+  EXPECT_EQ(code, 2) << out;
+  EXPECT_NE(out.find("is in use by another run (pid " + std::to_string(holder.pid()) + ")"),
+            std::string::npos)
+      << out;
+  EXPECT_FALSE(fs::exists(dir / "second.json")) << "a refused run writes no result";
+  // Killed without a chance to clean up, the holder leaves the directory free.
+  ASSERT_EQ(::kill(holder.pid(), SIGKILL), 0);
+  holder.wait_for(10s);
+  std::tie(code, out) =
+      run_command({bin("poise"), "run", file.string(), "-q", "--duration", "0.3", "-o",
+                   (dir / "third.json").string(), "--log-dir", shared.string()},
+                  120s);
+  EXPECT_EQ(code, 0) << out;
 }

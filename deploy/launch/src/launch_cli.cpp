@@ -16,6 +16,7 @@
 #include <fstream>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <thread>
 
@@ -25,6 +26,7 @@
 #include "poise/launch/child.hpp"
 #include "poise/launch/deployment.hpp"
 #include "poise/launch/launch.hpp"
+#include "poise/launch/log_dir.hpp"
 #include "poise/launch/supervisor.hpp"
 
 namespace poise::launch {
@@ -103,7 +105,9 @@ int launch_main(int argc, char** argv) {
   app.add_flag("--check", check, "validate the file and print what each host runs; start nothing");
   app.add_option("-o,--output", output, "JSON result (default: results/<name>.<host>.json)");
   app.add_option("--log-dir", log_dir,
-                 "logs and generated DDS files (default: results/<name>.<host>.logs)");
+                 "logs and generated DDS files, held by this launch alone: one in use is refused "
+                 "(default: results/<name>.<host>.logs, or the first free "
+                 "<name>.<host>.2.logs, ... while another launch holds it; the result follows)");
   app.add_option("--duration", duration,
                  "stop after this many seconds (default: when the simulator of this host ends, "
                  "else at Ctrl-C / SIGTERM)")
@@ -191,11 +195,24 @@ int launch_main(int argc, char** argv) {
                  "its interface\n",
                  host->address.c_str());
 
-  const fs::path logs = log_dir.empty()
-                            ? fs::path("results") / (d.name + "." + host->name + ".logs")
-                            : fs::path(log_dir);
+  // This launch's alone (log_dir.hpp): a second launch of the same host here gets
+  // <deployment>.<host>.2.logs and, by default, .2.json.
+  std::string run_suffix;
+  std::optional<LogDirLock> logs_lock;
+  try {
+    logs_lock = claim_log_dir(log_dir, "results", d.name + "." + host->name, &run_suffix);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "poise launch: %s\n", e.what());
+    return 2;
+  }
+  const fs::path logs = logs_lock->dir();
+  if (!run_suffix.empty())
+    std::fprintf(stderr,
+                 "poise launch: results/%s.%s.logs is in use by another launch: logs in %s\n",
+                 d.name.c_str(), host->name.c_str(), logs.c_str());
   const fs::path result_path =
-      output.empty() ? fs::path("results") / (d.name + "." + host->name + ".json") : fs::path(output);
+      output.empty() ? fs::path("results") / (d.name + "." + host->name + run_suffix + ".json")
+                     : fs::path(output);
   fs::create_directories(logs / "dds");
   if (result_path.has_parent_path()) fs::create_directories(result_path.parent_path());
   std::error_code ignored;

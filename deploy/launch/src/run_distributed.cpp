@@ -15,16 +15,17 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "poise/launch/child.hpp"
-#include "poise/node/realtime.hpp"
-#include "poise/dds/domain_claim.hpp"
-#include "poise/dds/vendor.hpp"
-#include "poise/launch/deployment.hpp"
-#include "poise/launch/launch.hpp"
-#include "poise/launch/supervisor.hpp"
 #include "poise/contact/contact_optimizer.hpp"
 #include "poise/controller/controller_config.hpp"
+#include "poise/dds/domain_claim.hpp"
+#include "poise/dds/vendor.hpp"
+#include "poise/launch/child.hpp"
+#include "poise/launch/deployment.hpp"
+#include "poise/launch/launch.hpp"
+#include "poise/launch/log_dir.hpp"
+#include "poise/launch/supervisor.hpp"
 #include "poise/model/robot_config.hpp"
+#include "poise/node/realtime.hpp"
 #include "poise/scenario/scenario.hpp"
 #include "poise/sim/sim_config.hpp"
 
@@ -175,10 +176,14 @@ int run_distributed(int argc, char** argv) {
   app.add_option("--dds-controller", s.dds_controller, "vendor of the controller")->check(vendors);
   app.add_option("--domain", s.domain, "DDS domain id (default: a free one in 100..231)")
       ->check(CLI::Range(0, 232));
-  app.add_option("--output,-o", s.output, "JSON result file (default: results/<scenario>.json)");
+  app.add_option("--output,-o", s.output,
+                 "JSON result file (default: results/<scenario>.json; <scenario>.2.json and so "
+                 "on while another run holds the default log directory)");
   app.add_option("--log-dir", s.log_dir,
-                 "children's stdout/stderr and summaries "
-                 "(default: results/<scenario>.logs)");
+                 "children's stdout/stderr and summaries, held by this run alone: one in use by "
+                 "another run is refused (default: results/<scenario>.logs, or the first free "
+                 "results/<scenario>.2.logs, .3.logs, ... while other runs of a scenario of this "
+                 "name hold it)");
   app.add_option("--duration", s.duration, "override the scenario duration [s]")
       ->check(CLI::Range(0.0, 1e6));
   app.add_flag("--ground-truth-state", s.ground_truth_state,
@@ -284,11 +289,19 @@ int run_distributed(int argc, char** argv) {
       domain = dds::claim_free_domain();
     if (!s.security.empty() && domain > 230)
       throw std::runtime_error("DDS Security takes domains 0..230 (Cyclone's plugins)");
-    const fs::path output =
-        s.output.empty() ? fs::path("results") / (scenario.name + ".json") : fs::path(s.output);
-    const fs::path logs =
-        s.log_dir.empty() ? fs::path("results") / (scenario.name + ".logs") : fs::path(s.log_dir);
-    fs::create_directories(logs);
+    // The log directory is this run's alone (log_dir.hpp): with the default and another run of
+    // a scenario of this name going on here, this one takes results/<scenario>.2.logs, and its
+    // default result and recording follow (<scenario>.2.json, .mcap).
+    std::string run_suffix;
+    const LogDirLock logs_lock = claim_log_dir(s.log_dir, "results", scenario.name, &run_suffix);
+    const fs::path logs = logs_lock.dir();
+    if (!run_suffix.empty())
+      std::fprintf(stderr, "poise run %s: results/%s.logs is in use by another run: logs in %s%s\n",
+                   scenario.name.c_str(), scenario.name.c_str(), logs.c_str(),
+                   s.output.empty() ? ", result to the same name" : "");
+    const fs::path output = s.output.empty()
+                                ? fs::path("results") / (scenario.name + run_suffix + ".json")
+                                : fs::path(s.output);
     if (output.has_parent_path()) fs::create_directories(output.parent_path());
     for (const char* n : {"sim", "estimator", "contact", "controller", "reference"})
       fs::remove(logs / (std::string(n) + ".summary.json"));
@@ -469,8 +482,8 @@ int run_distributed(int argc, char** argv) {
                    output.c_str());
     };
     if (record_opt->count() > 0) {
-      recording =
-          s.record.empty() ? fs::path("results") / (scenario.name + ".mcap") : fs::path(s.record);
+      recording = s.record.empty() ? fs::path("results") / (scenario.name + run_suffix + ".mcap")
+                                   : fs::path(s.record);
       if (recording.has_parent_path()) fs::create_directories(recording.parent_path());
       ComponentSpec rec;
       rec.name = "recorder";
