@@ -629,6 +629,69 @@ TEST(Launch, AKilledComponentIsRestartedByItsPolicy) {
               r.value("survived", false) ? "yes" : "no");
 }
 
+// A recorder restarted by its policy goes on in a numbered file and what it recorded before the
+// crash is kept (its restart used to truncate the file: the part before a crash, often what one
+// wants to see, was lost without a word). The launch itself replaces the last launch's recording.
+TEST(Launch, ARestartedRecorderKeepsWhatItRecordedBefore) {
+  const int domain = poise::testing::unique_domain_id();
+  const fs::path dir = work_dir("recorder_restart");
+  const fs::path rec = dir / "rec.mcap";
+  { std::ofstream(rec) << "the last launch's recording"; }
+  std::ofstream(dir / "rec.yaml") << "name: rec\n"
+                                     "domain: "
+                                  << domain
+                                  << "\n"
+                                     "scenario: standing\n"
+                                     "mode: realtime\n"
+                                     "hosts:\n"
+                                     "  local: {address: 127.0.0.1}\n"
+                                     "components:\n"
+                                     "  sim: {host: local, options: [--duration, 4]}\n"
+                                     "  estimator: {host: local}\n"
+                                     "  controller: {host: local}\n"
+                                     "  contact: {host: local}\n"
+                                     "  recorder: {host: local, output: "
+                                  << rec.string() << ", restart: on-failure}\n";
+  ChildProcess launcher({bin("poise"), "launch", (dir / "rec.yaml").string(), "-o",
+                         (dir / "rec.json").string(), "--log-dir", (dir / "logs").string()},
+                        {}, false, true);
+  ASSERT_TRUE(launcher.wait_for_output("t=1.0 s", 60s)) << launcher.output();
+  pid_t recorder = 0;
+  for (pid_t p : children_of(launcher.pid())) {
+    std::ifstream cmd("/proc/" + std::to_string(p) + "/cmdline");
+    std::string arg;
+    std::vector<std::string> argv;
+    while (std::getline(cmd, arg, '\0'))
+      argv.push_back(arg);
+    if (argv.size() > 1 && argv[1] == "record") recorder = p;
+  }
+  ASSERT_GT(recorder, 0) << launcher.output();
+  ASSERT_EQ(::kill(recorder, SIGKILL), 0);
+  const auto code = launcher.wait_for(120s);
+  ASSERT_TRUE(code.has_value()) << launcher.output();
+  EXPECT_NE(launcher.output().find("recorder killed by SIGKILL"), std::string::npos)
+      << launcher.output();
+  // Messages of poise/sensors in a file, by `poise info --json` (exit 0 complete, 1 cut short).
+  auto sensors = [](const fs::path& file, int expected_code) {
+    // The JSON report alone (stdout; an incomplete file's warning on stderr would interleave).
+    auto [rc, out] =
+        run_command({"/bin/sh", "-c",
+                     "exec '" + bin("poise") + "' info --json '" + file.string() + "' 2>/dev/null"},
+                    60s);
+    EXPECT_EQ(rc, expected_code) << file << ":\n" << out;
+    const Json info = Json::parse(out, nullptr, false);
+    if (info.is_discarded() || !info.contains("topics")) return std::uint64_t{0};
+    for (const auto& t : info["topics"])
+      if (t.value("topic", "") == "poise/sensors") return t.value("messages", std::uint64_t{0});
+    return std::uint64_t{0};
+  };
+  // Killed after t = 1 s: the file it was writing holds that second, cut short (SIGKILL).
+  EXPECT_GT(sensors(rec, 1), 500u) << "the recording before the crash is kept";
+  // Its restart recorded the rest of the run to rec.1.mcap and ended it properly.
+  ASSERT_TRUE(fs::exists(dir / "rec.1.mcap")) << launcher.output();
+  EXPECT_GT(sensors(dir / "rec.1.mcap", 0), 500u);
+}
+
 // Anyone on the domain can publish: the simulator refuses an absurd push (it threw the robot
 // 604 m before), and a second writer of the commands is reported by the simulator as an error.
 TEST(Launch, AnAbsurdPushIsRefusedAndASecondCommandWriterIsReported) {

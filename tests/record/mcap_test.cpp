@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <random>
 #include <string>
 #include <vector>
@@ -257,6 +258,18 @@ TEST(Mcap, InputThatIsNotMcapIsNamedAsSuch) {
   read_messages(d / "does_not_exist.mcap", &r);
   EXPECT_NE(r.error.find("cannot open"), std::string::npos) << r.error;
   EXPECT_THROW(McapWriter("/nonexistent_dir/x.mcap"), std::runtime_error);
+  // Not overwriting: an existing file is refused by name and left as it was.
+  { std::ofstream(d / "kept.mcap") << "an earlier recording"; }
+  WriterOptions keep;
+  keep.overwrite = false;
+  try {
+    McapWriter w((d / "kept.mcap").string(), keep);
+    ADD_FAILURE() << "an existing file was opened for writing";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("kept.mcap' exists"), std::string::npos) << e.what();
+  }
+  std::ifstream kept(d / "kept.mcap");
+  EXPECT_EQ(std::string(std::istreambuf_iterator<char>(kept), {}), "an earlier recording");
 }
 
 TEST(Mcap, AFullDiskFailsTheWriterAndKeepsWhatWasWritten) {

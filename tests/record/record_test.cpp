@@ -12,6 +12,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <random>
 #include <sstream>
@@ -389,6 +390,67 @@ TEST(Record, BadInputIsRefusedWithAClearMessage) {
                        "--duration", "1"});
   EXPECT_NE(c4, 0);
   EXPECT_NE(o4.find("cannot create '/nonexistent/dir/x.mcap'"), std::string::npos) << o4;
+}
+
+// A recording is never written over unless asked: `poise record -o FILE` refuses an existing
+// FILE (exit 2, the file untouched), `--if-exists next` records to the first free FILE's
+// stem.<k>.mcap, `--if-exists overwrite` replaces it; with splitting the first split file decides.
+// (Before, the writer truncated whatever was there, and a recorder restarted by `poise launch`
+// truncated what it had recorded before its crash.)
+TEST(Record, AnExistingRecordingIsNeverWrittenOverUnlessAsked) {
+  const fs::path dir = work_dir("if_exists");
+  const std::string domain = std::to_string(poise::testing::unique_domain_id());
+  const fs::path old = dir / "old.mcap";
+  { std::ofstream(old) << "precious"; }
+  auto contents = [](const fs::path& f) {
+    std::ifstream in(f);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  auto record = [&](const fs::path& out, std::vector<std::string> extra) {
+    std::vector<std::string> a{bin("poise"), "record",     "--domain",   domain,
+                               "-o",         out.string(), "--duration", "0.2"};
+    a.insert(a.end(), extra.begin(), extra.end());
+    return run(a);
+  };
+  auto [c1, o1] = record(old, {});
+  EXPECT_EQ(c1, 2) << o1;
+  EXPECT_NE(o1.find(old.string() + " exists: a recording is not written over it"),
+            std::string::npos)
+      << o1;
+  EXPECT_EQ(contents(old), "precious");
+  for (const char* expected : {"old.1.mcap", "old.2.mcap"}) {
+    auto [c, o] = record(old, {"--if-exists", "next"});
+    EXPECT_EQ(c, 0) << o;
+    EXPECT_NE(o.find("recording to " + (dir / expected).string()), std::string::npos) << o;
+    int info_code = -1;
+    info_json(dir / expected, &info_code);
+    EXPECT_EQ(info_code, 0) << expected << " is a complete recording";
+  }
+  EXPECT_EQ(contents(old), "precious");
+  auto [c2, o2] = record(old, {"--if-exists", "overwrite"});
+  EXPECT_EQ(c2, 0) << o2;
+  int info_code = -1;
+  info_json(old, &info_code);
+  EXPECT_EQ(info_code, 0) << "replaced by a complete recording";
+
+  // Split recordings: <stem>_0.mcap, _1, ... The first split file decides.
+  const std::vector<std::string> split{"--split-duration", "0.05"};
+  auto [c3, o3] = record(dir / "run.mcap", split);
+  ASSERT_EQ(c3, 0) << o3;
+  ASSERT_TRUE(fs::exists(dir / "run_0.mcap")) << o3;
+  const auto first_size = fs::file_size(dir / "run_0.mcap");
+  auto [c4, o4] = record(dir / "run.mcap", split);
+  EXPECT_EQ(c4, 2) << o4;
+  EXPECT_NE(o4.find((dir / "run_0.mcap").string() + " exists"), std::string::npos) << o4;
+  EXPECT_EQ(fs::file_size(dir / "run_0.mcap"), first_size);
+  auto [c5, o5] = record(dir / "run.mcap", {"--split-duration", "0.05", "--if-exists", "next"});
+  EXPECT_EQ(c5, 0) << o5;
+  EXPECT_TRUE(fs::exists(dir / "run.1_0.mcap")) << o5;
+  EXPECT_EQ(fs::file_size(dir / "run_0.mcap"), first_size);
+
+  auto [c6, o6] = record(old, {"--if-exists", "maybe"});
+  EXPECT_NE(c6, 0);
+  EXPECT_NE(o6.find("maybe not in {refuse,overwrite,next}"), std::string::npos) << o6;
 }
 
 namespace {

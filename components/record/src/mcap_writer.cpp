@@ -42,8 +42,13 @@ std::string_view mcap_name(Compression c) {
 
 McapWriter::McapWriter(const std::string& path, const WriterOptions& options)
     : path_(path), options_(options) {
-  fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  // O_EXCL when not overwriting: the check and the creation are one step (no other writer can
+  // slip in between).
+  fd_ = ::open(path.c_str(),
+               O_WRONLY | O_CREAT | O_CLOEXEC | (options_.overwrite ? O_TRUNC : O_EXCL), 0644);
   if (fd_ < 0) {
+    if (errno == EEXIST)
+      throw std::runtime_error("'" + path + "' exists: a recording is not written over it");
     throw std::runtime_error("cannot create '" + path + "': " + std::strerror(errno));
   }
   chunk_.reserve(options_.chunk_size + (64 << 10));

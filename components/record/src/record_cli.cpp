@@ -12,6 +12,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <map>
 #include <memory>
 #include <string>
@@ -56,6 +57,34 @@ void print_progress(const RecorderStatus& s, double elapsed, bool tty) {
 }
 
 }  // namespace
+
+std::string recording_path(const std::string& output, bool splitting, const std::string& if_exists,
+                           std::string* error) {
+  namespace fs = std::filesystem;
+  const fs::path p(output);
+  const std::string ext = p.has_extension() ? p.extension().string() : ".mcap";
+  // The first file a recording to `path` creates.
+  auto first_file = [&](const fs::path& path) {
+    return splitting ? path.parent_path() / (path.stem().string() + "_0" + ext) : path;
+  };
+  std::error_code ec;
+  if (if_exists == "overwrite" || !fs::exists(first_file(p), ec)) return output;
+  if (if_exists == "next") {
+    for (int k = 1; k <= 9999; ++k) {
+      const fs::path candidate =
+          p.parent_path() / (p.stem().string() + "." + std::to_string(k) + ext);
+      if (!fs::exists(first_file(candidate), ec)) return candidate.string();
+    }
+    if (error) *error = output + " and its numbered successors up to .9999 all exist";
+    return {};
+  }
+  if (error)
+    *error = first_file(p).string() +
+             " exists: a recording is not written over it (give another -o, or --if-exists "
+             "overwrite to replace it, or --if-exists next to record to the first free " +
+             p.stem().string() + ".<k>" + ext + ")";
+  return {};
+}
 
 void print_recording_summary(const RecorderStatus& s, std::FILE* out) {
   std::fprintf(out, "%-26s %-30s %10s %10s %8s %8s %9s\n", "TOPIC", "TYPE", "RECEIVED",
@@ -105,6 +134,12 @@ int record_main(int argc, char** argv) {
   app.add_option("-o,--output", options.output,
                  "output file (default: poise_<date>-<time>.mcap); with splitting, "
                  "<stem>_<k>.mcap");
+  std::string if_exists;
+  app.add_option("--if-exists", if_exists,
+                 "when the output file exists: refuse (exit 2, the default for a named -o), "
+                 "overwrite, or next: the first free <stem>.1.mcap, <stem>.2.mcap, ... (the "
+                 "default for the dated name; a restarted recorder keeps what it wrote before)")
+      ->check(CLI::IsMember({"refuse", "overwrite", "next"}));
   app.add_option("--duration", duration_s, "stop after this many seconds (0: until Ctrl-C)")
       ->check(CLI::Range(0.0, 1e7));
   app.add_option("--split-size", options.split_size_mb, "start a new file past this many MB")
@@ -201,7 +236,23 @@ int record_main(int argc, char** argv) {
     return 2;
   }
   options.writer.compression = parse_compression(compression);
+  if (if_exists.empty()) if_exists = options.output.empty() ? "next" : "refuse";
   if (options.output.empty()) options.output = default_output();
+  {
+    const bool splitting = options.split_size_mb > 0 || options.split_duration_s > 0;
+    std::string error;
+    const std::string out = recording_path(options.output, splitting, if_exists, &error);
+    if (out.empty()) {
+      std::fprintf(stderr, "poise record: %s\n", error.c_str());
+      return 2;
+    }
+    if (out != options.output)
+      std::fprintf(stderr, "poise record: %s exists: recording to %s\n", options.output.c_str(),
+                   out.c_str());
+    options.output = out;
+    // Later split files are created exclusively too: nothing recorded is ever written over.
+    options.writer.overwrite = if_exists == "overwrite";
+  }
   const bool tty = ::isatty(2) != 0;
   if (progress_s < 0) progress_s = tty ? 0.5 : 5.0;
 

@@ -509,6 +509,12 @@ std::vector<std::string> estimator_scenario_args(const scenario::Scenario& sc,
   return a;
 }
 
+bool recorder_sets_if_exists(const Component& c) {
+  for (const std::string& o : c.options)
+    if (o == "--if-exists" || o.rfind("--if-exists=", 0) == 0) return true;
+  return false;
+}
+
 std::vector<std::string> command_line(const Deployment& d, const Component& c,
                                       const fs::path& bin_dir, const fs::path& dds_config) {
   std::vector<std::string> a;
@@ -526,6 +532,9 @@ std::vector<std::string> command_line(const Deployment& d, const Component& c,
   }
   if (c.kind == "recorder") {
     a = {(bin_dir / "poise").string(), "record", "-o", c.output, "--progress", "0"};
+    // A restarted recorder goes on in <stem>.1.mcap, ...: what it wrote before is kept (the
+    // launcher clears the output once, at the launch's start: launch_cli.cpp).
+    if (!recorder_sets_if_exists(c)) a.insert(a.end(), {"--if-exists", "next"});
     a.insert(a.end(), dds.begin(), dds.end());
     a.insert(a.end(), c.options.begin(), c.options.end());
     return a;

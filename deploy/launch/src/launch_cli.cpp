@@ -248,6 +248,10 @@ int launch_main(int argc, char** argv) {
     if (!quiet) std::printf("  %s finished (%s)\n", e.spec.name.c_str(), e.exits.back().c_str());
   };
   const auto components = d.components_on(host->name);
+  // A launch's recording replaces the last launch's, as its result does (a recorder restarted
+  // within this launch then goes on in a numbered file: command_line).
+  for (const Component* c : components)
+    if (c->kind == "recorder" && !recorder_sets_if_exists(*c)) fs::remove(c->output, ignored);
   std::map<std::string, const Component*> component_of;
   std::vector<ComponentSpec> specs;
   const Component* sim = nullptr;

@@ -488,16 +488,26 @@ int run_distributed(int argc, char** argv) {
       ComponentSpec rec;
       rec.name = "recorder";
       rec.argv = [&] {
-            std::vector<std::string> a{(bin / "poise").string(), "record", "--dds", "cyclone",
-                                       "--domain", std::to_string(domain), "-o",
-                                       recording.string(), "--progress", "0"};
-            // Passive: the capture on loopback (every process of `poise run` is on this
-            // machine), and readers of the topics nothing else reads (ground truth, diagnostics).
-            if (s.record_passive) a.insert(a.end(), {"--passive", "--interface", "lo"});
-            if (!s.security.empty())
-              a.insert(a.end(), {"--security", s.security, "--identity", "recorder"});
-            return a;
-          }();
+        // The run's recording replaces the last run's, as its result does.
+        std::vector<std::string> a{(bin / "poise").string(),
+                                   "record",
+                                   "--dds",
+                                   "cyclone",
+                                   "--domain",
+                                   std::to_string(domain),
+                                   "-o",
+                                   recording.string(),
+                                   "--if-exists",
+                                   "overwrite",
+                                   "--progress",
+                                   "0"};
+        // Passive: the capture on loopback (every process of `poise run` is on this
+        // machine), and readers of the topics nothing else reads (ground truth, diagnostics).
+        if (s.record_passive) a.insert(a.end(), {"--passive", "--interface", "lo"});
+        if (!s.security.empty())
+          a.insert(a.end(), {"--security", s.security, "--identity", "recorder"});
+        return a;
+      }();
       rec.runs_until_stopped = true;
       rec.stop_grace_ms = 30000;  // SIGTERM makes it write what it holds
       recorder = &supervisor.start(std::move(rec));

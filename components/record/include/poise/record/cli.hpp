@@ -2,6 +2,7 @@
 // The recording verbs of the `poise` tool: record, info, replay.
 
 #include <cstdio>
+#include <string>
 
 #include "poise/record/recorder.hpp"
 
@@ -13,5 +14,12 @@ int replay_main(int argc, char** argv);
 
 /// The per-topic table and totals printed at the end of a recording (also by `poise run --record`).
 void print_recording_summary(const RecorderStatus& status, std::FILE* out);
+
+/// Where `poise record -o output` records, by its --if-exists: `output` when its first file
+/// (`output`, or `<stem>_0<ext>` when `splitting`) does not exist, or with "overwrite"; with
+/// "next" the first `<stem>.<k><ext>` (k = 1, 2, ...) whose first file does not exist; with
+/// "refuse" (or nothing free) "" and `*error` says why, naming the file.
+std::string recording_path(const std::string& output, bool splitting, const std::string& if_exists,
+                           std::string* error);
 
 }  // namespace poise::record

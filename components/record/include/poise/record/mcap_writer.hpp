@@ -42,6 +42,8 @@ struct WriterOptions {
   int zstd_level = 1;
   /// The Header record's library field.
   std::string library = "poise record";
+  /// false: an existing file is refused (the constructor throws, naming it), never truncated.
+  bool overwrite = true;
 };
 
 /// Per-file counts, as the Statistics record will say.

@@ -119,6 +119,11 @@ Deployment load_deployment(const std::filesystem::path& file, const std::string&
 /// every host of the deployment, bound to this host's address only, no multicast.
 std::string dds_config_xml(const Deployment& d, const Host& host, const std::string& vendor);
 
+/// A recorder component whose `options` choose what happens to an existing output file
+/// (`--if-exists`, `poise record --help`); otherwise the launcher clears its output once at the
+/// launch's start and a restarted recorder goes on in the next free numbered file.
+bool recorder_sets_if_exists(const Component& c);
+
 /// The command line of a component, given the directory of the built executables and the DDS
 /// configuration file it uses.
 std::vector<std::string> command_line(const Deployment& d, const Component& c,
