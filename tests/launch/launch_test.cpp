@@ -690,6 +690,12 @@ TEST(Launch, ARestartedRecorderKeepsWhatItRecordedBefore) {
   // Its restart recorded the rest of the run to rec.1.mcap and ended it properly.
   ASSERT_TRUE(fs::exists(dir / "rec.1.mcap")) << launcher.output();
   EXPECT_GT(sensors(dir / "rec.1.mcap", 0), 500u);
+  // The launch's result names both files.
+  const Json r = Json::parse(std::ifstream(dir / "rec.json"));
+  EXPECT_EQ(r["components"]["recorder"]["restarts"], 1) << r.dump(2);
+  EXPECT_EQ(r["components"]["recorder"]["recordings"],
+            Json::array({rec.string(), (dir / "rec.1.mcap").string()}))
+      << r.dump(2);
 }
 
 // Anyone on the domain can publish: the simulator refuses an absurd push (it threw the robot

@@ -9,6 +9,7 @@
 
 #include <arpa/inet.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
@@ -17,6 +18,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <regex>
 #include <set>
 #include <thread>
 
@@ -82,6 +84,42 @@ std::string cpus_text(const std::vector<int>& cpus) {
 bool is_node(const Component& c) {
   return c.kind == "sim" || c.kind == "estimator" || c.kind == "controller" ||
          c.kind == "contact";
+}
+
+}  // namespace
+
+namespace {
+
+/// The files a recorder to `output` wrote since `since`: `output` itself, the numbered files of
+/// its restarts (<stem>.<k><ext>) and the split files of either (<stem>[.<k>]_<n><ext>), by name.
+std::vector<std::string> recordings_since(const std::string& output, fs::file_time_type since) {
+  const fs::path out(output);
+  const std::string stem = out.stem().string();
+  const std::string ext = out.has_extension() ? out.extension().string() : ".mcap";
+  std::vector<std::pair<std::pair<long, long>, std::string>> found;  // ((k, n), path)
+  std::error_code ec;
+  const fs::path dir = out.has_parent_path() ? out.parent_path() : fs::path(".");
+  for (const auto& f : fs::directory_iterator(dir, ec)) {
+    const std::string name = f.path().filename().string();
+    if (name.size() < stem.size() + ext.size() || name.compare(0, stem.size(), stem) != 0 ||
+        name.compare(name.size() - ext.size(), ext.size(), ext) != 0)
+      continue;
+    // What lies between the stem and the extension: "", ".<k>", "_<n>" or ".<k>_<n>".
+    const std::string mid = name.substr(stem.size(), name.size() - stem.size() - ext.size());
+    static const std::regex numbered(R"((?:\.([0-9]{1,9}))?(?:_([0-9]{1,9}))?)");
+    std::smatch m;
+    if (!std::regex_match(mid, m, numbered)) continue;
+    const auto written = fs::last_write_time(f.path(), ec);
+    if (ec || written < since) continue;
+    const long k = m[1].matched ? std::stol(m[1].str()) : 0;
+    const long n = m[2].matched ? std::stol(m[2].str()) : 0;
+    found.push_back({{k, n}, f.path().string()});
+  }
+  std::sort(found.begin(), found.end());  // in the order they were recorded
+  std::vector<std::string> paths;
+  for (auto& [key, path] : found)
+    paths.push_back(std::move(path));
+  return paths;
 }
 
 }  // namespace
@@ -248,6 +286,7 @@ int launch_main(int argc, char** argv) {
     if (!quiet) std::printf("  %s finished (%s)\n", e.spec.name.c_str(), e.exits.back().c_str());
   };
   const auto components = d.components_on(host->name);
+  const auto launch_start = fs::file_time_type::clock::now();
   // A launch's recording replaces the last launch's, as its result does (a recorder restarted
   // within this launch then goes on in a numbered file: command_line).
   for (const Component* c : components)
@@ -340,6 +379,7 @@ int launch_main(int argc, char** argv) {
     c["pid"] = e->child ? e->child->pid() : -1;
     c["restarts"] = e->restarts;
     c["exits"] = e->exits;
+    if (comp.kind == "recorder") c["recordings"] = recordings_since(comp.output, launch_start);
     j["components"][comp.name] = c;
   }
   int code = 0;
