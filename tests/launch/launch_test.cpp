@@ -698,6 +698,46 @@ TEST(Launch, ARestartedRecorderKeepsWhatItRecordedBefore) {
       << r.dump(2);
 }
 
+// A second launch of a host of a running deployment is refused: it would put a second simulator
+// and controller on the deployment's DDS domain (and share its logs and recording). Both are
+// started the way a user in the file's directory would, `poise launch twice.yaml`: a bare file
+// name used to fail ("cannot make absolute path").
+TEST(Launch, ASecondLaunchOfARunningHostIsRefused) {
+  const int domain = poise::testing::unique_domain_id();
+  const fs::path dir = work_dir("second_launch");
+  std::ofstream(dir / "twice.yaml") << "name: twice\n"
+                                       "domain: "
+                                    << domain
+                                    << "\n"
+                                       "scenario: standing\n"
+                                       "mode: realtime\n"
+                                       "hosts:\n"
+                                       "  local: {address: 127.0.0.1}\n"
+                                       "components:\n"
+                                       "  sim: {host: local, options: [--duration, 30]}\n"
+                                       "  estimator: {host: local}\n"
+                                       "  controller: {host: local}\n"
+                                       "  contact: {host: local}\n";
+  auto in_dir = [&](const std::string& args) {
+    return std::vector<std::string>{
+        "/bin/sh", "-c",
+        "cd '" + dir.string() + "' && exec '" + bin("poise") + "' launch twice.yaml " + args};
+  };
+  ChildProcess first(in_dir(""), {}, false, true);
+  ASSERT_TRUE(first.wait_for_output("t=1.0 s", 60s)) << first.output();
+  auto [code, out] = run_command(in_dir("-q"), 60s);
+  EXPECT_EQ(code, 2) << out;
+  EXPECT_NE(out.find("twice on host local is already running (pid " + std::to_string(first.pid()) +
+                     ", logs in results/twice.local.logs)"),
+            std::string::npos)
+      << out;
+  EXPECT_NE(out.find("share its DDS domain " + std::to_string(domain)), std::string::npos) << out;
+  EXPECT_FALSE(fs::exists(dir / "results" / "twice.local.2.logs"));
+  ASSERT_EQ(::kill(first.pid(), SIGINT), 0);
+  const auto first_code = first.wait_for(60s);
+  EXPECT_TRUE(first_code.has_value()) << first.output();
+}
+
 // Anyone on the domain can publish: the simulator refuses an absurd push (it threw the robot
 // 604 m before), and a second writer of the commands is reported by the simulator as an error.
 TEST(Launch, AnAbsurdPushIsRefusedAndASecondCommandWriterIsReported) {

@@ -190,7 +190,8 @@ Deployment load_deployment(const fs::path& file, const std::string& host) {
     throw DeploymentError("deployment file " + file.string() + ": not valid YAML: " + e.what());
   }
   if (!root.IsMap()) throw DeploymentError("deployment file " + file.string() + ": not a map");
-  const fs::path base = file.parent_path();
+  // The file's directory, "." for a bare name (`poise launch one.yaml`: fs::absolute("") throws).
+  const fs::path base = file.has_parent_path() ? file.parent_path() : fs::path(".");
   allowed_keys(root, "",
                {"name", "domain", "scenario", "robot", "mode", "security", "hosts", "components"},
                p);

@@ -86,10 +86,6 @@ bool is_node(const Component& c) {
          c.kind == "contact";
 }
 
-}  // namespace
-
-namespace {
-
 /// The files a recorder to `output` wrote since `since`: `output` itself, the numbered files of
 /// its restarts (<stem>.<k><ext>) and the split files of either (<stem>[.<k>]_<n><ext>), by name.
 std::vector<std::string> recordings_since(const std::string& output, fs::file_time_type since) {
@@ -143,9 +139,9 @@ int launch_main(int argc, char** argv) {
   app.add_flag("--check", check, "validate the file and print what each host runs; start nothing");
   app.add_option("-o,--output", output, "JSON result (default: results/<name>.<host>.json)");
   app.add_option("--log-dir", log_dir,
-                 "logs and generated DDS files, held by this launch alone: one in use is refused "
-                 "(default: results/<name>.<host>.logs, or the first free "
-                 "<name>.<host>.2.logs, ... while another launch holds it; the result follows)");
+                 "logs and generated DDS files, held by this launch alone: one in use is refused, "
+                 "and so is a second launch of this host of the deployment with the default "
+                 "(default: results/<name>.<host>.logs)");
   app.add_option("--duration", duration,
                  "stop after this many seconds (default: when the simulator of this host ends, "
                  "else at Ctrl-C / SIGTERM)")
@@ -233,24 +229,35 @@ int launch_main(int argc, char** argv) {
                  "its interface\n",
                  host->address.c_str());
 
-  // This launch's alone (log_dir.hpp): a second launch of the same host here gets
-  // <deployment>.<host>.2.logs and, by default, .2.json.
-  std::string run_suffix;
+  // The log directory is this launch's alone (log_dir.hpp). A second launch of this host of
+  // the deployment is refused: it would share the deployment's DDS domain with the first (two
+  // simulators, two controllers on one robot's topics) and its recording.
   std::optional<LogDirLock> logs_lock;
   try {
-    logs_lock = claim_log_dir(log_dir, "results", d.name + "." + host->name, &run_suffix);
+    const fs::path dir = log_dir.empty()
+                             ? fs::path("results") / (d.name + "." + host->name + ".logs")
+                             : fs::path(log_dir);
+    std::string holder;
+    logs_lock = LogDirLock::try_lock(dir, &holder);
+    if (!logs_lock) {
+      if (log_dir.empty())
+        std::fprintf(stderr,
+                     "poise launch: %s on host %s is already running (%s, logs in %s): a second "
+                     "launch would share its DDS domain %d\n",
+                     d.name.c_str(), host->name.c_str(), holder.c_str(), dir.c_str(), d.domain);
+      else
+        std::fprintf(stderr, "poise launch: the log directory %s is in use by another run (%s)\n",
+                     dir.c_str(), holder.c_str());
+      return 2;
+    }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "poise launch: %s\n", e.what());
     return 2;
   }
   const fs::path logs = logs_lock->dir();
-  if (!run_suffix.empty())
-    std::fprintf(stderr,
-                 "poise launch: results/%s.%s.logs is in use by another launch: logs in %s\n",
-                 d.name.c_str(), host->name.c_str(), logs.c_str());
-  const fs::path result_path =
-      output.empty() ? fs::path("results") / (d.name + "." + host->name + run_suffix + ".json")
-                     : fs::path(output);
+  const fs::path result_path = output.empty()
+                                   ? fs::path("results") / (d.name + "." + host->name + ".json")
+                                   : fs::path(output);
   fs::create_directories(logs / "dds");
   if (result_path.has_parent_path()) fs::create_directories(result_path.parent_path());
   std::error_code ignored;
