@@ -258,7 +258,13 @@ TEST(Mcap, InputThatIsNotMcapIsNamedAsSuch) {
   read_messages(d / "does_not_exist.mcap", &r);
   EXPECT_NE(r.error.find("cannot open"), std::string::npos) << r.error;
   EXPECT_THROW(McapWriter("/nonexistent_dir/x.mcap"), std::runtime_error);
-  // Not overwriting: an existing file is refused by name and left as it was.
+}
+
+// WriterOptions::overwrite = false (what `poise record` uses unless told --if-exists overwrite):
+// an existing file is refused by name and left as it was.
+TEST(Mcap, AWriterThatMayNotOverwriteRefusesAnExistingFile) {
+  const fs::path d = temp_dir();
+  fs::remove(d / "kept.mcap");
   { std::ofstream(d / "kept.mcap") << "an earlier recording"; }
   WriterOptions keep;
   keep.overwrite = false;
