@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <memory>
 #include <set>
 #include <sstream>
@@ -80,6 +81,35 @@ std::vector<std::string> run_args(const std::string& scenario, int domain, const
                              "--log-dir",      (dir / "logs").string()};
   a.insert(a.end(), extra.begin(), extra.end());
   return a;
+}
+
+/// A real-time deployment of `standing` on this machine: the four components (the simulator
+/// runs `sim_seconds`), `contact_extra` added to the contact optimiser's map ("restart:
+/// on-failure") and `more` appended to the components (a recorder's line).
+void write_local_deployment(const fs::path& file, const std::string& name, int domain,
+                            int sim_seconds, const std::string& contact_extra = "",
+                            const std::string& more = "") {
+  std::ofstream(file) << "name: " << name << "\ndomain: " << domain
+                      << "\nscenario: standing\nmode: realtime\nhosts:\n"
+                         "  local: {address: 127.0.0.1}\ncomponents:\n"
+                         "  sim: {host: local, options: [--duration, "
+                      << sim_seconds
+                      << "]}\n  estimator: {host: local}\n  controller: {host: local}\n"
+                         "  contact: {host: local"
+                      << (contact_extra.empty() ? "" : ", " + contact_extra) << "}\n"
+                      << more;
+}
+
+/// The child of `parent` whose command line (argv) satisfies `is_it`; 0 if none.
+pid_t child_with(pid_t parent, const std::function<bool(const std::vector<std::string>&)>& is_it) {
+  for (pid_t p : children_of(parent)) {
+    std::ifstream cmd("/proc/" + std::to_string(p) + "/cmdline");
+    std::vector<std::string> argv;
+    for (std::string arg; std::getline(cmd, arg, '\0');)
+      argv.push_back(arg);
+    if (is_it(argv)) return p;
+  }
+  return 0;
 }
 
 }  // namespace
@@ -589,28 +619,14 @@ TEST(Launch, LockstepNodesWaitForTheirInputAsLongAsTheSimulator) {
 TEST(Launch, AKilledComponentIsRestartedByItsPolicy) {
   const int domain = poise::testing::unique_domain_id();
   const fs::path dir = work_dir("restart");
-  std::ofstream(dir / "one.yaml") << "name: one\n"
-                                     "domain: " << domain << "\n"
-                                     "scenario: standing\n"
-                                     "mode: realtime\n"
-                                     "hosts:\n"
-                                     "  local: {address: 127.0.0.1}\n"
-                                     "components:\n"
-                                     "  sim: {host: local, options: [--duration, 6]}\n"
-                                     "  estimator: {host: local}\n"
-                                     "  controller: {host: local}\n"
-                                     "  contact: {host: local, restart: on-failure}\n";
+  write_local_deployment(dir / "one.yaml", "one", domain, 6, "restart: on-failure");
   ChildProcess launcher({bin("poise"), "launch", (dir / "one.yaml").string(), "-o",
                          (dir / "one.json").string(), "--log-dir", (dir / "logs").string()},
                         {}, false, true);
   ASSERT_TRUE(launcher.wait_for_output("t=1.0 s", 60s)) << launcher.output();
-  pid_t contact = 0;
-  for (pid_t p : children_of(launcher.pid())) {
-    std::ifstream cmd("/proc/" + std::to_string(p) + "/cmdline");
-    std::string argv0;
-    std::getline(cmd, argv0, '\0');
-    if (argv0.find("poise-contact") != std::string::npos) contact = p;
-  }
+  const pid_t contact = child_with(launcher.pid(), [](const std::vector<std::string>& a) {
+    return !a.empty() && a[0].find("poise-contact") != std::string::npos;
+  });
   ASSERT_GT(contact, 0) << launcher.output();
   ASSERT_EQ(::kill(contact, SIGKILL), 0);
   const auto code = launcher.wait_for(120s);
@@ -637,34 +653,16 @@ TEST(Launch, ARestartedRecorderKeepsWhatItRecordedBefore) {
   const fs::path dir = work_dir("recorder_restart");
   const fs::path rec = dir / "rec.mcap";
   { std::ofstream(rec) << "the last launch's recording"; }
-  std::ofstream(dir / "rec.yaml") << "name: rec\n"
-                                     "domain: "
-                                  << domain
-                                  << "\n"
-                                     "scenario: standing\n"
-                                     "mode: realtime\n"
-                                     "hosts:\n"
-                                     "  local: {address: 127.0.0.1}\n"
-                                     "components:\n"
-                                     "  sim: {host: local, options: [--duration, 4]}\n"
-                                     "  estimator: {host: local}\n"
-                                     "  controller: {host: local}\n"
-                                     "  contact: {host: local}\n"
-                                     "  recorder: {host: local, output: "
-                                  << rec.string() << ", restart: on-failure}\n";
+  write_local_deployment(
+      dir / "rec.yaml", "rec", domain, 4, "",
+      "  recorder: {host: local, output: " + rec.string() + ", restart: on-failure}\n");
   ChildProcess launcher({bin("poise"), "launch", (dir / "rec.yaml").string(), "-o",
                          (dir / "rec.json").string(), "--log-dir", (dir / "logs").string()},
                         {}, false, true);
   ASSERT_TRUE(launcher.wait_for_output("t=1.0 s", 60s)) << launcher.output();
-  pid_t recorder = 0;
-  for (pid_t p : children_of(launcher.pid())) {
-    std::ifstream cmd("/proc/" + std::to_string(p) + "/cmdline");
-    std::string arg;
-    std::vector<std::string> argv;
-    while (std::getline(cmd, arg, '\0'))
-      argv.push_back(arg);
-    if (argv.size() > 1 && argv[1] == "record") recorder = p;
-  }
+  const pid_t recorder = child_with(launcher.pid(), [](const std::vector<std::string>& a) {
+    return a.size() > 1 && a[1] == "record";
+  });
   ASSERT_GT(recorder, 0) << launcher.output();
   ASSERT_EQ(::kill(recorder, SIGKILL), 0);
   const auto code = launcher.wait_for(120s);
@@ -705,19 +703,7 @@ TEST(Launch, ARestartedRecorderKeepsWhatItRecordedBefore) {
 TEST(Launch, ASecondLaunchOfARunningHostIsRefused) {
   const int domain = poise::testing::unique_domain_id();
   const fs::path dir = work_dir("second_launch");
-  std::ofstream(dir / "twice.yaml") << "name: twice\n"
-                                       "domain: "
-                                    << domain
-                                    << "\n"
-                                       "scenario: standing\n"
-                                       "mode: realtime\n"
-                                       "hosts:\n"
-                                       "  local: {address: 127.0.0.1}\n"
-                                       "components:\n"
-                                       "  sim: {host: local, options: [--duration, 30]}\n"
-                                       "  estimator: {host: local}\n"
-                                       "  controller: {host: local}\n"
-                                       "  contact: {host: local}\n";
+  write_local_deployment(dir / "twice.yaml", "twice", domain, 30);
   auto in_dir = [&](const std::string& args) {
     return std::vector<std::string>{
         "/bin/sh", "-c",

@@ -394,7 +394,8 @@ TEST(Record, BadInputIsRefusedWithAClearMessage) {
 
 // A recording is never written over unless asked: `poise record -o FILE` refuses an existing
 // FILE (exit 2, the file untouched), `--if-exists next` records to the first free FILE's
-// stem.<k>.mcap, `--if-exists overwrite` replaces it; with splitting the first split file decides.
+// stem.<k>.mcap, `--if-exists overwrite` replaces it; with splitting any split file of the name is
+// in the way.
 // (Before, the writer truncated whatever was there, and a recorder restarted by `poise launch`
 // truncated what it had recorded before its crash.)
 TEST(Record, AnExistingRecordingIsNeverWrittenOverUnlessAsked) {
@@ -433,7 +434,7 @@ TEST(Record, AnExistingRecordingIsNeverWrittenOverUnlessAsked) {
   info_json(old, &info_code);
   EXPECT_EQ(info_code, 0) << "replaced by a complete recording";
 
-  // Split recordings: <stem>_0.mcap, _1, ... The first split file decides.
+  // Split recordings: <stem>_0.mcap, _1, ...: any of them is in the way (named: the lowest).
   const std::vector<std::string> split{"--split-duration", "0.05"};
   auto [c3, o3] = record(dir / "run.mcap", split);
   ASSERT_EQ(c3, 0) << o3;
@@ -447,6 +448,12 @@ TEST(Record, AnExistingRecordingIsNeverWrittenOverUnlessAsked) {
   EXPECT_EQ(c5, 0) << o5;
   EXPECT_TRUE(fs::exists(dir / "run.1_0.mcap")) << o5;
   EXPECT_EQ(fs::file_size(dir / "run_0.mcap"), first_size);
+  // A later split file alone is in the way too (it would stop the recording at that split).
+  { std::ofstream(dir / "late_3.mcap") << "precious"; }
+  auto [c7, o7] = record(dir / "late.mcap", split);
+  EXPECT_EQ(c7, 2) << o7;
+  EXPECT_NE(o7.find((dir / "late_3.mcap").string() + " exists"), std::string::npos) << o7;
+  EXPECT_EQ(contents(dir / "late_3.mcap"), "precious");
 
   auto [c6, o6] = record(old, {"--if-exists", "maybe"});
   EXPECT_NE(c6, 0);

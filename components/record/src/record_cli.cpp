@@ -63,23 +63,43 @@ std::string recording_path(const std::string& output, bool splitting, const std:
   namespace fs = std::filesystem;
   const fs::path p(output);
   const std::string ext = p.has_extension() ? p.extension().string() : ".mcap";
-  // The first file a recording to `path` creates.
-  auto first_file = [&](const fs::path& path) {
-    return splitting ? path.parent_path() / (path.stem().string() + "_0" + ext) : path;
+  // A file a recording to `path` would create that exists already ("" if none). Split: any
+  // <stem>_<n><ext>, not only _0 (a later split file in the way would stop the recording there).
+  auto existing = [&](const fs::path& path) -> std::string {
+    std::error_code ec;
+    if (!splitting) return fs::exists(path, ec) ? path.string() : std::string();
+    const std::string prefix = path.stem().string() + "_";
+    const fs::path dir = path.has_parent_path() ? path.parent_path() : fs::path(".");
+    std::string first;  // the lowest-numbered, so that the message does not depend on the order
+    long first_n = -1;
+    for (const auto& f : fs::directory_iterator(dir, ec)) {
+      const std::string name = f.path().filename().string();
+      if (name.size() <= prefix.size() + ext.size() ||
+          name.compare(0, prefix.size(), prefix) != 0 ||
+          name.compare(name.size() - ext.size(), ext.size(), ext) != 0)
+        continue;
+      const std::string n = name.substr(prefix.size(), name.size() - prefix.size() - ext.size());
+      if (n.size() > 9 || n.find_first_not_of("0123456789") != std::string::npos) continue;
+      if (first_n < 0 || std::stol(n) < first_n) {
+        first_n = std::stol(n);
+        first = (path.parent_path() / name).string();
+      }
+    }
+    return first;
   };
-  std::error_code ec;
-  if (if_exists == "overwrite" || !fs::exists(first_file(p), ec)) return output;
+  const std::string in_the_way = existing(p);
+  if (if_exists == "overwrite" || in_the_way.empty()) return output;
   if (if_exists == "next") {
     for (int k = 1; k <= 9999; ++k) {
       const fs::path candidate =
           p.parent_path() / (p.stem().string() + "." + std::to_string(k) + ext);
-      if (!fs::exists(first_file(candidate), ec)) return candidate.string();
+      if (existing(candidate).empty()) return candidate.string();
     }
     if (error) *error = output + " and its numbered successors up to .9999 all exist";
     return {};
   }
   if (error)
-    *error = first_file(p).string() +
+    *error = in_the_way +
              " exists: a recording is not written over it (give another -o, or --if-exists "
              "overwrite to replace it, or --if-exists next to record to the first free " +
              p.stem().string() + ".<k>" + ext + ")";
