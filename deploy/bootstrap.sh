@@ -14,7 +14,7 @@ jobs=${POISE_JOBS:-$(nproc)}
 
 # Every Debian package the project needs: build tools, the five named dependencies and the
 # well-kept libraries it uses (JSON, YAML, CLI parsing, tests, benchmarks, network namespaces,
-# MCAP chunk compression, plots) and Node.js, which runs the independent MCAP reader of the tests.
+# MCAP chunk compression, plots, GNU parallel for sharded studies) and Node.js, which runs the independent MCAP reader of the tests.
 packages=(
   build-essential cmake pkg-config git python3 iproute2 procps
   libeigen3-dev liburdfdom-dev
@@ -23,7 +23,7 @@ packages=(
   libbullet-dev libbullet-extras-dev
   nlohmann-json3-dev libyaml-cpp-dev libcli11-dev libyaml-dev libexpat1-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  libzstd-dev liblz4-dev zlib1g-dev gnuplot-nox nodejs
+  libzstd-dev liblz4-dev zlib1g-dev gnuplot-nox nodejs parallel
 )
 
 step() { printf '\n== %s\n' "$*"; }

@@ -23,6 +23,7 @@
 #include <fstream>
 #include <iterator>
 #include <map>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -242,10 +243,15 @@ struct Case {
   double dt = 1e-3;   ///< the scenario's tick period [s]
 };
 
-void check_case(const Case& c) {
-  const DistributedRun dist = run_distributed(c.scenario, c.duration, c.ground_truth, c.vendor);
+/// Runs case `c` both ways and compares them; the two runs are left in `runs` when given.
+void check_case(const Case& c, std::pair<DistributedRun, InProcessRun>* runs = nullptr) {
+  std::pair<DistributedRun, InProcessRun> own;
+  std::pair<DistributedRun, InProcessRun>& both = runs ? *runs : own;
+  both.first = run_distributed(c.scenario, c.duration, c.ground_truth, c.vendor);
+  const DistributedRun& dist = both.first;
   ASSERT_FALSE(dist.trajectory.empty()) << dist.log;
-  const InProcessRun inp = run_in_process(c.scenario, c.duration, c.ground_truth);
+  both.second = run_in_process(c.scenario, c.duration, c.ground_truth);
+  const InProcessRun& inp = both.second;
   const Difference d = compare(dist.trajectory, inp.trajectory, kBound);
   const std::size_t expected = static_cast<std::size_t>(std::llround(c.duration / c.dt));
   std::printf(
@@ -353,3 +359,24 @@ TEST(OneAnswer, InProcessCommandLineForwardPush) {
 }
 
 }  // namespace
+
+// A simulated robot that is not its model (`reality: typical`: drawn link masses, inertias and
+// CoMs, lagged and delayed actuators with noise and friction, a compliant ground of drawn
+// friction): the draw comes from the scenario's seed alone, so the distributed and the in-process
+// run step the same robot, tick by tick, and both results record the same draw.
+TEST(OneAnswer, ForwardPushWithATypicalRealityCyclone) {
+  derive_scenario("forward_push_double_support", "forward_push_reality",
+                  "reality: {profile: typical, seed: 5}\n");
+  std::pair<DistributedRun, InProcessRun> runs;
+  check_case({"forward_push_reality", 2.0, false, "cyclone", 0.006}, &runs);
+  const DistributedRun& dist = runs.first;
+  const InProcessRun& inp = runs.second;
+  ASSERT_TRUE(dist.result.contains("reality")) << dist.result.dump(2);
+  const Json& r = dist.result["reality"];
+  EXPECT_EQ(r["profile"], "typical");
+  EXPECT_EQ(r["seed"], 5);
+  EXPECT_NEAR(r["mass_kg"].get<double>(), inp.result.reality.mass, 1e-9);
+  EXPECT_NEAR(r["ground"]["friction"].get<double>(), inp.result.reality.ground_friction, 1e-12);
+  EXPECT_GT(std::abs(inp.result.reality.mass - inp.result.reality.mass_nominal), 1e-3)
+      << "the drawn robot differs from its model";
+}

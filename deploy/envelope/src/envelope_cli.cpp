@@ -39,6 +39,7 @@
 #include "poise/launch/child.hpp"
 #include "poise/plot/balance_plot.hpp"
 #include "poise/scenario/scenario.hpp"
+#include "random_study.hpp"
 
 namespace poise::envelope {
 
@@ -292,20 +293,6 @@ std::string fmt(double v, int prec = 1) {
   return buf;
 }
 
-/// What kind of failure a run's failed criteria describe, the most severe that applies:
-/// "error" (the run did not run to its end), "fall" (CoM error over its maximum, the base too
-/// low, a non-foot contact), "slip" (a foot's sole centre), "tilt", "slow recovery" (the CoM not
-/// back within com_error_final in time).
-std::string failure_kind(const std::string& failed) {
-  const auto has = [&](const char* s) { return failed.find(s) != std::string::npos; };
-  if (has("error:") || has("aborted")) return "error";
-  if (has("com_error_max") || has("min_base_height") || has("non_foot_contacts")) return "fall";
-  if (has("foot_slip_max")) return "slip";
-  if (has("foot_tilt_max")) return "tilt";
-  if (has("com_error_final") || has("recovery_time")) return "slow recovery";
-  return "other";
-}
-
 /// One letter for a run's verdict in the grid table: e, f, s, t, c (failure_kind), x other;
 /// S is a survival.
 char failure_letter(const std::string& failed) {
@@ -343,6 +330,9 @@ YAML::Node first_push(YAML::Node& root, const std::string& base) {
 }  // namespace
 
 int envelope_main(int argc, char** argv) {
+  // The random study and the merge of its shards have options of their own (random_study.cpp).
+  if (argc > 1 && std::string(argv[1]) == "random") return random_main(argc - 1, argv + 1);
+  if (argc > 1 && std::string(argv[1]) == "merge") return merge_main(argc - 1, argv + 1);
   Options o;
   o.double_base = source_file("deploy/scenarios/forward_push_double_support.yaml");
   o.single_base = source_file("deploy/scenarios/lateral_push_single_support.yaml");
@@ -353,7 +343,9 @@ int envelope_main(int argc, char** argv) {
       "Balance envelope: push forces survived in N directions (double and single support), the "
       "paper's Fig. 11 (longest push survived per force) and the highest platform frequency, by "
       "running scenarios (deploy/envelope/README.md)."};
-  app.add_option("study", o.what, "all, pushes, fig11 or platforms")
+  app.add_option("study", o.what,
+                 "all, pushes, fig11 or platforms; `random` (pushes drawn at random) and "
+                 "`merge` (its shards) take options of their own: poise envelope random --help")
       ->check(CLI::IsMember({"all", "pushes", "fig11", "platforms"}))
       ->capture_default_str();
   app.add_option("--mode", o.mode,

@@ -455,6 +455,7 @@ RunResult InProcessLoop::result() const {
   r.contact_fallbacks = controller_->diagnostics().late_solutions;
   r.qp_failures = controller_->diagnostics().qp_failures;
   r.rejected_commands = rejected_commands_;
+  r.reality = sim_->reality();
   return r;
 }
 

@@ -13,6 +13,7 @@
 
 #include "poise/inprocess/in_process_loop.hpp"
 #include "poise/launch/launch.hpp"
+#include "poise/sim/reality_json.hpp"
 
 namespace poise::inprocess {
 
@@ -56,6 +57,7 @@ nlohmann::json to_json(const RunResult& r) {
   j["contact_fallbacks"] = r.contact_fallbacks;
   j["qp_failures"] = r.qp_failures;
   j["rejected_commands"] = r.rejected_commands;
+  j["reality"] = sim::reality_to_json(r.reality);
   return j;
 }
 
@@ -147,6 +149,8 @@ int cli_main(int argc, char** argv) {
                 << (opt.state_source == StateSource::kEstimator ? " (" + opt.estimator + ")" : "")
                 << ", contact method " << method
                 << "\n";
+    if (!quiet && scenario.sim.reality.enabled)
+      std::cerr << "  " << sim::describe_reality(loop.result().reality) << "\n";
     const RunResult r = loop.run([&](double t) {
       if (quiet) return;
       const auto p = loop.result();

@@ -680,7 +680,7 @@ int run_distributed(int argc, char** argv) {
           "min_base_height_m", "recovery_time_s", "trunk_pitch_max_deg", "trunk_roll_max_deg",
           "failed_criteria", "tick_latency_us", "realtime_factor", "sim_time_s", "wall_time_s",
           "command_timeouts", "damping_ticks", "watchdog_stale_events", "hold_ticks",
-          "estop_ticks", "safety", "max_joint_speed"})
+          "estop_ticks", "safety", "max_joint_speed", "reality"})
       r[k] = sim_r.value(k, Json());
     const std::uint64_t misses_sim = diag(sim_r, "deadline_misses");
     const std::uint64_t misses_ctrl = diag(ctrl_r, "deadline_misses");

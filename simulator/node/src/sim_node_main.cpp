@@ -57,6 +57,8 @@
 #include <thread>
 #include <nlohmann/json.hpp>
 
+#include "poise/sim/reality_json.hpp"
+
 #include <poise/msg/balance_reference.h>
 
 #include "poise/node/mailbox.hpp"
@@ -153,6 +155,8 @@ class SimNode {
     slip_.update(truth_);
     dds::log(dds::LogLevel::info, "initial base height %.3f m, CoM (%.3f, %.3f, %.3f) m",
              truth_.X_WB.translation().z(), truth_.com_W.x(), truth_.com_W.y(), truth_.com_W.z());
+    if (sim_.reality().enabled)
+      dds::log(dds::LogLevel::info, "%s", sim::describe_reality(sim_.reality()).c_str());
   }
 
   const sim::World& scenario() const { return scenario_; }
@@ -233,6 +237,7 @@ class SimNode {
     j["trunk_pitch_max_deg"] = r.trunk_pitch_max_deg;
     j["trunk_roll_max_deg"] = r.trunk_roll_max_deg;
     j["failed_criteria"] = monitor_.failed_criteria();
+    j["reality"] = sim::reality_to_json(sim_.reality());
     // poise/balance_reference as the monitor took it: references not taken (a non-finite CoM
     // target) or dropped from a full queue; both 0 in a sound run.
     j["reference_com_rejected"] = com_shift_.rejected();

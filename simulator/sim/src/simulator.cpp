@@ -31,6 +31,7 @@
 #include <stdexcept>
 #include <unordered_map>
 
+#include "reality_detail.hpp"
 #include "robot_tree.hpp"
 
 #ifndef BT_USE_DOUBLE_PRECISION
@@ -451,6 +452,21 @@ struct Simulator::Impl {
   // widened where the explicit step needs it: Impl::limit_explicit_joint_damping).
   Eigen::VectorXd friction_velocity;
   std::vector<std::string> notes;  // what the simulator changed of the URDF, one line each
+  RealityDraw reality;             // how the simulated robot differs from its URDF
+  // Actuators of the reality configuration (ActuatorReality): the commanded torques of the last
+  // delay ticks (ring, column per tick), the lagged torque, per joint Coulomb friction level,
+  // noise std and effort limit.
+  struct Actuators {
+    bool enabled = false;
+    Eigen::MatrixXd delayed;  // n x delay_ticks
+    int head = 0;
+    double alpha = 1.0;       // lag step: 1 = no lag
+    Eigen::VectorXd y, noise_std, effort;
+    detail::PortableNormal noise{0};
+    double torque(int i, double u);  // the applied torque of joint i for command u (one tick)
+    void advance() { if (delayed.cols() > 0) head = (head + 1) % static_cast<int>(delayed.cols()); }
+  } actuators;
+  void configure_actuators();
   std::vector<Eigen::Isometry3d> X_LK;  // body COM frame K in the URDF body frame L
   double mass = 0.0;
   double dt = 0.001;
@@ -540,6 +556,7 @@ Simulator::Impl::Impl(const SimulatorConfig& c) : cfg(c) {
   if (cfg.robot.feet.empty()) throw std::runtime_error("robot.feet: at least one foot is required");
   dt = cfg.solver.dt;
   tree = detail::load_robot_tree(cfg.robot.urdf_path);
+  reality = detail::apply_reality(cfg.reality, tree);
   n = static_cast<int>(tree.bodies.size()) - 1;
   effort.resize(n);
   damping.resize(n);
@@ -553,6 +570,7 @@ Simulator::Impl::Impl(const SimulatorConfig& c) : cfg(c) {
     damping[i] = b.damping;
     if (!cfg.solver.joint_friction_constraint) friction[i] = b.friction;
   }
+  configure_actuators();
   limit_explicit_joint_damping();
   for (const auto& b : tree.bodies)
     body_names.push_back(b.name);
@@ -732,6 +750,44 @@ void Simulator::Impl::resolve_feet_and_imu() {
   const std::string imu = cfg.robot.imu_frame.empty() ? tree.bodies[0].name : cfg.robot.imu_frame;
   if (!tree.find_frame(imu))
     throw std::runtime_error("robot.imu_frame: '" + imu + "' is not a link of the URDF");
+}
+
+// The reality configuration's actuators (ActuatorReality): its friction joins the URDF's explicit
+// friction and damping (so the explicit step's limit below covers it too); lag, delay, noise and
+// the lower effort limit act in Actuators::torque.
+void Simulator::Impl::configure_actuators() {
+  const ActuatorReality& a = cfg.reality.actuators;
+  if (!cfg.reality.enabled) return;
+  const auto of_effort = [&](int i, double fraction) {
+    return std::isfinite(effort[i]) ? fraction * effort[i] : 0.0;
+  };
+  Actuators& act = actuators;
+  act.enabled = true;
+  act.delayed = Eigen::MatrixXd::Zero(n, a.delay_ticks);
+  act.alpha = a.bandwidth_hz > 0.0 ? 1.0 - std::exp(-2.0 * M_PI * a.bandwidth_hz * dt) : 1.0;
+  act.y = Eigen::VectorXd::Zero(n);
+  act.noise_std.resize(n);
+  act.effort.resize(n);
+  act.noise = detail::PortableNormal(cfg.reality.seed ^ 0xac7a7035eedULL);
+  for (int i = 0; i < n; ++i) {
+    friction[i] += a.coulomb_friction + of_effort(i, a.coulomb_friction_of_effort);
+    damping[i] += a.viscous_friction;
+    act.noise_std[i] = a.torque_noise_std + of_effort(i, a.torque_noise_of_effort);
+    act.effort[i] = a.effort_scale * effort[i];
+  }
+}
+
+double Simulator::Impl::Actuators::torque(int i, double u) {
+  if (!enabled) return u;
+  if (delayed.cols() > 0) {  // the slot at head holds the command of delay ticks ago
+    double& slot = delayed(i, head);
+    const double due = slot;
+    slot = u;
+    u = due;
+  }
+  y[i] += alpha * (u - y[i]);
+  const double t = noise_std[i] > 0.0 ? y[i] + noise_std[i] * noise() : y[i];
+  return std::clamp(t, -effort[i], effort[i]);
 }
 
 // The URDF's joint damping and smooth friction are explicit torques, -c qd with c = damping +
@@ -925,6 +981,14 @@ void Simulator::Impl::build_robot() {
 }
 
 void Simulator::Impl::build_world() {
+  // A compliant ground (reality.ground): Bullet turns a contact's stiffness k and damping c into
+  // the contact row's ERP = dt k / (dt k + c) and CFM = 1 / (dt k + c), per contact point. The
+  // robot's colliders keep Bullet's defaults (stiffness 1e18, damping 0.1), which combine with
+  // these in series and in parallel.
+  const auto make_compliant = [&](btCollisionObject& o) {
+    if (cfg.reality.enabled && cfg.reality.ground.stiffness > 0.0)
+      o.setContactStiffnessAndDamping(cfg.reality.ground.stiffness, cfg.reality.ground.damping);
+  };
   if (cfg.world.ground.enabled) {
     if (!(cfg.world.ground.friction >= 0.0))
       throw std::runtime_error("world.ground.friction must be >= 0");
@@ -936,7 +1000,9 @@ void Simulator::Impl::build_world() {
           std::make_unique<btStaticPlaneShape>(btVector3(0, 0, 1), cfg.world.ground.height);
     ground = std::make_unique<btCollisionObject>();
     ground->setCollisionShape(ground_shape.get());
-    ground->setFriction(cfg.world.ground.friction);
+    ground->setFriction(std::isfinite(reality.ground_friction) ? reality.ground_friction
+                                                                : cfg.world.ground.friction);
+    make_compliant(*ground);
     ground->setRestitution(0.0);
     ground->setUserIndex(kGroundIndex);
     world->addCollisionObject(ground.get(), kEnvGroup, kRobotGroup);
@@ -968,7 +1034,9 @@ void Simulator::Impl::build_world() {
     p.body = std::make_unique<btRigidBody>(ci);
     p.body->setCollisionFlags(p.body->getCollisionFlags() | btCollisionObject::CF_KINEMATIC_OBJECT);
     p.body->setActivationState(DISABLE_DEACTIVATION);
-    p.body->setFriction(pc.friction);
+    p.body->setFriction(std::isfinite(reality.ground_friction) ? reality.ground_friction
+                                                               : pc.friction);
+    make_compliant(*p.body);
     p.body->setRestitution(0.0);
     p.body->setUserIndex(-2 - static_cast<int>(k));
     world->addRigidBody(p.body.get(), kEnvGroup, kRobotGroup);
@@ -1295,6 +1363,10 @@ const std::vector<std::string>& Simulator::body_names() const {
 const std::vector<std::string>& Simulator::foot_names() const {
   return impl_->foot_names;
 }
+const RealityDraw& Simulator::reality() const {
+  return impl_->reality;
+}
+
 double Simulator::total_mass() const {
   return impl_->mass;
 }
@@ -1386,12 +1458,13 @@ StepStatus Simulator::step(const JointCommand& cmd, SensorFrame& sensors, Ground
     } else {
       t = -cmd.kd[i] * qd;
     }
-    t = std::clamp(t, -s.effort[i], s.effort[i]);
+    t = s.actuators.torque(i, std::clamp(t, -s.effort[i], s.effort[i]));
     s.tau[i] = t;
     const double fr =
         s.friction[i] * std::clamp(qd / s.friction_velocity[i], -1.0, 1.0);
     mb.addJointTorque(i, t - s.damping[i] * qd - fr);
   }
+  s.actuators.advance();
   if (!ok) status = StepStatus::kRejectedCommand;
 
   // Pushes active during [k dt, (k+1) dt).

@@ -1,6 +1,7 @@
 #include "poise/sim/world.hpp"
 #include "poise/sim/simulator.hpp"
 #include "poise/sim/yaml_checks.hpp"
+#include "reality_detail.hpp"
 
 #include <yaml-cpp/yaml.h>
 
@@ -320,8 +321,8 @@ World parse_world(const std::string& yaml_text, const fs::path& base_dir,
   if (!root.IsMap()) throw std::runtime_error(what + ": the top level must be a mapping");
   c.allow(root, "",
           {"name", "description", "robot", "world", "initial", "disturbances", "duration",
-           "success", "sensors", "solver", "dds", "estimator", "contact", "controller",
-           "reference"});
+           "success", "sensors", "solver", "reality", "dds", "estimator", "contact",
+           "controller", "reference"});
   // dds, estimator, contact, controller, reference configure the other components: the scenario format
   // (deploy/scenario, poise::scenario::parse_scenario) reads and checks them; the world skips them.
   World sc;
@@ -574,6 +575,9 @@ World parse_world(const std::string& yaml_text, const fs::path& base_dir,
     if (!(sv.warm_start_factor >= 0.0 && sv.warm_start_factor <= 1.0))
       c.fail("solver.warm_start_factor", "must be in [0, 1]");
   }
+
+  // reality: how the simulated robot differs from the description the nodes get (reality.hpp)
+  if (const YAML::Node r = root["reality"]) sc.sim.reality = detail::parse_reality(c, r);
 
   // success criteria
   if (const YAML::Node s = root["success"]) {

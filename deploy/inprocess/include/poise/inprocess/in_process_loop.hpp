@@ -138,6 +138,7 @@ struct RunResult {
   std::uint64_t contact_fallbacks = 0;  ///< controller ticks finished with a fallback
   std::uint64_t qp_failures = 0;        ///< eq (33) not solved as posed
   std::uint64_t rejected_commands = 0;  ///< commands the simulator refused
+  sim::RealityDraw reality;             ///< how the simulated robot differed from its model
 };
 
 /// The contact method a loop with these options runs: LoopOptions::contact_method if set, else

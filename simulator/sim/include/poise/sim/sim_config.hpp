@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "poise/sim/reality.hpp"
+
 namespace poise::sim {
 
 /// Lockstep: how long poise-sim waits for the joint command of a tick by default [ms]
@@ -227,6 +229,8 @@ struct SimulatorConfig {
   InitialState initial;
   std::vector<Push> pushes;  ///< scheduled pushes (more can be added live)
   int max_live_pushes = 16;  ///< capacity reserved for pushes added while running
+  /// How the simulated robot differs from its URDF (reality.hpp); disabled by default.
+  RealityConfig reality;
 };
 
 }  // namespace poise::sim

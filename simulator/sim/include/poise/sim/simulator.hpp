@@ -55,6 +55,9 @@ class Simulator {
   /// damping and friction too strong for the explicit step of a light link); empty for most
   /// robots. Printed by `poise sim`, poise-sim and `poise run --in-process`.
   const std::vector<std::string>& notes() const;
+  /// How the simulated robot differs from its URDF (SimulatorConfig::reality, drawn at
+  /// construction); enabled false without a reality configuration.
+  const RealityDraw& reality() const;
 
   /// Preallocated outputs / command of the right sizes (configuration time: allocates).
   SensorFrame make_sensor_frame() const;
