@@ -434,6 +434,32 @@ TEST(Reality, ACompliantGroundSinksByTheLoadOverItsStiffness) {
   }
 }
 
+// A compliant ground holds a resting box against a sideways force below its friction as the
+// rigid ground does: no creep (the box moves less than 0.5 mm in 1 s of 0.5 mu m g).
+TEST(Reality, ACompliantGroundHoldsAStaticFrictionLoadWithoutCreep) {
+  for (const double k : {0.0, 7.5e4, 2e4}) {
+    SimulatorConfig c = box_config();
+    c.world.ground.friction = 0.6;
+    if (k > 0.0) {
+      c.reality.enabled = true;
+      c.reality.ground.stiffness = k;
+      c.reality.ground.damping = 1e3;
+    }
+    Simulator probe(c);
+    const GroundTruth rest = run(probe, probe.make_command(), 300);
+    Push p;
+    p.link = "body";
+    p.point_L = Eigen::Vector3d(0.02, -0.01, -0.03);
+    p.force_W = Eigen::Vector3d(0.5 * 0.6 * 2.0 * 9.81, 0.0, 0.0);
+    p.start = 0.3;
+    p.duration = 1.0;
+    c.pushes = {p};
+    Simulator sim(c);
+    const GroundTruth g = run(sim, sim.make_command(), 1300);
+    EXPECT_LT((g.com_W - rest.com_W).head<2>().norm(), 5e-4) << "stiffness " << k;
+  }
+}
+
 // Ground friction drawn in a range replaces the world's: the box, pushed sideways with 0.9 of
 // mu m g, stays; with 1.1 of it, it slides.
 TEST(Reality, DrawnGroundFrictionDecidesWhenTheBoxSlides) {

@@ -9,6 +9,7 @@
 
 #include <CLI/CLI.hpp>
 #include <cerrno>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -39,6 +40,7 @@ struct StudyDefinition {
   int runs = 0;
   std::string base_double, base_single;
   std::string reality;  ///< "" (the robot is its model) or a profile name
+  bool keep_push = false;  ///< the base scenarios' pushes as they are: only the model is drawn
   SamplingOptions sampling;
   ReportOptions report;
 };
@@ -50,6 +52,7 @@ Json to_json(const StudyDefinition& d) {
           {"base_double", d.base_double},
           {"base_single", d.base_single},
           {"reality", d.reality.empty() ? Json(nullptr) : Json(d.reality)},
+          {"keep_push", d.keep_push},
           {"sampling",
            {{"single_fraction", s.single_fraction},
             {"impulse_double_ns", {s.impulse_double[0], s.impulse_double[1]}},
@@ -72,6 +75,7 @@ StudyDefinition definition_from_json(const Json& j) {
   d.base_double = j.at("base_double").get<std::string>();
   d.base_single = j.at("base_single").get<std::string>();
   d.reality = j.at("reality").is_null() ? "" : j.at("reality").get<std::string>();
+  d.keep_push = j.at("keep_push").get<bool>();
   const Json& s = j.at("sampling");
   d.sampling.single_fraction = s.at("single_fraction").get<double>();
   const auto pair = [](const Json& a, double (&out)[2]) {
@@ -95,18 +99,27 @@ StudyDefinition definition_from_json(const Json& j) {
 /// The base scenarios, loaded and checked once.
 struct Bases {
   YAML::Node node[2];  // double, single
-  double start[2] = {1.0, 1.0};
+  double start[2] = {0.0, 0.0};
   double duration[2] = {4.0, 4.0};
+  double push_duration[2] = {0.0, 0.0}, push_force[2] = {0.0, 0.0};  // the first push's, if any
 };
 
-YAML::Node load_base_scenario(const std::string& path, double& start, double& duration) {
+YAML::Node load_base_scenario(const std::string& path, bool need_push, double& start,
+                              double& duration, double& push_duration, double& push_force) {
   (void)scenario::load_scenario(path);  // every problem named before the first run
   YAML::Node n = YAML::LoadFile(path);
   const YAML::Node pushes = n["disturbances"]["pushes"];
-  if (!pushes || !pushes.IsSequence() || pushes.size() == 0)
+  const bool has_push = pushes && pushes.IsSequence() && pushes.size() > 0;
+  if (need_push && !has_push)
     throw std::runtime_error("base scenario " + path +
                              " has no push to vary (disturbances.pushes[0] is needed)");
-  start = pushes[0]["start"] ? pushes[0]["start"].as<double>() : 0.0;
+  if (has_push) {
+    start = pushes[0]["start"] ? pushes[0]["start"].as<double>() : 0.0;
+    push_duration = pushes[0]["duration"] ? pushes[0]["duration"].as<double>() : 0.0;
+    if (pushes[0]["force"])
+      for (const double f : pushes[0]["force"].as<std::vector<double>>()) push_force += f * f;
+    push_force = std::sqrt(push_force);
+  }
   duration = n["duration"].as<double>();
   const fs::path dir = fs::absolute(path).parent_path();
   for (const char* key : {"config", "urdf"})
@@ -123,9 +136,10 @@ YAML::Node load_base_scenario(const std::string& path, double& start, double& du
 
 Bases load_bases(const StudyDefinition& d) {
   Bases b;
-  b.node[0] = load_base_scenario(d.base_double, b.start[0], b.duration[0]);
-  b.node[1] = load_base_scenario(d.base_single, b.start[1], b.duration[1]);
-  if (b.start[0] != b.start[1])
+  for (int k = 0; k < 2; ++k)
+    b.node[k] = load_base_scenario(k == 0 ? d.base_double : d.base_single, !d.keep_push,
+                                   b.start[k], b.duration[k], b.push_duration[k], b.push_force[k]);
+  if (!d.keep_push && b.start[0] != b.start[1])
     throw std::runtime_error("the base scenarios push at different times (" +
                              std::to_string(b.start[0]) + " and " + std::to_string(b.start[1]) +
                              " s): the draw needs one start");
@@ -138,6 +152,14 @@ Bases load_bases(const StudyDefinition& d) {
 YAML::Node scenario_for(const Sample& s, const Bases& b, const StudyDefinition& d) {
   const int k = s.support == "double" ? 0 : 1;
   YAML::Node sc = YAML::Clone(b.node[k]);
+  sc["name"] = "random_" + std::to_string(s.index);
+  if (!d.reality.empty()) {
+    YAML::Node r;
+    r["profile"] = d.reality;
+    r["seed"] = s.model_seed;
+    sc["reality"] = r;
+  }
+  if (d.keep_push) return sc;
   YAML::Node push = sc["disturbances"]["pushes"][0];
   const double a = s.direction_deg * M_PI / 180.0;
   push["force"] = std::vector<double>{s.force_n * std::cos(a), s.force_n * std::sin(a), 0.0};
@@ -149,13 +171,6 @@ YAML::Node scenario_for(const Sample& s, const Bases& b, const StudyDefinition& 
   push["start"] = s.start_s;
   push["duration"] = s.duration_s;
   sc["duration"] = b.duration[k] + (s.start_s - b.start[k]);
-  sc["name"] = "random_" + std::to_string(s.index);
-  if (!d.reality.empty()) {
-    YAML::Node r;
-    r["profile"] = d.reality;
-    r["seed"] = s.model_seed;
-    sc["reality"] = r;
-  }
   return sc;
 }
 
@@ -418,19 +433,27 @@ Json report_json(const std::vector<SupportReport>& reps) {
 std::string report_markdown(const std::vector<SupportReport>& reps, const StudyDefinition& d) {
   std::ostringstream md;
   md << "# Random push study\n\nSeed " << d.seed << ", " << d.runs << " runs"
-     << (d.reality.empty() ? ", the robot is its model" : ", reality profile " + d.reality)
-     << ". Pushes: direction uniform on the circle, duration " << fmt(d.sampling.duration[0], 2)
+     << (d.reality.empty() ? ", the robot is its model" : ", reality profile " + d.reality);
+  if (d.keep_push) {
+    md << ". The base scenarios' pushes as they are (" << fs::path(d.base_double).filename().string()
+       << ", " << fs::path(d.base_single).filename().string() << "): only the model is drawn.\n\n";
+  } else {
+    md << ". Pushes: direction uniform on the circle, duration " << fmt(d.sampling.duration[0], 2)
      << "-" << fmt(d.sampling.duration[1], 2) << " s, height " << fmt(d.sampling.height[0], 2)
      << " to +" << fmt(d.sampling.height[1], 2) << " m on the pushed link, start + 0-"
      << fmt(d.sampling.start_spread, 2) << " s.\n\n";
-  md << "| support | runs | survived | impulse at 95 % survival (N s) | 95 % CI | at 50 % | "
-        "smallest failure | non-monotone runs |\n|---|---|---|---|---|---|---|---|\n";
-  for (const SupportReport& r : reps)
-    md << "| " << r.support << " | " << r.runs << " | " << r.survived << " | " << fmt(r.j95)
+  }
+  md << "| support | runs | survived (Wilson 95 %) | impulse at 95 % survival (N s) | 95 % CI | "
+        "at 50 % | smallest failure | non-monotone runs |\n|---|---|---|---|---|---|---|---|\n";
+  for (const SupportReport& r : reps) {
+    const auto [lo, hi] = wilson_interval(r.survived, r.runs);
+    md << "| " << r.support << " | " << r.runs << " | " << r.survived << " ("
+       << fmt(100.0 * lo) << "-" << fmt(100.0 * hi) << " %) | " << fmt(r.j95)
        << " | " << (std::isfinite(r.j95_lo) ? fmt(r.j95_lo) + "-" + fmt(r.j95_hi) : "-") << " | "
        << (r.fit ? fmt(r.fit->j50) : "-") << " | " << fmt(r.smallest_failure) << " | "
        << r.non_monotone << " (" << fmt(r.runs ? 100.0 * r.non_monotone / r.runs : 0.0)
        << " %) |\n";
+  }
   for (const SupportReport& r : reps) {
     md << "\n## " << r.support << " support: survival by impulse (Wilson 95 % interval)\n\n"
        << "| impulse (N s) | runs | survived | share | 95 % interval |\n|---|---|---|---|---|\n";
@@ -464,18 +487,25 @@ void draw_polar(const fs::path& dir, const std::vector<RunRecord>& runs, const s
         if (r.s.support == support && r.survived == (ok == 1))
           f << r.s.direction_deg << ' ' << r.s.impulse_ns << '\n';
     }
+  std::vector<std::string> supports;  // those with runs: one panel each
+  for (const char* support : {"double", "single"})
+    if (std::any_of(runs.begin(), runs.end(), [&](const RunRecord& r) { return r.s.support == support; }))
+      supports.emplace_back(support);
+  if (supports.empty()) return;
   const fs::path script = data / "random_polar.gp";
   std::ofstream s(script);
-  s << "set terminal pngcairo noenhanced size 1400,700 font 'sans,11' background 'white'\n"
+  s << "set terminal pngcairo noenhanced size " << 700 * supports.size()
+    << ",700 font 'sans,11' background 'white'\n"
     << "set output '" << fs::absolute(dir / "random_polar.png").string() << "'\n"
-    << "set multiplot layout 1,2\nset polar\nset angles degrees\nset size square\n"
-    << "set grid polar 45\nunset border\nunset xtics\nunset ytics\nset rtics axis nomirror\n"
-    << "set key outside bottom center horizontal\n";
-  for (const char* support : {"double", "single"})
-    s << "set title '" << support << " support: impulse of each run (N s) by direction'\n"
-      << "plot '" << (data / (std::string(support) + "_survived.dat")).string()
+    << "set multiplot layout 1," << supports.size() << "\nset polar\nset angles degrees\n"
+    << "set size square\nset grid polar 45\nunset border\nunset xtics\nunset ytics\n"
+    << "set rtics axis nomirror\nset key outside bottom center horizontal\n";
+  for (const std::string& support : supports)
+    s << "set title \"" << support << " support: impulse of each run (N s) by push direction\\n"
+      << "0 deg = +x (forward), 90 deg = +y (left)\"\n"
+      << "plot '" << (data / (support + "_survived.dat")).string()
       << "' using 1:2 with points pt 7 ps 0.5 lc rgb '#2a9d2a' title 'survived', '"
-      << (data / (std::string(support) + "_failed.dat")).string()
+      << (data / (support + "_failed.dat")).string()
       << "' using 1:2 with points pt 2 ps 0.8 lc rgb '#d62728' title 'failed'\n";
   s << "unset multiplot\n";
   s.close();
@@ -556,6 +586,9 @@ int random_main(int argc, char** argv) {
   app.add_option("--seed", seed_text, "the study's seed (default: a new one, printed)");
   app.add_option("--jobs,-j", jobs, "runs at once (default: the number of cores)")->check(CLI::Range(1, 1024));
   app.add_option("--shard", shard, "I/N: run only runs i with i % N == I (then `poise envelope merge`)");
+  app.add_flag("--keep-push", d.keep_push,
+               "keep the base scenarios' pushes (or none) as they are and draw only the model "
+               "(with --reality): the share of model draws that survive one experiment");
   app.add_option("--reality", d.reality, "a reality profile for every run, each with its own model draw (typical)")
       ->check(CLI::IsMember({"typical"}));
   app.add_option("--supports", supports, "double, single or double,single")
@@ -611,8 +644,18 @@ int random_main(int argc, char** argv) {
     const fs::path work = fs::absolute(dir / "runs");
     fs::create_directories(work);
     std::vector<Sample> samples;
-    for (int i = shard_index; i < d.runs; i += shard_count)
-      samples.push_back(draw_sample(d.seed, i, d.sampling, bases.start[0]));
+    for (int i = shard_index; i < d.runs; i += shard_count) {
+      Sample s = draw_sample(d.seed, i, d.sampling, bases.start[0]);
+      if (d.keep_push) {  // the base's push, as it is: recorded as such
+        const int k = s.support == "double" ? 0 : 1;
+        s.direction_deg = s.height_m = 0.0;
+        s.start_s = bases.start[k];
+        s.duration_s = bases.push_duration[k];
+        s.force_n = bases.push_force[k];
+        s.impulse_ns = s.force_n * s.duration_s;
+      }
+      samples.push_back(s);
+    }
     std::fprintf(stderr, "poise envelope random: seed %llu, %zu of %d runs%s%s, %d at a time -> %s\n",
                  static_cast<unsigned long long>(d.seed), samples.size(), d.runs,
                  shard.empty() ? "" : (" (shard " + shard + ")").c_str(),
