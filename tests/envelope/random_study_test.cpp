@@ -122,6 +122,9 @@ TEST(RandomStudy, ShardsRunByGnuParallelAndMergedAreTheWholeStudy) {
   auto [c4, o4] = run_command({bin("poise"), "envelope", "random", "--shard", "0/2"}, 30s);
   EXPECT_EQ(c4, 2) << o4;
   EXPECT_NE(o4.find("--shard needs --seed"), std::string::npos) << o4;
+  auto [c5, o5] = run_command({bin("poise"), "envelope", "random", "--seed", "12x"}, 30s);
+  EXPECT_EQ(c5, 2) << o5;
+  EXPECT_NE(o5.find("--seed '12x': not a whole number"), std::string::npos) << o5;
 }
 
 }  // namespace

@@ -25,22 +25,7 @@ using test::biped_config;
 using test::biped_lying_on_back_config;
 using test::box_config;
 
-std::string parse_error(const std::string& reality_yaml) {
-  const std::string yaml = "name: r\nduration: 1\nrobot:\n  urdf: urdf/biped.urdf\n"
-                           "  imu_frame: imu_link\n  feet:\n"
-                           "    left: {frame: l_sole}\n"
-                           "    right: {frame: r_sole}\n" +
-                           reality_yaml;
-  try {
-    const World w =
-        parse_world(yaml, std::filesystem::path(POISE_SOURCE_DIR) / "tests/simulator", "r.yaml");
-    Simulator sim(w.sim);  // names of links are checked against the URDF here
-  } catch (const std::runtime_error& e) {
-    return e.what();
-  }
-  return "";
-}
-
+/// The test biped's world with `reality_yaml` appended.
 World parse(const std::string& reality_yaml) {
   const std::string yaml = "name: r\nduration: 1\nrobot:\n  urdf: urdf/biped.urdf\n"
                            "  imu_frame: imu_link\n  feet:\n"
@@ -48,6 +33,16 @@ World parse(const std::string& reality_yaml) {
                            "    right: {frame: r_sole}\n" +
                            reality_yaml;
   return parse_world(yaml, std::filesystem::path(POISE_SOURCE_DIR) / "tests/simulator", "r.yaml");
+}
+
+/// The error that parsing and building the world with `reality_yaml` raises ("" if none).
+std::string parse_error(const std::string& reality_yaml) {
+  try {
+    Simulator sim(parse(reality_yaml).sim);  // names of links are checked against the URDF here
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "";
 }
 
 TEST(RealityConfig, ProfilesParseAndBadValuesNameTheirKey) {

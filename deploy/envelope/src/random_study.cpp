@@ -566,32 +566,29 @@ void add_range(CLI::App& app, const std::string& name, double (&range)[2], const
 
 }  // namespace
 
-int random_main(int argc, char** argv) {
-  StudyDefinition d;
-  d.base_double = (fs::path(POISE_SOURCE_DIR) / "deploy/scenarios/forward_push_double_support.yaml").string();
-  d.base_single = (fs::path(POISE_SOURCE_DIR) / "deploy/scenarios/lateral_push_single_support.yaml").string();
-  d.runs = 200;
-  std::string seed_text, shard, output = "results/envelope_random", gnuplot, supports = "double,single";
+namespace {
+
+/// How a study is run (not what it is: StudyDefinition).
+struct RunOptions {
+  std::string seed_text, shard, output = "results/envelope_random", gnuplot;
+  std::string supports = "double,single";
   int jobs = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   double run_timeout = 300.0;
   bool quiet = false, no_picture = false;
-  CLI::App app{
-      "Balance envelope drawn at random: each run pushes once with a direction uniform on the "
-      "circle, a height on the pushed link, a start time, a duration and an impulse drawn "
-      "uniformly, in double or single support, with a fresh model draw per run under a reality "
-      "profile. Reports survival against impulse with Wilson intervals, the impulse at 95 % "
-      "survival (logistic fit, bootstrap interval), the worst directions and non-monotone "
-      "bands (deploy/envelope/README.md \"The random study\")."};
+  int shard_index = 0, shard_count = 1;
+};
+
+void add_random_options(CLI::App& app, StudyDefinition& d, RunOptions& o) {
   app.add_option("--runs,-n", d.runs, "number of runs in the study")->check(CLI::Range(1, 10000000))->capture_default_str();
-  app.add_option("--seed", seed_text, "the study's seed (default: a new one, printed)");
-  app.add_option("--jobs,-j", jobs, "runs at once (default: the number of cores)")->check(CLI::Range(1, 1024));
-  app.add_option("--shard", shard, "I/N: run only runs i with i % N == I (then `poise envelope merge`)");
+  app.add_option("--seed", o.seed_text, "the study's seed (default: a new one, printed)");
+  app.add_option("--jobs,-j", o.jobs, "runs at once (default: the number of cores)")->check(CLI::Range(1, 1024));
+  app.add_option("--shard", o.shard, "I/N: run only runs i with i % N == I (then `poise envelope merge`)");
   app.add_flag("--keep-push", d.keep_push,
                "keep the base scenarios' pushes (or none) as they are and draw only the model "
                "(with --reality): the share of model draws that survive one experiment");
   app.add_option("--reality", d.reality, "a reality profile for every run, each with its own model draw (typical)")
       ->check(CLI::IsMember({"typical"}));
-  app.add_option("--supports", supports, "double, single or double,single")
+  app.add_option("--supports", o.supports, "double, single or double,single")
       ->check(CLI::IsMember({"double", "single", "double,single", "single,double"}))
       ->capture_default_str();
   app.add_option("--single-fraction", d.sampling.single_fraction,
@@ -607,80 +604,121 @@ int random_main(int argc, char** argv) {
   app.add_option("--single", d.base_single, "base scenario of the single-support runs")->check(CLI::ExistingFile);
   app.add_option("--bin", d.report.bin_ns, "impulse bin width of the table [N s]")->check(CLI::Range(0.01, 1e4))->capture_default_str();
   app.add_option("--band-deg", d.report.band_deg, "direction band of the non-monotone count [deg]")->check(CLI::Range(0.1, 360.0))->capture_default_str();
-  app.add_option("--output-dir,-o", output, "where runs.csv, study.json, summary.json, envelope.md and random_polar.png go")->capture_default_str();
-  app.add_option("--run-timeout", run_timeout, "wall-clock bound of one run [s]")->check(CLI::Range(1.0, 36000.0))->capture_default_str();
-  app.add_option("--gnuplot", gnuplot, "gnuplot executable (default: gnuplot on PATH)");
-  app.add_flag("--no-picture", no_picture, "no polar picture");
-  app.add_flag("-q,--quiet", quiet, "no progress lines");
-  CLI11_PARSE(app, argc, argv);
-  if (supports == "double") d.sampling.single_fraction = 0.0;
-  if (supports == "single") d.sampling.single_fraction = 1.0;
-  int shard_index = 0, shard_count = 1;
-  if (!shard.empty() && !parse_shard(shard, shard_index, shard_count)) {
-    std::fprintf(stderr, "poise envelope random: --shard '%s': expected I/N with 0 <= I < N\n", shard.c_str());
-    return 2;
+  app.add_option("--output-dir,-o", o.output, "where runs.csv, study.json, summary.json, envelope.md and random_polar.png go")->capture_default_str();
+  app.add_option("--run-timeout", o.run_timeout, "wall-clock bound of one run [s]")->check(CLI::Range(1.0, 36000.0))->capture_default_str();
+  app.add_option("--gnuplot", o.gnuplot, "gnuplot executable (default: gnuplot on PATH)");
+  app.add_flag("--no-picture", o.no_picture, "no polar picture");
+  app.add_flag("-q,--quiet", o.quiet, "no progress lines");
+}
+
+/// The shard and the seed from the command line; throws std::invalid_argument naming the option.
+void settle_seed_and_shard(StudyDefinition& d, RunOptions& o) {
+  if (o.supports == "double") d.sampling.single_fraction = 0.0;
+  if (o.supports == "single") d.sampling.single_fraction = 1.0;
+  if (!o.shard.empty() && !parse_shard(o.shard, o.shard_index, o.shard_count))
+    throw std::invalid_argument("--shard '" + o.shard + "': expected I/N with 0 <= I < N");
+  if (o.seed_text.empty()) {
+    if (!o.shard.empty()) throw std::invalid_argument("--shard needs --seed (every shard draws from it)");
+    d.seed = (static_cast<std::uint64_t>(std::random_device{}()) << 21) ^ std::random_device{}();
+    return;
   }
+  std::size_t used = 0;
   try {
-    if (seed_text.empty()) {
-      d.seed = (static_cast<std::uint64_t>(std::random_device{}()) << 21) ^ std::random_device{}();
-      if (!shard.empty()) throw std::runtime_error("--shard needs --seed (every shard draws from it)");
-    } else {
-      std::size_t used = 0;
-      d.seed = std::stoull(seed_text, &used);
-      if (used != seed_text.size()) throw std::invalid_argument("");
+    d.seed = std::stoull(o.seed_text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != o.seed_text.size() || o.seed_text[0] == '-')
+    throw std::invalid_argument("--seed '" + o.seed_text + "': not a whole number");
+}
+
+/// The runs of this shard: drawn, or with --keep-push the bases' pushes as they are.
+std::vector<Sample> samples_of_shard(const StudyDefinition& d, const Bases& bases,
+                                     const RunOptions& o) {
+  std::vector<Sample> samples;
+  for (int i = o.shard_index; i < d.runs; i += o.shard_count) {
+    Sample s = draw_sample(d.seed, i, d.sampling, bases.start[0]);
+    if (d.keep_push) {
+      const int k = s.support == "double" ? 0 : 1;
+      s.direction_deg = s.height_m = 0.0;
+      s.start_s = bases.start[k];
+      s.duration_s = bases.push_duration[k];
+      s.force_n = bases.push_force[k];
+      s.impulse_ns = s.force_n * s.duration_s;
     }
-  } catch (const std::invalid_argument&) {
-    std::fprintf(stderr, "poise envelope random: --seed '%s': not a whole number\n", seed_text.c_str());
-    return 2;
-  } catch (const std::exception& e) {
+    samples.push_back(s);
+  }
+  return samples;
+}
+
+void print_progress(const RunRecord& r, std::size_t done, std::size_t total, double elapsed_s) {
+  const double left = elapsed_s / static_cast<double>(done) * static_cast<double>(total - done);
+  std::fprintf(stderr,
+               "[%5zu/%zu %6.0f s, %5.0f s left] #%d %s %5.1f deg %5.1f N s (%6.1f N x %.3f s, "
+               "h %+.2f m): %s%s\n",
+               done, total, elapsed_s, left, r.s.index, r.s.support.c_str(), r.s.direction_deg,
+               r.s.impulse_ns, r.s.force_n, r.s.duration_s, r.s.height_m,
+               r.survived ? "survived" : "FAILED ", r.survived ? "" : r.kind.c_str());
+}
+
+int run_study(StudyDefinition& d, const RunOptions& o) {
+  d.base_double = fs::weakly_canonical(d.base_double).string();
+  d.base_single = fs::weakly_canonical(d.base_single).string();
+  const Bases bases = load_bases(d);
+  const fs::path dir = o.output;
+  const fs::path work = fs::absolute(dir / "runs");
+  fs::create_directories(work);
+  const std::vector<Sample> samples = samples_of_shard(d, bases, o);
+  std::fprintf(stderr, "poise envelope random: seed %llu, %zu of %d runs%s%s, %d at a time -> %s\n",
+               static_cast<unsigned long long>(d.seed), samples.size(), d.runs,
+               o.shard.empty() ? "" : (" (shard " + o.shard + ")").c_str(),
+               d.reality.empty() ? "" : (", reality " + d.reality).c_str(), o.jobs, dir.c_str());
+  std::vector<RunRecord> records;
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto elapsed = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  };
+  Pool pool(o.jobs, o.run_timeout, work);
+  pool.run(samples, bases, d, [&](const RunRecord& r) {
+    records.push_back(r);
+    if (!r.survived)  // the scenario of a failed run, for `poise run` to re-run it
+      std::ofstream(work / ("random_" + std::to_string(r.s.index) + ".yaml"))
+          << emit(scenario_for(r.s, bases, d));
+    if (!o.quiet) print_progress(r, records.size(), samples.size(), elapsed());
+  });
+  const std::string md =
+      write_study(dir, records, d, o.shard, o.gnuplot, !o.no_picture && o.shard.empty());
+  std::fprintf(stderr, "poise envelope random: %zu runs in %.0f s; %s\n", records.size(),
+               elapsed(), (dir / "envelope.md").c_str());
+  if (o.shard.empty()) std::fputs(md.c_str(), stdout);
+  return 0;
+}
+
+}  // namespace
+
+int random_main(int argc, char** argv) {
+  StudyDefinition d;
+  d.base_double = (fs::path(POISE_SOURCE_DIR) / "deploy/scenarios/forward_push_double_support.yaml").string();
+  d.base_single = (fs::path(POISE_SOURCE_DIR) / "deploy/scenarios/lateral_push_single_support.yaml").string();
+  d.runs = 200;
+  RunOptions o;
+  CLI::App app{
+      "Balance envelope drawn at random: each run pushes once with a direction uniform on the "
+      "circle, a height on the pushed link, a start time, a duration and an impulse drawn "
+      "uniformly, in double or single support, with a fresh model draw per run under a reality "
+      "profile. Reports survival against impulse with Wilson intervals, the impulse at 95 % "
+      "survival (logistic fit, bootstrap interval), the worst directions and non-monotone "
+      "bands (deploy/envelope/README.md \"The random study\")."};
+  add_random_options(app, d, o);
+  CLI11_PARSE(app, argc, argv);
+  try {
+    settle_seed_and_shard(d, o);
+  } catch (const std::invalid_argument& e) {
     std::fprintf(stderr, "poise envelope random: %s\n", e.what());
     return 2;
   }
   try {
-    d.base_double = fs::weakly_canonical(d.base_double).string();
-    d.base_single = fs::weakly_canonical(d.base_single).string();
-    const Bases bases = load_bases(d);
-    const fs::path dir = output;
-    const fs::path work = fs::absolute(dir / "runs");
-    fs::create_directories(work);
-    std::vector<Sample> samples;
-    for (int i = shard_index; i < d.runs; i += shard_count) {
-      Sample s = draw_sample(d.seed, i, d.sampling, bases.start[0]);
-      if (d.keep_push) {  // the base's push, as it is: recorded as such
-        const int k = s.support == "double" ? 0 : 1;
-        s.direction_deg = s.height_m = 0.0;
-        s.start_s = bases.start[k];
-        s.duration_s = bases.push_duration[k];
-        s.force_n = bases.push_force[k];
-        s.impulse_ns = s.force_n * s.duration_s;
-      }
-      samples.push_back(s);
-    }
-    std::fprintf(stderr, "poise envelope random: seed %llu, %zu of %d runs%s%s, %d at a time -> %s\n",
-                 static_cast<unsigned long long>(d.seed), samples.size(), d.runs,
-                 shard.empty() ? "" : (" (shard " + shard + ")").c_str(),
-                 d.reality.empty() ? "" : (", reality " + d.reality).c_str(), jobs, dir.c_str());
-    std::vector<RunRecord> records;
-    const auto t0 = std::chrono::steady_clock::now();
-    Pool pool(jobs, run_timeout, work);
-    pool.run(samples, bases, d, [&](const RunRecord& r) {
-      records.push_back(r);
-      if (!r.survived) std::ofstream(work / ("random_" + std::to_string(r.s.index) + ".yaml"))
-                           << emit(scenario_for(r.s, bases, d));
-      if (quiet) return;
-      const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      const double eta = el / static_cast<double>(records.size()) * static_cast<double>(samples.size() - records.size());
-      std::fprintf(stderr, "[%5zu/%zu %6.0f s, %5.0f s left] #%d %s %5.1f deg %5.1f N s (%6.1f N x %.3f s, h %+.2f m): %s%s\n",
-                   records.size(), samples.size(), el, eta, r.s.index, r.s.support.c_str(),
-                   r.s.direction_deg, r.s.impulse_ns, r.s.force_n, r.s.duration_s, r.s.height_m,
-                   r.survived ? "survived" : "FAILED ", r.survived ? "" : r.kind.c_str());
-    });
-    const std::string md = write_study(dir, records, d, shard, gnuplot, !no_picture && shard.empty());
-    std::fprintf(stderr, "poise envelope random: %zu runs in %.0f s; %s\n", records.size(),
-                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
-                 (dir / "envelope.md").c_str());
-    if (shard.empty()) std::fputs(md.c_str(), stdout);
-    return 0;
+    return run_study(d, o);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "poise envelope random: %s\n", e.what());
     return 2;
