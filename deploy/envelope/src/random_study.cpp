@@ -709,6 +709,7 @@ int random_main(int argc, char** argv) {
       "profile. Reports survival against impulse with Wilson intervals, the impulse at 95 % "
       "survival (logistic fit, bootstrap interval), the worst directions and non-monotone "
       "bands (deploy/envelope/README.md \"The random study\")."};
+  app.name("poise envelope random");
   add_random_options(app, d, o);
   CLI11_PARSE(app, argc, argv);
   try {
@@ -731,6 +732,7 @@ int merge_main(int argc, char** argv) {
   bool no_picture = false;
   CLI::App app{"Merges the shards of a random study (`poise envelope random --shard I/N`) into "
                "one study: the same files and figures as the study run whole."};
+  app.name("poise envelope merge");
   app.add_option("shards", inputs, "the shards' output directories")->required()->check(CLI::ExistingDirectory);
   app.add_option("--output-dir,-o", output, "where the merged study goes")->capture_default_str();
   app.add_option("--gnuplot", gnuplot, "gnuplot executable (default: gnuplot on PATH)");
