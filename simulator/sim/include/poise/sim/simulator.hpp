@@ -53,7 +53,9 @@ class Simulator {
   const Eigen::VectorXd& effort_limits() const;
   /// What the simulator changed of the URDF to step it stably, one readable line each (joint
   /// damping and friction too strong for the explicit step of a light link); empty for most
-  /// robots. Printed by `poise sim`, poise-sim and `poise run --in-process`.
+  /// robots. The constructor prints each on stderr ("simulator 'URDF': note: ..."), so every
+  /// tool that builds a simulator shows them; the reality section's joint friction
+  /// (reality.hpp) is counted in them too.
   const std::vector<std::string>& notes() const;
   /// How the simulated robot differs from its URDF (SimulatorConfig::reality, drawn at
   /// construction); enabled false without a reality configuration.
