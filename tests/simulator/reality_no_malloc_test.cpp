@@ -36,11 +36,7 @@ long allocations_while_standing(bool reality) {
   SensorFrame s = sim.make_sensor_frame();
   GroundTruth g = sim.make_ground_truth();
   sim.read(s, g);
-  JointCommand cmd = sim.make_command();
-  cmd.mode = CommandMode::kPd;
-  cmd.q_ref = s.q;
-  cmd.kp.setConstant(300.0);
-  cmd.kd.setConstant(6.0);
+  const JointCommand cmd = test::hold_command(sim, s, 300.0, 6.0);
   for (int k = 0; k < 300; ++k) sim.step(cmd, s, g);  // settle: contacts made
   const long before = g_news.load();
   Eigen::internal::set_is_malloc_allowed(false);

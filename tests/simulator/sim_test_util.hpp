@@ -56,6 +56,16 @@ inline SimulatorConfig biped_lying_on_back_config() {
   return cfg;
 }
 
+/// PD hold of the posture in `s` on every joint.
+inline JointCommand hold_command(const Simulator& sim, const SensorFrame& s, double kp, double kd) {
+  JointCommand c = sim.make_command();
+  c.mode = CommandMode::kPd;
+  c.q_ref = s.q;
+  c.kp.setConstant(kp);
+  c.kd.setConstant(kd);
+  return c;
+}
+
 /// Damping mode on every joint (tau = -kd qd): a passive robot.
 inline JointCommand damping_command(const Simulator& sim, double kd) {
   JointCommand c = sim.make_command();
