@@ -159,7 +159,9 @@ TEST(Reality, DrawsAreSeededAndFollowTheirStatedDistributions) {
   for (std::uint64_t seed = 1; seed <= 150; ++seed) {
     cfg.reality.seed = seed;
     const RealityDraw d = Simulator(cfg).reality();
-    if (seed != 7) EXPECT_NE(d.bodies[1].mass_scale, d1.bodies[1].mass_scale);
+    if (seed != 7) {
+      EXPECT_NE(d.bodies[1].mass_scale, d1.bodies[1].mass_scale);
+    }
     double total = 0.0;
     for (const auto& b : d.bodies) {
       sm += b.mass_scale - 1;
@@ -229,6 +231,10 @@ TEST(Reality, ACentreOfMassOffsetMovesTheCentreOfPressureUnderIt) {
                   .norm(),
               0.0, 1e-9);
   EXPECT_NEAR(sim.reality().com_shift_at_zero.x(), 0.04, 1e-12);
+  // The CoM the description puts there is the unmoved one: the verdict's reference
+  // (ScenarioMonitor) starts from it, so standing with the moved CoM there is an error.
+  EXPECT_NEAR((g.model_com_shift_W + shift_W).norm(), 0.0, 1e-9);
+  EXPECT_EQ(g0.model_com_shift_W, Eigen::Vector3d::Zero()) << "without reality: zero, exactly";
 }
 
 // A 1 kg payload on the box with its own inertia, and the box's inertia scaled: in free space a
@@ -326,7 +332,9 @@ TEST(Reality, ActuatorTorqueIsDelayedLaggedAndClamped) {
     const int m = k - 3 + 1;
     const double expected = m <= 0 ? 0.0 : 10.0 * (1.0 - std::exp(-2.0 * M_PI * f * dt * m));
     EXPECT_NEAR(s.tau_measured[0], expected, 1e-7) << "tick " << k;
-    if (m > 0) EXPECT_LE(std::abs(s.tau_measured[1]), 150.0 + 1e-12);
+    if (m > 0) {
+      EXPECT_LE(std::abs(s.tau_measured[1]), 150.0 + 1e-12);
+    }
   }
   EXPECT_NEAR(s.tau_measured[1], 150.0, 1e-9);
   EXPECT_NEAR(s.tau_measured[0], 10.0 * (1.0 - std::exp(-2.0 * M_PI * f * dt * 118)), 1e-7);

@@ -301,6 +301,32 @@ TEST(SimScenario, MonitorMeasuresComErrorAndSlipAgainstTheSupports) {
   EXPECT_EQ(mon.result().non_foot_contacts, 1);
 }
 
+// A robot that is not its model (`reality:`): the reference is where the description puts the
+// CoM at the start (GroundTruth::model_com_shift_W), so a robot that stands with its own CoM
+// where the model's was reads the model's error, and one that moved its CoM there reads 0.
+TEST(SimScenario, MonitorCountsTheModelsCoMErrorAsError) {
+  Scenario sc = parse_scenario(kInline, fs::path(POISE_SOURCE_DIR) / "tests/simulator");
+  sc.sim.world.platforms.clear();
+  ScenarioMonitor stays(sc, platforms_of_feet(sc)), moves(sc, platforms_of_feet(sc));
+  GroundTruth g;
+  g.feet.resize(2);
+  g.non_foot_contact.assign(3, 0);
+  g.feet[0].X_WF.translation() = Eigen::Vector3d(0.0, 0.1, 0.0);
+  g.feet[1].X_WF.translation() = Eigen::Vector3d(0.0, -0.1, 0.0);
+  g.feet[0].in_contact = g.feet[1].in_contact = true;
+  // The robot's CoM 6 mm ahead and 8 mm left of the model's at the start.
+  g.com_W = Eigen::Vector3d(0.026, 0.008, 0.8);
+  g.model_com_shift_W = Eigen::Vector3d(-0.006, -0.008, 0.0);
+  stays.update(g);
+  moves.update(g);
+  g.time = 1.0;
+  stays.update(g);
+  g.com_W = Eigen::Vector3d(0.02, 0.0, 0.8);
+  moves.update(g);
+  EXPECT_NEAR(stays.result().com_error_final_m, 0.01, 1e-12);
+  EXPECT_NEAR(moves.result().com_error_final_m, 0.0, 1e-12);
+}
+
 // A balance reference's CoM move is not error: the monitor's reference is shifted by the move
 // (ReferenceComShift: the applied reference's com_W minus the first CoM target's), so a CoM that
 // follows a 0.1 m move over the left foot reads 0, and one that stays behind reads the move.

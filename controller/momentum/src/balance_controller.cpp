@@ -275,6 +275,9 @@ void BalanceController::reset() noexcept {
   have_previous_solution_ = false;
   reuse_count_ = 0;
   for (auto& s : support_acc_stage_) s.setZero();
+  com_offset_.reset();
+  diag_.com_offset_W.setZero();
+  diag_.hdot_admissible.setZero();
 }
 
 void BalanceController::prepare(const RobotState& state, const BalanceReference& reference,
@@ -492,6 +495,9 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
     st[2] += a * (st[1] - st[2]);
   }
 
+  observe_com_offset(state, num_support, foot_vel_mean);
+  const Eigen::Vector3d com = data_.com + com_offset_.offset();  // the robot's CoM, as estimated
+
   // ---- desired CoM (reference, or Sec. 4.2: above the mid-point of the supports) ---------------
   // The supports' points are their stand points: the sole centres as in the paper, unless
   // robot.yaml puts the robot's weight elsewhere on the soles (FootConfig::stand_point).
@@ -547,7 +553,7 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
                                     -model_.gravity.normalized(), data_.Ag.block<3, 3>(0, 3),
                                     r_pitch, r_roll);
   diag_.hdot_desired =
-      desired_momentum_rate(config_.momentum, mass, k_filtered_, k_d, data_.com,
+      desired_momentum_rate(config_.momentum, mass, k_filtered_, k_d, com,
                             diag_.com_target_W, Eigen::Vector3d::Zero(), vcom_error_filtered_);
   // MomentumGains::ankle_first_blend (support_polygon.hpp): the ankle strategy before the hip's.
   diag_.ankle_first_beta = 1.0;
@@ -564,7 +570,7 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
     polygon_.hull();
     const double omega = std::sqrt(model_.gravity.norm() / com_height_);
     const AnkleFirstRate r = ankle_first_rate(
-        diag_.hdot_desired.segment<2>(3) / mass, data_.com.head<2>(),
+        diag_.hdot_desired.segment<2>(3) / mass, com.head<2>(),
         vcom_error_filtered_.head<2>(), omega, polygon_, config_.momentum.ankle_first_blend);
     diag_.hdot_desired.segment<2>(3) = mass * r.acceleration;
     diag_.ankle_first_beta = r.beta;
@@ -583,10 +589,31 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
 
   problem_.mass = mass;
   problem_.gravity = model_.gravity;
-  problem_.com = data_.com;
+  problem_.com = com;
   problem_.k_dot_desired = diag_.hdot_desired.head<3>();
   problem_.l_dot_desired = diag_.hdot_desired.tail<3>();
   problem = problem_;
+}
+
+// ControllerConfig::com_offset (com_offset_observer.hpp): the supports' force-weighted measured
+// CoP and the model's CoM velocity relative to the supports.
+void BalanceController::observe_com_offset(const RobotState& state, int num_support,
+                                           const Eigen::Vector3d& foot_vel_sum) noexcept {
+  Eigen::Vector3d cop = Eigen::Vector3d::Zero();
+  double fz = 0.0;
+  for (int i = 0; i < kFeet; ++i) {
+    const auto& meas = state.feet[i];
+    if (!diag_.support[i] || !(meas.normal_force > 0.0)) continue;
+    cop += meas.normal_force * meas.cop_W;
+    fz += meas.normal_force;
+  }
+  if (fz > 0.0) cop /= fz;
+  const Eigen::Vector3d vrel =
+      num_support > 0 ? Eigen::Vector3d(data_.vcom - foot_vel_sum / num_support) : data_.vcom;
+  com_offset_.update(config_.com_offset, config_.dt, cop, fz, data_.mass * model_.gravity.norm(),
+                     data_.com, vrel);
+  diag_.com_offset_W = com_offset_.offset();
+  diag_.com_offset_learning = com_offset_.learning();
 }
 
 // RobotConfig::effort_limited_sole. Statics of the leg below each joint j of the foot's chain

@@ -100,6 +100,13 @@ void ControllerConfig::validate() const {
   require(std::isfinite(momentum.upright_roll_rate) && momentum.upright_roll_rate >= 0.0 &&
               momentum.upright_roll_rate <= 100.0,
           "momentum.upright_roll_rate", "must be in [0, 100] 1/s (0: off)");
+  require(std::isfinite(com_offset.bandwidth_hz) && com_offset.bandwidth_hz >= 0.0 &&
+              com_offset.bandwidth_hz < 0.5 / dt,
+          "com_offset.bandwidth_hz", "must be >= 0 and below half the control rate (0: off)");
+  require(std::isfinite(com_offset.limit) && com_offset.limit >= 0.0 && com_offset.limit <= 0.2,
+          "com_offset.limit", "must be in [0, 0.2] m");
+  require(std::isfinite(com_offset.speed_gate) && com_offset.speed_gate > 0.0,
+          "com_offset.speed_gate", "must be > 0 m/s");
   require(contact.w_k >= 0.0 && contact.eps_f >= 0.0 && contact.eps_cop >= 0.0, "contact",
           "weights must be >= 0");
   require(foot.kp >= 0.0 && foot.kd >= 0.0, "foot", "gains must be >= 0");
@@ -160,6 +167,7 @@ ControllerConfig from_yaml(const YAML::Node& root, const std::string& file) {
   if (root.IsNull()) return c;
   r.keys(root, "",
          {"dt", "momentum", "contact", "foot", "acceleration", "feedback", "fallback", "fall",
+          "com_offset",
           "resting_extra_margin", "resting_force_fraction", "resting_touchdown_force_fraction",
           "resting_touchdown_air_time", "com_height",
           "planned_support_release", "planned_support_release_height"});
@@ -243,6 +251,12 @@ ControllerConfig from_yaml(const YAML::Node& root, const std::string& file) {
   if (const auto m = root["fallback"]) {
     r.keys(m, "fallback", {"max_reuse_ticks"});
     r.integer(m, "max_reuse_ticks", "fallback.", c.fallback.max_reuse_ticks);
+  }
+  if (const auto m = root["com_offset"]) {
+    r.keys(m, "com_offset", {"bandwidth_hz", "limit", "speed_gate"});
+    r.number(m, "bandwidth_hz", "com_offset.", c.com_offset.bandwidth_hz);
+    r.number(m, "limit", "com_offset.", c.com_offset.limit);
+    r.number(m, "speed_gate", "com_offset.", c.com_offset.speed_gate);
   }
   if (const auto m = root["fall"]) {
     r.keys(m, "fall", {"tilt_deg", "com_height_fraction"});

@@ -469,6 +469,11 @@ struct Simulator::Impl {
   void configure_actuators();
   std::vector<Eigen::Isometry3d> X_LK;  // body COM frame K in the URDF body frame L
   double mass = 0.0;
+  // The description's mass properties (before the reality section), for GroundTruth::model_com_W:
+  // per body its mass and CoM in L; empty when the robot is its model.
+  std::vector<double> nominal_mass;
+  std::vector<Eigen::Vector3d> nominal_com_L;
+  double nominal_total_mass = 0.0;
   double dt = 0.001;
   std::int64_t tick = 0;
 
@@ -556,6 +561,13 @@ Simulator::Impl::Impl(const SimulatorConfig& c) : cfg(c) {
   if (cfg.robot.feet.empty()) throw std::runtime_error("robot.feet: at least one foot is required");
   dt = cfg.solver.dt;
   tree = detail::load_robot_tree(cfg.robot.urdf_path);
+  if (cfg.reality.enabled) {
+    for (const auto& b : tree.bodies) {
+      nominal_mass.push_back(b.mass);
+      nominal_com_L.push_back(b.com_L);
+      nominal_total_mass += b.mass;
+    }
+  }
   reality = detail::apply_reality(cfg.reality, tree);
   n = static_cast<int>(tree.bodies.size()) - 1;
   effort.resize(n);
@@ -1270,6 +1282,12 @@ void Simulator::Impl::fill(SensorFrame& s, GroundTruth& g, bool measure_imu) {
   }
   g.com_W = c / mass;
   g.com_vel_W = cv / mass;
+  if (!nominal_mass.empty() && nominal_total_mass > 0.0) {
+    Eigen::Vector3d cn = Eigen::Vector3d::Zero();
+    for (std::size_t b = 0; b < tree.bodies.size(); ++b)
+      cn += nominal_mass[b] * (X_WK[b] * (X_LK[b].inverse() * nominal_com_L[b]));
+    g.model_com_shift_W = cn / nominal_total_mass - g.com_W;
+  }
 
   for (std::size_t k = 0; k < platforms.size() && k < g.platform_X_WP.size(); ++k) {
     Eigen::Vector3d v, w;

@@ -693,7 +693,8 @@ void ScenarioMonitor::update(const GroundTruth& g) {
     centre += g.feet[static_cast<std::size_t>(f)].X_WF.translation().head<2>();
   centre /= static_cast<double>(std::max<std::size_t>(1, support_feet_.size()));
   if (!initialised_) {
-    com_offset_ = g.com_W.head<2>() - centre;
+    // The offset the description puts the CoM at: where the controller is asked to keep it.
+    com_offset_ = (g.com_W + g.model_com_shift_W).head<2>() - centre;
     for (int f : support_feet_)
       foot_in_support_0_[static_cast<std::size_t>(f)] =
           support_pose(f).inverse() * g.feet[static_cast<std::size_t>(f)].X_WF;

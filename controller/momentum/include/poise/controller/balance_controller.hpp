@@ -195,6 +195,9 @@ class BalanceController {
   /// force of the two feet, for the metric w (inv_kp_ or inv_kd_); false if not solvable.
   bool internal_part(const Eigen::VectorXd& e, const Eigen::VectorXd& w, Eigen::VectorXd& out);
   bool have_foot_velocity_ = false;
+  void observe_com_offset(const RobotState& state, int num_support,
+                          const Eigen::Vector3d& foot_vel_sum) noexcept;
+  ComOffsetObserver com_offset_;  // ControllerConfig::com_offset
   // (10)-(11) feedback through MomentumGains::feedback_filter_hz: the filtered CoM velocity error
   // (target - measured) and centroidal angular momentum (world axes), valid once have_feedback_.
   Eigen::Vector3d vcom_error_filtered_ = Eigen::Vector3d::Zero();

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "poise/contact/contact_problem.hpp"
+#include "poise/controller/com_offset_observer.hpp"
 
 namespace poise::controller {
 
@@ -252,6 +253,9 @@ struct ControllerConfig {
   FeedbackConfig feedback;
   FallbackConfig fallback;
   FallConfig fall;
+  /// The model's CoM error observed from the measured CoP (com_offset_observer.hpp): section
+  /// `com_offset:` {bandwidth_hz, limit, speed_gate}. Off by default (bandwidth_hz 0).
+  ComOffsetObserverConfig com_offset;
   /// Measured CoP inside the safe region shrunk by this extra margin => the foot is resting
   /// (Sec. 4.2 moving-support rule) [m]. 0: the safe region itself.
   double resting_extra_margin = 0.0;

@@ -32,6 +32,10 @@ struct TickDiagnostics {
   Eigen::Vector3d com_W = Eigen::Vector3d::Zero();           ///< r_G (model)
   Eigen::Vector3d com_velocity_W = Eigen::Vector3d::Zero();  ///< rdot_G (model)
   Eigen::Vector3d com_target_W = Eigen::Vector3d::Zero();    ///< r_G,d
+  /// ControllerConfig::com_offset: the robot's CoM minus the model's, as observed (horizontal;
+  /// zero when off); (10)-(11) use com_W + this.
+  Eigen::Vector3d com_offset_W = Eigen::Vector3d::Zero();
+  bool com_offset_learning = false;  ///< the observer learnt this tick (its gates were open)
   Eigen::Vector3d com_velocity_target_W = Eigen::Vector3d::Zero();
   /// The supports' filtered acceleration a_s fed forward into (11)
   /// (MomentumGains::support_acceleration_hz; zero when off or with a reference's CoM target)

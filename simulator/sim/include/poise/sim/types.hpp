@@ -77,6 +77,10 @@ struct GroundTruth {
   Eigen::Vector3d omega_WB = Eigen::Vector3d::Zero();      ///< base angular velocity, in W [rad/s]
   Eigen::Vector3d com_W = Eigen::Vector3d::Zero();         ///< whole-body centre of mass [m]
   Eigen::Vector3d com_vel_W = Eigen::Vector3d::Zero();     ///< its velocity [m/s]
+  /// The centre of mass the robot's description (the URDF the nodes get) puts at this
+  /// configuration, minus com_W: zero unless a scenario's `reality:` section changes the
+  /// masses [m].
+  Eigen::Vector3d model_com_shift_W = Eigen::Vector3d::Zero();
   std::vector<FootContactTruth> feet;                      ///< one per foot
   /// Per simulated body (order of Simulator::body_names()): 1 when a body that is not a foot
   /// touches the environment this tick.

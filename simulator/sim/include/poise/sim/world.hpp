@@ -62,7 +62,9 @@ World parse_world(const std::string& yaml_text, const std::filesystem::path& bas
 
 /// Accumulates the verdict quantities of a run from its ground truth (one update per tick).
 /// CoM error: horizontal distance between the CoM and its reference, the reference being the
-/// initial CoM offset from the centroid of the support feet, carried along with that centroid
+/// initial offset from the centroid of the support feet of the CoM the robot's description puts
+/// there (GroundTruth::model_com_shift_W: with a `reality:` section the robot's own CoM starts
+/// elsewhere, and standing there is an error), carried along with that centroid
 /// (so moving supports are not counted as error), plus the CoM target shift of the run's
 /// balance references (set_com_target_shift: a step in place's deliberate move over one foot is
 /// not counted as error either). Relative to the support each foot stands on
