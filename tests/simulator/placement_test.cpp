@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <random>
 #include <regex>
 #include <sstream>
 
@@ -165,6 +166,37 @@ TEST(Facing, TrunkPitchIsPositiveLeaningForwardAboutTheRobotsOwnForward) {
                               Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ()))
                                  .toRotationMatrix();
   EXPECT_NEAR(trunk_pitch_roll(Rr, -Eigen::Vector3d::UnitX()).y(), -0.05, 1e-12);
+}
+
+// A fall past the horizon (#54): a forward fall is pitch up to 180 deg with no roll, a sideways
+// fall roll with no pitch, never 180 deg of roll as Euler angles would say; seeded random
+// angles, headings and small sideways leans, against the angles the rotations were built from.
+TEST(Facing, AFallPastTheHorizonIsPitchOrRollNever180DegOfTheOther) {
+  std::mt19937_64 rng(54);
+  std::uniform_real_distribution<double> big(-3.1, 3.1), yaw(-M_PI, M_PI), small(-0.2, 0.2);
+  for (int k = 0; k < 200; ++k) {
+    const double a = big(rng), psi = yaw(rng), e = small(rng);
+    const Eigen::Matrix3d Rz = Eigen::AngleAxisd(psi, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    const Eigen::Vector3d fwd = Rz.col(0), left = Rz.col(1);
+    // Pitch a about the robot's left (forward pitch positive: about +left).
+    const Eigen::Matrix3d Rp = Eigen::AngleAxisd(a, left).toRotationMatrix() * Rz;
+    const Eigen::Vector2d p = trunk_pitch_roll(Rp, Eigen::Vector3d::UnitX());
+    EXPECT_NEAR(p.x(), a, 1e-9) << "pitch " << a;
+    EXPECT_NEAR(p.y(), 0.0, 1e-9) << "pitch " << a;
+    // Roll a about the robot's forward (left side rising: about +forward).
+    const Eigen::Matrix3d Rr = Eigen::AngleAxisd(a, fwd).toRotationMatrix() * Rz;
+    const Eigen::Vector2d r = trunk_pitch_roll(Rr, Eigen::Vector3d::UnitX());
+    EXPECT_NEAR(r.y(), a, 1e-9) << "roll " << a;
+    EXPECT_NEAR(r.x(), 0.0, 1e-9) << "roll " << a;
+    // A forward or backward fall with a small lean sideways: most of it pitch, the roll stays
+    // small (up to 140 deg: near a head stand, 180 deg, the two are not told apart).
+    if (std::abs(a) > 2.45) continue;
+    const Eigen::Matrix3d Rc =
+        Eigen::AngleAxisd(a, left).toRotationMatrix() * Eigen::AngleAxisd(e, fwd).toRotationMatrix() * Rz;
+    const Eigen::Vector2d c = trunk_pitch_roll(Rc, Eigen::Vector3d::UnitX());
+    EXPECT_LE(std::abs(c.y()), std::abs(e) + 1e-9) << "pitch " << a << " lean " << e;
+    EXPECT_NEAR(c.x(), a, 1e-9) << "pitch " << a << " lean " << e;
+  }
 }
 
 // The humanoid with a new root link whose x points backward (the pelvis fixed to it turned by

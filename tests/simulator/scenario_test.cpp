@@ -3,6 +3,8 @@
 // (deploy/scenario), the world part of it and the monitor poise::sim (simulator/sim).
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -299,6 +301,30 @@ TEST(SimScenario, MonitorMeasuresComErrorAndSlipAgainstTheSupports) {
   set(0.4, 0.3, 0.172, 0.004);
   EXPECT_FALSE(mon.result().survived);
   EXPECT_EQ(mon.result().non_foot_contacts, 1);
+}
+
+// A fall is never a recovery (#54): with no final-error bound (the platform scenarios) a robot
+// on the floor reported recovery 0.
+TEST(SimScenario, AFallNeverReportsARecoveryTime) {
+  Scenario sc = parse_scenario(kInline, fs::path(POISE_SOURCE_DIR) / "tests/simulator");
+  sc.sim.world.platforms.clear();
+  sc.success.com_error_final_m = std::numeric_limits<double>::infinity();
+  sc.success.allow_non_foot_contacts = false;
+  ScenarioMonitor mon(sc, platforms_of_feet(sc));
+  GroundTruth g;
+  g.feet.resize(2);
+  g.non_foot_contact.assign(3, 0);
+  g.feet[0].X_WF.translation() = Eigen::Vector3d(0.0, 0.1, 0.0);
+  g.feet[1].X_WF.translation() = Eigen::Vector3d(0.0, -0.1, 0.0);
+  g.com_W = Eigen::Vector3d(0.0, 0.0, 0.8);
+  mon.update(g);
+  EXPECT_EQ(mon.result().last_recovery_time_s, 0.0) << "standing: recovered at once";
+  g.time = 1.0;
+  g.num_non_foot_contacts = 1;
+  g.com_W = Eigen::Vector3d(0.5, 0.0, 0.2);
+  mon.update(g);
+  EXPECT_TRUE(std::isinf(mon.result().last_recovery_time_s));
+  EXPECT_FALSE(mon.result().survived);
 }
 
 // A robot that is not its model (`reality:`): the reference is where the description puts the

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include <poise/msg/ground_truth.h>
@@ -431,6 +432,7 @@ RunResult InProcessLoop::result() const {
       r.failed.push_back("the controller declared a fall at " + std::string(t) + " s (" +
                          r.controller_fall + "): joints damped");
       r.survived = false;
+      r.recovery_time_s = std::numeric_limits<double>::infinity();  // a fall never recovered
     }
   }
   if (aborted_) {  // as poise-sim's result

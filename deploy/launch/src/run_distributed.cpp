@@ -774,6 +774,7 @@ int run_distributed(int argc, char** argv) {
       const double t = static_cast<double>(ctrl_r.value("fall_tick", -1LL)) * ccfg.dt;
       const std::string why = ctrl_r.value("fall", std::string());
       r["controller_fall"] = {{"time_s", t}, {"reason", why}};
+      r["recovery_time_s"] = Json();  // a fall never recovered (null, as in process)
       char ts[32];
       std::snprintf(ts, sizeof ts, "%.3f", t);
       r["failed_criteria"].push_back("the controller declared a fall at " + std::string(ts) +

@@ -1623,7 +1623,16 @@ void remap_joint_vector(const std::vector<int>& map, const Eigen::VectorXd& in,
 Eigen::Vector2d trunk_pitch_roll(const Eigen::Matrix3d& R_WB, const Eigen::Vector3d& forward_B) {
   const Eigen::Vector3d f = R_WB * forward_B;
   const Eigen::Vector3d l = R_WB * Eigen::Vector3d::UnitZ().cross(forward_B);
-  return {std::asin(std::clamp(-f.z(), -1.0, 1.0)), std::atan2(l.z(), R_WB(2, 2))};
+  const double pitch = std::asin(std::clamp(-f.z(), -1.0, 1.0));
+  if (R_WB(2, 2) >= 0.0) return {pitch, std::atan2(l.z(), R_WB(2, 2))};
+  // The trunk's up points down: Euler angles would call a forward fall 180 deg of roll. Here
+  // each axis's elevation, and the one that turned further goes on past 90 deg (continuous
+  // with the above at the horizon).
+  double roll = std::asin(std::clamp(l.z(), -1.0, 1.0));
+  double pitch_past = pitch;
+  double& past = std::abs(pitch) >= std::abs(roll) ? pitch_past : roll;
+  past = std::copysign(M_PI - std::abs(past), past);
+  return {pitch_past, roll};
 }
 
 }  // namespace poise::sim

@@ -809,7 +809,11 @@ std::uint64_t ReferenceComShift::rejected() const noexcept {
 ScenarioMonitor::Result ScenarioMonitor::result() const {
   Result r = r_;
   const SuccessCriteria& k = scenario_.success;
-  r.last_recovery_time_s = r.com_error_final_m <= k.com_error_final_m
+  // A robot that fell (on something else than its feet where that is not allowed, or with its
+  // base below the bound) never recovered, whatever its CoM error says.
+  const bool fell = (!k.allow_non_foot_contacts && r.non_foot_contacts > 0) ||
+                    r.min_base_height_m < k.min_base_height_m;
+  r.last_recovery_time_s = !fell && r.com_error_final_m <= k.com_error_final_m
                                ? std::max(0.0, last_bad_time_ - last_push_end_)
                                : std::numeric_limits<double>::infinity();
   r.survived = initialised_ && r.com_error_max_m <= k.com_error_max_m &&

@@ -27,7 +27,9 @@ namespace poise::sim {
 /// Trunk pitch and roll [rad] of a base with orientation R_WB whose forward direction in its
 /// own frame is forward_B (unit, horizontal): pitch = asin(-f.z) with f = R_WB forward_B, positive
 /// when the robot leans forward; roll = atan2(l.z, z_B.z) with l = R_WB (e_z x forward_B) its left,
-/// positive when its left side rises. For forward_B = +x these are the ZYX pitch and roll.
+/// positive when its left side rises. For forward_B = +x these are the ZYX pitch and roll. With
+/// the base's z pointing down (a fall) they are the elevations of the forward and left axes,
+/// the larger going on past 90 deg to 180: a forward fall is pitch, never 180 deg of roll.
 Eigen::Vector2d trunk_pitch_roll(const Eigen::Matrix3d& R_WB, const Eigen::Vector3d& forward_B);
 
 class Simulator {
