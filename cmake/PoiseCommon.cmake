@@ -2,6 +2,8 @@
 function(poise_target_defaults target)
   target_compile_options(${target} PRIVATE -Wall -Wextra)
   target_compile_features(${target} PUBLIC cxx_std_20)
+  # poise/cli/parse.hpp (POISE_CLI_PARSE: a usage error exits 2), header-only
+  target_include_directories(${target} PRIVATE ${PROJECT_SOURCE_DIR}/components/cli/include)
 endfunction()
 
 # poise_add_gtest(NAME SOURCES... [LIBS ...] [LABELS ...] [TIMEOUT s] [RUN_SERIAL])

@@ -9,6 +9,7 @@
 
 #include "poise/sim/world.hpp"
 #include "poise/sim/simulator.hpp"
+#include "poise/cli/parse.hpp"
 
 namespace poise::sim {
 
@@ -24,7 +25,7 @@ int sim_cli_main(int argc, char** argv) {
   app.add_option("--kd", kd, "PD damping for every joint [N m s/rad]");
   app.add_option("--duration", duration, "override the scenario duration [s]");
   app.add_flag("-q,--quiet", quiet, "only the verdict line");
-  CLI11_PARSE(app, argc, argv);
+  POISE_CLI_PARSE(app, argc, argv);
   try {
     const World sc = load_world(file);
     Simulator sim(sc.sim);

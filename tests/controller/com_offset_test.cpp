@@ -137,8 +137,7 @@ Rest stand_off_model(unsigned seed, double bandwidth_hz, double seconds) {
     throw std::runtime_error("the shipped robot has no body named torso");
   r.links.com_offset.emplace_back("torso",
                                   Eigen::Vector3d(0.02 * std::cos(angle), 0.02 * std::sin(angle), 0));
-  if (bandwidth_hz > 0.0)
-    s.controller_yaml = "com_offset: {bandwidth_hz: " + std::to_string(bandwidth_hz) + "}\n";
+  s.controller_yaml = "com_offset: {bandwidth_hz: " + std::to_string(bandwidth_hz) + "}\n";
   inprocess::InProcessLoop loop(s, inprocess::LoopOptions{});
   const inprocess::RunResult res = loop.run();
   Rest rest;

@@ -5,7 +5,8 @@
 //   source tree and `build` -> this build, so `build/bin/poise`, `deploy/...` and `results/...`
 //   resolve as in a clone; what commands write stays in the scratch directory.
 // - DDS domains: each distinct `--domain N` becomes a domain claimed for this test, and
-//   POISE_DDS_DOMAIN is a claimed one for commands that name none. When a README runs tools that
+//   POISE_DDS_DOMAIN is a claimed one for commands that name none (except `poise run`, which
+//   then gets a free one of its own: the variable would put it on the live stack's). When a README runs tools that
 //   need a live stack on that default domain (`poise topic`, `poise push`, `poise record`), a
 //   real-time `poise run standing` runs there in the background.
 // - A command ending in `&` runs in the background and is stopped (SIGINT, then SIGKILL by pid)
@@ -202,8 +203,15 @@ TEST_P(DocCommands, EveryCommandRunsAndExitsZero) {
     cmd = strip_background(cmd, bg);
     std::printf("[docs] %s: %s%s\n", GetParam().c_str(), cmd.c_str(), bg ? "  (background)" : "");
     std::fflush(stdout);
+    // `poise run` takes $POISE_DDS_DOMAIN too, which here is the live stack's: a run that names
+    // no domain gets one of its own, as in a shell where the variable is not set.
+    static const std::regex poise_run(R"(\bpoise run\b)");
+    const std::string own_domain =
+        std::regex_search(cmd, poise_run) && !std::regex_search(cmd, domain_re)
+            ? "unset POISE_DDS_DOMAIN; "
+            : "";
     if (bg) {
-      background.push_back(shell("exec " + cmd));
+      background.push_back(shell(own_domain + "exec " + cmd));
       // A background stack is meant to be running when the next command needs it.
       if (cmd.find("poise run") != std::string::npos) {
         EXPECT_TRUE(background.back()->wait_for_output("t=1.0 s", 120s))
@@ -212,7 +220,7 @@ TEST_P(DocCommands, EveryCommandRunsAndExitsZero) {
       }
       continue;
     }
-    auto p = shell(cmd);
+    auto p = shell(own_domain + cmd);
     const auto code = p->wait_for(180s);
     EXPECT_TRUE(code.has_value() && *code == 0)
         << GetParam() << ": `" << written << "` "

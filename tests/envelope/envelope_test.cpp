@@ -316,7 +316,8 @@ TEST(Envelope, APlatformRunIsTheScenariosOwnRun) {
   };
   EXPECT_EQ(runs[0].at("survived"), run_code == 0 ? "1" : "0") << run_out;
   EXPECT_NEAR(std::stod(runs[0].at("com_error_max_m")), number("com_error_max_m"), 1e-6);
-  EXPECT_NEAR(std::stod(runs[0].at("trunk_pitch_max_deg")), number("trunk_pitch_max_deg"), 1e-4);
+  // runs.csv keeps 6 significant digits: 3 decimals for a fall's 100-180 deg.
+  EXPECT_NEAR(std::stod(runs[0].at("trunk_pitch_max_deg")), number("trunk_pitch_max_deg"), 5e-4);
 }
 
 TEST(Envelope, DistributedLockstepRunsTheSameStudy) {

@@ -255,7 +255,7 @@ TEST(Launch, ABadDeploymentFileIsRefusedWithEveryProblemNamed) {
         "hosts.b.address: '10.0.0.300' is not an IPv4 address",
         "components.sim.restart: the simulator is the run",
         "components.estimator.host: 'c' is not among the hosts",
-        "components.estimator.dds: 'rti' is not cyclone or fastdds",
+        "components.estimator.dds: 'rti' is not cyclone (cyclonedds) or fastdds",
         "components.estimator.cpu: CPU 4096 does not exist", "components.driver: say its kind",
         "components.contact: unknown key 'colour'"})
     EXPECT_NE(out.find(expected), std::string::npos) << expected << "\n" << out;

@@ -31,9 +31,9 @@ int parse_domain(std::string_view text, const char* what) {
 
 Vendor parse_vendor(std::string_view name) {
   if (name == "fastdds") return Vendor::fastdds;
-  if (name == "cyclone") return Vendor::cyclone;
+  if (name == "cyclone" || name == "cyclonedds") return Vendor::cyclone;
   throw std::invalid_argument("unknown DDS vendor '" + std::string(name) +
-                              "' (expected 'fastdds' or 'cyclone')");
+                              "' (expected 'fastdds', 'cyclone' or 'cyclonedds')");
 }
 
 std::string_view to_string(Vendor vendor) {

@@ -14,6 +14,7 @@
 #include "poise/model/kinematics.hpp"
 #include "poise/model/model.hpp"
 #include "poise/model/robot_config.hpp"
+#include "poise/cli/parse.hpp"
 
 namespace poise::model {
 
@@ -291,7 +292,7 @@ int cli_main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    return poise::cli::usage_exit(app, e);
   }
   try {
     if (*info) return run_info(path, config);

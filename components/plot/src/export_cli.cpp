@@ -10,6 +10,7 @@
 #include "export_problems.hpp"
 #include "poise/plot/cli.hpp"
 #include "poise/plot/csv_export.hpp"
+#include "poise/cli/parse.hpp"
 
 namespace poise::plot {
 
@@ -79,7 +80,7 @@ int export_main(int argc, char** argv) {
                  "output directory (default: <file stem>_csv next to the file)");
   app.add_option("--topics", topics, "export only these topics, e.g. poise/state poise/sensors");
   app.add_flag("-q,--quiet", quiet, "print nothing but problems");
-  CLI11_PARSE(app, argc, argv);
+  POISE_CLI_PARSE(app, argc, argv);
   if (!csv) {
     std::fprintf(stderr, "poise export: choose the output format: --csv\n");
     return 2;

@@ -8,6 +8,7 @@
 
 #include "poise/plot/balance_plot.hpp"
 #include "poise/plot/cli.hpp"
+#include "poise/cli/parse.hpp"
 
 namespace poise::plot {
 
@@ -37,7 +38,7 @@ int plot_main(int argc, char** argv) {
   app.add_option("--gnuplot", o.gnuplot, "gnuplot executable (default: gnuplot on PATH)");
   app.add_flag("--keep-data", o.keep_data,
                "keep the CSV and the gnuplot script in DIR/<stem>_plot_data/");
-  CLI11_PARSE(app, argc, argv);
+  POISE_CLI_PARSE(app, argc, argv);
   for (const auto& p : pushes) {
     PushInterval push;
     push.source = "--push";

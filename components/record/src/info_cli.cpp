@@ -5,6 +5,7 @@
 
 #include "poise/record/cli.hpp"
 #include "poise/record/recording_info.hpp"
+#include "poise/cli/parse.hpp"
 
 namespace poise::record {
 
@@ -19,7 +20,7 @@ int info_main(int argc, char** argv) {
   app.name("poise info");
   app.add_option("file", file, "MCAP file")->required();
   app.add_flag("--json", json, "print the report as JSON");
-  CLI11_PARSE(app, argc, argv);
+  POISE_CLI_PARSE(app, argc, argv);
   const RecordingInfo info = read_recording_info(file);
   if (!info.scan.is_mcap) {
     std::fprintf(stderr, "poise info: %s: %s\n", file.c_str(),

@@ -27,6 +27,7 @@
 
 #include "poise/record/cli.hpp"
 #include "poise/record/recorder.hpp"
+#include "poise/cli/parse.hpp"
 
 namespace poise::record {
 namespace {
@@ -212,7 +213,7 @@ int record_main(int argc, char** argv) {
   app.add_flag("--no-passive-read", no_passive_read,
                "--passive: no DDS reader at all (topics nobody else reads are then not recorded)")
       ->excludes(passive_read_opt);
-  CLI11_PARSE(app, argc, argv);
+  POISE_CLI_PARSE(app, argc, argv);
   if (!options.passive && (passive_read_opt->count() > 0 || no_passive_read)) {
     std::fprintf(stderr, "poise record: --passive-read and --no-passive-read need --passive\n");
     return 2;

@@ -22,6 +22,7 @@
 
 #include "poise/record/cli.hpp"
 #include "poise/record/mcap_reader.hpp"
+#include "poise/cli/parse.hpp"
 
 namespace poise::record {
 namespace {
@@ -76,7 +77,7 @@ int replay_main(int argc, char** argv) {
                  "seconds to stay on the domain after the last sample (reliable delivery)")
       ->check(CLI::Range(0.0, 3600.0))
       ->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  POISE_CLI_PARSE(app, argc, argv);
   if (end_s >= 0 && end_s <= start_s) {
     std::fprintf(stderr, "poise replay: --end (%g) must be after --start (%g)\n", end_s, start_s);
     return 2;

@@ -18,6 +18,7 @@
 #include "poise/node/robot_description.hpp"
 #include "poise/reference/player.hpp"
 #include "poise/reference/trajectory.hpp"
+#include "poise/cli/parse.hpp"
 
 namespace poise::reference {
 namespace {
@@ -51,7 +52,7 @@ int play(int argc, char** argv) {
       ->capture_default_str();
   app.add_flag("--hold", hold, "keep running after the end (until SIGINT/SIGTERM)");
   node::add_node_options(app, options, "reference");
-  CLI11_PARSE(app, argc, argv);
+  POISE_CLI_PARSE(app, argc, argv);
 
   const Trajectory traj = load_trajectory(path);
   const int lead = lead_ticks > 0 ? lead_ticks : traj.lead_ticks;
@@ -128,6 +129,15 @@ int play(int argc, char** argv) {
                 static_cast<unsigned long long>(player.skipped()),
                 player.started_late() ? "true" : "false", done ? "true" : "false");
   node.write_summary(extra);
+  if (done && player.sent() == 0) {
+    // Every tick of the trajectory had passed when the player saw the robot: nothing reached it.
+    std::fprintf(stderr,
+                 "poise reference: played nothing: the robot's state was at %.3f s, past the "
+                 "trajectory's end (%.3f s); start the player before the robot, or the robot "
+                 "with --realtime\n",
+                 player.first_state_time(), traj.end());
+    return 3;
+  }
   return done ? 0 : 3;
 }
 

@@ -28,6 +28,7 @@
 #include "poise/model/mesh.hpp"
 #include "poise/model/model.hpp"
 #include "poise/model/robot_config.hpp"
+#include "poise/cli/parse.hpp"
 
 namespace fs = std::filesystem;
 
@@ -1139,7 +1140,7 @@ int cli_main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    return poise::cli::usage_exit(app, e);
   }
   opt.stand_centres = stand == "centres";
   try {

@@ -6,6 +6,7 @@
 #include <poise/dds/dds.hpp>
 
 #include "topic_commands.hpp"
+#include "poise/cli/parse.hpp"
 
 namespace poise::topic_tools {
 
@@ -67,7 +68,7 @@ int cli_main(int argc, char** argv) {
   pub_cmd->add_option("--wait", pub.wait_s, "... for at most this many seconds")
       ->capture_default_str();
 
-  CLI11_PARSE(app, argc, argv);
+  POISE_CLI_PARSE(app, argc, argv);
   install_signal_handlers();
   dds::set_log_name("poise-topic");
   dds::Participant participant(dds_options);

@@ -119,7 +119,19 @@ int echo_topic(dds::Participant& participant, const EchoOptions& options, std::o
     std::int64_t printed = 0;
     const std::int64_t limit = options.once ? 1 : options.count;
     auto last = Clock::now();
+    const auto start = last;
+    std::cerr << "waiting for " << options.topic << " on DDS domain " << participant.domain_id()
+              << " (" << dds::to_string(participant.vendor()) << ")"
+              << (options.timeout_s > 0 ? "" : "; Ctrl-C to stop") << "\n";
+    bool hinted = false;
     while (!stop_requested()) {
+      if (!hinted && printed == 0 && Clock::now() - start > std::chrono::seconds(3)) {
+        hinted = true;
+        if (sub.matched() == 0)
+          std::cerr << "no writer of " << options.topic << " on domain " << participant.domain_id()
+                    << " yet: `poise run` uses a domain of its own unless given --domain N or "
+                       "$POISE_DDS_DOMAIN (it prints the one it uses)\n";
+      }
       if (sub.take(sample)) {
         if (options.json) {
           out << reflect::to_json(sample).dump() << "\n";

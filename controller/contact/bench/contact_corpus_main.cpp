@@ -6,6 +6,7 @@
 #include <CLI/CLI.hpp>
 
 #include "contact_corpus.hpp"
+#include "poise/cli/parse.hpp"
 
 int main(int argc, char** argv) {
   CLI::App app{
@@ -17,7 +18,7 @@ int main(int argc, char** argv) {
   app.add_option("output", out, "output file")->required();
   app.add_option("--count", count, "number of problems")->check(CLI::PositiveNumber);
   app.add_option("--seed", seed, "random seed");
-  CLI11_PARSE(app, argc, argv);
+  POISE_CLI_PARSE(app, argc, argv);
   try {
     poise::contact::bench::write_corpus(out, poise::contact::bench::generate_corpus(count, seed));
   } catch (const std::exception& e) {

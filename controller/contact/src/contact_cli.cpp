@@ -11,6 +11,7 @@
 
 #include "poise/contact/contact_json.hpp"
 #include "poise/contact/contact_optimizer.hpp"
+#include "poise/cli/parse.hpp"
 
 namespace poise::contact {
 
@@ -56,7 +57,7 @@ int cli_main(int argc, char** argv) {
       ->add_option("--qp-passes", qp_passes,
                    "qp only: 2 adds a refinement QP with the torsion bound linearised at the CoP")
       ->check(CLI::Range(1, 2));
-  CLI11_PARSE(app, argc, argv);
+  POISE_CLI_PARSE(app, argc, argv);
 
   nlohmann::json in;
   try {

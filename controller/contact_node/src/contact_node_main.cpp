@@ -32,6 +32,7 @@
 #include "poise/contact_node/contact_messages.hpp"
 #include "poise/node/node.hpp"
 #include "poise/node/robot_description.hpp"
+#include "poise/cli/parse.hpp"
 
 namespace {
 
@@ -70,7 +71,7 @@ int run(int argc, char** argv) {
                  "report poise/contact_problem stale (health FAULT) after this long without one")
       ->check(CLI::Range(1.0, 600000.0))
       ->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  POISE_CLI_PARSE(app, argc, argv);
 
   const contact::Method method = *contact::parse_method(method_name);
   const contact::Priority priority = *contact::parse_priority(priority_name);

@@ -71,6 +71,7 @@
 #include "poise/model/robot_config.hpp"
 #include "poise/node/node.hpp"
 #include "poise/node/robot_description.hpp"
+#include "poise/cli/parse.hpp"
 
 namespace {
 
@@ -114,7 +115,7 @@ int run(int argc, char** argv) {
   app.add_option("--contact-wait-ms", contact_wait_ms,
                  "how long to wait at start for the contact optimiser's endpoints")
       ->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  POISE_CLI_PARSE(app, argc, argv);
 
   node::Node node(options);
   const msg::RobotDescription description =

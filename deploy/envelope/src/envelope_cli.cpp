@@ -40,6 +40,7 @@
 #include "poise/plot/balance_plot.hpp"
 #include "poise/scenario/scenario.hpp"
 #include "random_study.hpp"
+#include "poise/cli/parse.hpp"
 
 namespace poise::envelope {
 
@@ -439,7 +440,7 @@ int envelope_main(int argc, char** argv) {
                "the controller gets the simulator's ground truth instead of the estimator's state "
                "(separates the controller's limits from the estimator's)");
   app.add_flag("-q,--quiet", o.quiet, "no progress lines");
-  CLI11_PARSE(app, argc, argv);
+  POISE_CLI_PARSE(app, argc, argv);
   // The grid's forces ascending, each once (a force given twice would be run twice and its
   // runs counted twice).
   std::sort(o.grid_forces.begin(), o.grid_forces.end());

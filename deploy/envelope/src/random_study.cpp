@@ -26,6 +26,7 @@
 #include "poise/plot/balance_plot.hpp"
 #include "poise/scenario/scenario.hpp"
 #include "random_study.hpp"
+#include "poise/cli/parse.hpp"
 
 namespace poise::envelope {
 
@@ -711,7 +712,7 @@ int random_main(int argc, char** argv) {
       "bands (deploy/envelope/README.md \"The random study\")."};
   app.name("poise envelope random");
   add_random_options(app, d, o);
-  CLI11_PARSE(app, argc, argv);
+  POISE_CLI_PARSE(app, argc, argv);
   try {
     settle_seed_and_shard(d, o);
   } catch (const std::invalid_argument& e) {
@@ -737,7 +738,7 @@ int merge_main(int argc, char** argv) {
   app.add_option("--output-dir,-o", output, "where the merged study goes")->capture_default_str();
   app.add_option("--gnuplot", gnuplot, "gnuplot executable (default: gnuplot on PATH)");
   app.add_flag("--no-picture", no_picture, "no polar picture");
-  CLI11_PARSE(app, argc, argv);
+  POISE_CLI_PARSE(app, argc, argv);
   try {
     std::optional<StudyDefinition> def;
     Json first;

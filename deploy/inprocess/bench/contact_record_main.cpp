@@ -20,6 +20,7 @@
 #include "contact_corpus.hpp"
 #include "poise/inprocess/in_process_loop.hpp"
 #include "poise/scenario/scenario.hpp"
+#include "poise/cli/parse.hpp"
 
 namespace {
 
@@ -58,7 +59,7 @@ int main(int argc, char** argv) {
                "controller state from the simulator's ground truth (default: the estimator)");
   app.add_option("--duration", duration, "simulated seconds per scenario (default: the scenario's)")
       ->check(CLI::NonNegativeNumber);
-  CLI11_PARSE(app, argc, argv);
+  POISE_CLI_PARSE(app, argc, argv);
 
   std::vector<contact::bench::CorpusEntry> corpus;
   std::vector<std::string> comments{

@@ -14,6 +14,7 @@
 #include "poise/inprocess/in_process_loop.hpp"
 #include "poise/launch/launch.hpp"
 #include "poise/sim/reality_json.hpp"
+#include "poise/cli/parse.hpp"
 
 namespace poise::inprocess {
 
@@ -125,7 +126,7 @@ int cli_main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    return poise::cli::usage_exit(app, e);
   }
   try {
     const scenario::Scenario scenario = scenario::load_scenario(resolve_scenario(scenario_arg));

@@ -292,8 +292,9 @@ Deployment load_deployment(const fs::path& file, const std::string& host) {
       }
       c.dds = "cyclone";
       if (n["dds"]) scalar(n["dds"], where + ".dds", c.dds, p);
+      if (c.dds == "cyclonedds") c.dds = "cyclone";  // one vendor, two spellings
       if (c.dds != "cyclone" && c.dds != "fastdds")
-        p.add(where + ".dds", "'" + c.dds + "' is not cyclone or fastdds");
+        p.add(where + ".dds", "'" + c.dds + "' is not cyclone (cyclonedds) or fastdds");
       c.options = strings(n["options"], where + ".options", p);
       c.command = strings(n["command"], where + ".command", p);
       if (c.kind == "command" && c.command.empty())

@@ -13,6 +13,7 @@
 #include "poise/dds/dds.hpp"
 #include "poise/launch/launch.hpp"
 #include "poise/node/shutdown.hpp"
+#include "poise/cli/parse.hpp"
 
 namespace poise::launch {
 
@@ -39,7 +40,7 @@ int estop_main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::Range(0, 600000));
   dds::add_dds_options(app, options);
-  CLI11_PARSE(app, argc, argv);
+  POISE_CLI_PARSE(app, argc, argv);
   try {
     options.participant_name = "poise/estop";
     dds::Participant participant(options);

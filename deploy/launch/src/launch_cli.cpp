@@ -30,6 +30,7 @@
 #include "poise/launch/launch.hpp"
 #include "poise/launch/log_dir.hpp"
 #include "poise/launch/supervisor.hpp"
+#include "poise/cli/parse.hpp"
 
 namespace poise::launch {
 namespace {
@@ -124,6 +125,7 @@ int launch_main(int argc, char** argv) {
   std::string file, host_name, output, log_dir, dds_files;
   bool check = false, quiet = false;
   double duration = 0;
+  int domain = -1;
   CLI::App app{
       "Start this machine's share of a deployment: which components run on which host, with "
       "their DDS vendor, options, CPU affinity, real-time priority and restart policy, from one "
@@ -150,8 +152,12 @@ int launch_main(int argc, char** argv) {
                  "write this host's generated DDS files (cyclone.xml, fastdds.xml) to this "
                  "directory and exit: for tools on the host, e.g. `poise topic list --dds-config "
                  "DIR/cyclone.xml`");
+  app.add_option("--domain", domain,
+                 "DDS domain id instead of the file's (every host of the deployment must be given "
+                 "the same; $POISE_DDS_DOMAIN does not override a file's domain)")
+      ->check(CLI::Range(0, 232));
   app.add_flag("-q,--quiet", quiet, "only problems and the final line");
-  CLI11_PARSE(app, argc, argv);
+  POISE_CLI_PARSE(app, argc, argv);
 
   Deployment d;
   try {
@@ -159,6 +165,14 @@ int launch_main(int argc, char** argv) {
   } catch (const DeploymentError& e) {
     std::fprintf(stderr, "poise launch: %s\n", e.what());
     return 2;
+  }
+  if (domain >= 0) {
+    if (!d.security.empty() && domain > 230) {
+      std::fprintf(stderr, "poise launch: --domain %d: DDS Security takes domains 0..230 "
+                           "(Cyclone's plugins)\n", domain);
+      return 2;
+    }
+    d.domain = domain;
   }
 
   if (check) {

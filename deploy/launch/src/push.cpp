@@ -11,6 +11,7 @@
 #include "poise/dds/cli.hpp"
 #include "poise/dds/dds.hpp"
 #include "poise/launch/launch.hpp"
+#include "poise/cli/parse.hpp"
 
 namespace poise::launch {
 
@@ -35,7 +36,7 @@ int push_main(int argc, char** argv) {
   app.add_option("--wait-ms", wait_ms, "how long to wait for the simulator to match")
       ->capture_default_str();
   dds::add_dds_options(app, options);
-  CLI11_PARSE(app, argc, argv);
+  POISE_CLI_PARSE(app, argc, argv);
   for (double v : force)
     if (!std::isfinite(v)) {
       std::fprintf(stderr, "poise push: --force must be finite\n");

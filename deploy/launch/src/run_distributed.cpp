@@ -1,5 +1,6 @@
 // `poise run SCENARIO` in its distributed form: four processes over loopback DDS.
 #include <algorithm>
+#include <cstdlib>
 #include <signal.h>
 #include <unistd.h>
 #include <CLI/CLI.hpp>
@@ -28,6 +29,7 @@
 #include "poise/node/realtime.hpp"
 #include "poise/scenario/scenario.hpp"
 #include "poise/sim/sim_config.hpp"
+#include "poise/cli/parse.hpp"
 
 namespace poise::launch {
 namespace {
@@ -174,7 +176,7 @@ int run_distributed(int argc, char** argv) {
   app.add_option("--dds-estimator", s.dds_estimator, "vendor of the estimator")->check(vendors);
   app.add_option("--dds-contact", s.dds_contact, "vendor of the contact optimiser")->check(vendors);
   app.add_option("--dds-controller", s.dds_controller, "vendor of the controller")->check(vendors);
-  app.add_option("--domain", s.domain, "DDS domain id (default: a free one in 100..231)")
+  app.add_option("--domain", s.domain, "DDS domain id (default: $POISE_DDS_DOMAIN, else a free one in 100..231)")
       ->check(CLI::Range(0, 232));
   app.add_option("--output,-o", s.output,
                  "JSON result file (default: results/<scenario>.json; <scenario>.2.json and so "
@@ -254,7 +256,7 @@ int run_distributed(int argc, char** argv) {
                  "chain of processes of which one works at a time: on one CPU a hand-off is a "
                  "context switch, not a cross-CPU wake-up (deploy/realtime/README.md)")
       ->check(poise::node::cpu_list_check);
-  CLI11_PARSE(app, argc, argv);
+  POISE_CLI_PARSE(app, argc, argv);
   if (s.record_passive && !s.security.empty()) {
     std::fprintf(stderr,
                  "poise run: --passive cannot record a run with --security: DDS Security "
@@ -283,6 +285,11 @@ int run_distributed(int argc, char** argv) {
     if (!s.dds_contact.empty()) vendor["contact"] = vendor_name(s.dds_contact);
     if (!s.dds_controller.empty()) vendor["controller"] = vendor_name(s.dds_controller);
 
+    // --domain, else $POISE_DDS_DOMAIN (as every other verb), else a free one.
+    if (s.domain < 0) {
+      const char* env = std::getenv("POISE_DDS_DOMAIN");
+      if (env != nullptr && *env != '\0') s.domain = dds::dds_options_from_env().domain_id;
+    }
     int domain = s.domain >= 0 ? s.domain : dds::claim_free_domain();
     // Cyclone's security plugins take domains 0..230 only.
     while (!s.security.empty() && s.domain < 0 && domain > 230)

@@ -19,6 +19,7 @@
 #include <CLI/CLI.hpp>
 
 #include "poise/launch/launch.hpp"
+#include "poise/cli/parse.hpp"
 
 namespace poise::launch {
 namespace {
@@ -160,7 +161,7 @@ int security_main(int argc, char** argv) {
   auto* init = app.add_subcommand("init", "make the CA, identities and signed documents in DIR");
   init->add_option("dir", dir, "output directory")->required();
   init->add_flag("--force", force, "replace an existing directory's contents");
-  CLI11_PARSE(app, argc, argv);
+  POISE_CLI_PARSE(app, argc, argv);
 
   const fs::path root = fs::absolute(dir);
   if (fs::exists(root / "ca.pem") && !force) {

@@ -49,7 +49,8 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
   if (const YAML::Node d = root["dds"]) {
     c.allow(d, "dds", {"vendor", "components"});
     auto check = [&](const std::string& v, const std::string& key) {
-      if (v != "fastdds" && v != "cyclonedds") c.fail(key, "must be 'fastdds' or 'cyclonedds'");
+      if (v != "fastdds" && v != "cyclone" && v != "cyclonedds")
+        c.fail(key, "must be 'fastdds' or 'cyclone' (also spelt 'cyclonedds')");
     };
     if (d["vendor"]) {
       sc.dds.vendor = c.str(d["vendor"], "dds.vendor");

@@ -11,6 +11,7 @@
 #include <iostream>
 
 #include "poise/estimator_bench/wire_accuracy.hpp"
+#include "poise/cli/parse.hpp"
 
 int main(int argc, char** argv) {
   using namespace poise::estimator_bench;
@@ -40,7 +41,7 @@ int main(int argc, char** argv) {
   app.add_option("--run-option", extra, "extra option for every poise run (repeatable), e.g. "
                                         "--run-option=--dds --run-option=fastdds");
   app.add_option("--analyse", analyse, "analyse this recording only (with one --scenarios)");
-  CLI11_PARSE(app, argc, argv);
+  POISE_CLI_PARSE(app, argc, argv);
 
   std::vector<Accuracy> results;
   try {

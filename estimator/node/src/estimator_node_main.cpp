@@ -49,6 +49,7 @@
 #include "poise/node/mailbox.hpp"
 #include "poise/node/node.hpp"
 #include "poise/node/robot_description.hpp"
+#include "poise/cli/parse.hpp"
 
 namespace {
 
@@ -144,7 +145,7 @@ int run(int argc, char** argv) {
                  "alone [Hz]")
       ->check(CLI::Range(0.0, 1.0e4))
       ->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  POISE_CLI_PARSE(app, argc, argv);
 
   node::Node node(options);
   const msg::RobotDescription description =

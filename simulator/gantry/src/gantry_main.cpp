@@ -47,6 +47,7 @@
 #include "poise/node/node.hpp"
 #include "poise/node/robot_description.hpp"
 #include "poise/safety/safety_layer.hpp"
+#include "poise/cli/parse.hpp"
 
 namespace {
 
@@ -319,7 +320,7 @@ int run(int argc, char** argv) {
   app.add_option("--startup-timeout-ms", s.startup_timeout_ms, "longest wait for them")
       ->capture_default_str();
   app.add_option("--seed", s.seed, "IMU noise seed")->capture_default_str();
-  CLI11_PARSE(app, argc, argv);
+  POISE_CLI_PARSE(app, argc, argv);
   // The robot side owns the robot files: --robot, default the project humanoid.
   const std::string robot = options.robot.empty() ? node::default_robot_config() : options.robot;
   node::Node node(options);

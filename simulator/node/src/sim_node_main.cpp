@@ -69,6 +69,7 @@
 #include "poise/safety/safety_layer.hpp"
 #include "poise/model/robot_config.hpp"
 #include "poise/sim_node/sim_messages.hpp"
+#include "poise/cli/parse.hpp"
 
 namespace {
 
@@ -775,7 +776,7 @@ int run(int argc, char** argv) {
                  "that it measures the feet loaded")
       ->capture_default_str()
       ->check(CLI::Range(0, 10000));
-  CLI11_PARSE(app, argc, argv);
+  POISE_CLI_PARSE(app, argc, argv);
   // The robot configuration comes from the scenario; --robot is ignored by this node.
 
   node::Node node(options);

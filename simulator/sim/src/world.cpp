@@ -624,6 +624,20 @@ std::string read_scenario_text(const fs::path& path) {
   std::error_code ec;
   if (fs::is_directory(path, ec))
     throw std::runtime_error("scenario '" + path.string() + "' is a directory, not a file");
+  if (!fs::exists(path, ec)) {
+    // A name that is not shipped (`poise run standnig`): say which are.
+    std::string names;
+#ifdef POISE_SIM_SOURCE_DIR
+    std::vector<std::string> shipped;
+    for (const auto& e : fs::directory_iterator(fs::path(POISE_SIM_SOURCE_DIR) / "deploy/scenarios", ec))
+      if (e.path().extension() == ".yaml") shipped.push_back(e.path().stem().string());
+    std::sort(shipped.begin(), shipped.end());
+    for (const auto& n : shipped) names += (names.empty() ? "" : ", ") + n;
+#endif
+    throw std::runtime_error("scenario '" + path.string() + "': no such file" +
+                             (names.empty() ? std::string()
+                                            : "; the shipped scenarios (by name) are " + names));
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::runtime_error("scenario file '" + path.string() + "' cannot be opened");
   // Read at most 16 MB (a scenario is a few kB; /dev/zero must not fill the memory).

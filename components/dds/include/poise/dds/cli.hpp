@@ -4,7 +4,7 @@
 //   poise::dds::DdsOptions dds = poise::dds::dds_options_from_env();
 //   CLI::App app{"my node"};
 //   poise::dds::add_dds_options(app, dds);
-//   CLI11_PARSE(app, argc, argv);
+//   POISE_CLI_PARSE(app, argc, argv);
 //   poise::dds::Participant participant(dds);
 
 #include <CLI/CLI.hpp>
@@ -18,8 +18,9 @@ namespace poise::dds {
 inline void add_dds_options(CLI::App& app, DdsOptions& options) {
   app.add_option_function<std::string>(
          "--dds", [&options](const std::string& v) { options.vendor = parse_vendor(v); },
-         "DDS vendor: fastdds or cyclone (default: $POISE_DDS, else cyclone)")
-      ->check(CLI::IsMember({"fastdds", "cyclone"}))
+         "DDS vendor: fastdds, or cyclone (also spelt cyclonedds) (default: $POISE_DDS, else "
+         "cyclone)")
+      ->check(CLI::IsMember({"fastdds", "cyclone", "cyclonedds"}))
       ->default_str(std::string(to_string(options.vendor)));
   app.add_option("--domain", options.domain_id, "DDS domain id (default: $POISE_DDS_DOMAIN or 0)")
       ->check(CLI::Range(0, 232))

@@ -4,7 +4,7 @@
 //   poise::node::NodeOptions options;               // --robot, --name, --summary, --dds ...
 //   CLI::App app{"..."};
 //   poise::node::add_node_options(app, options, "estimator");
-//   CLI11_PARSE(app, argc, argv);
+//   POISE_CLI_PARSE(app, argc, argv);
 //   poise::node::Node node(options);                // participant, diagnostics, signals
 //   ... subscribers, publishers; node.watch(subscriber);
 //   while (node.running()) { ...; node.tick_done(k, compute_ns); node.poll(); }

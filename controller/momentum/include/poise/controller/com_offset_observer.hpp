@@ -36,7 +36,10 @@
 namespace poise::controller {
 
 struct ComOffsetObserverConfig {
-  double bandwidth_hz = 0.0;  ///< cut-off of the estimate [Hz]; 0: off (the model's CoM as is)
+  /// Cut-off of the estimate [Hz]; 0: off (the model's CoM as is), the default: 0.5 helps every
+  /// random study of a robot that is not its model but costs the accelerating platforms and the
+  /// step in place (controller/momentum/README.md "The model's CoM error").
+  double bandwidth_hz = 0.0;
   double limit = 0.03;        ///< largest horizontal error believed [m]
   /// It learns only while the CoM moves slower than this relative to its supports [m/s].
   double speed_gate = 0.05;

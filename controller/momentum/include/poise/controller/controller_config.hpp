@@ -254,7 +254,8 @@ struct ControllerConfig {
   FallbackConfig fallback;
   FallConfig fall;
   /// The model's CoM error observed from the measured CoP (com_offset_observer.hpp): section
-  /// `com_offset:` {bandwidth_hz, limit, speed_gate}. Off by default (bandwidth_hz 0).
+  /// `com_offset:` {bandwidth_hz, limit, speed_gate}. Off by default (bandwidth_hz 0; 0.5 turns
+  /// it on, the figures of controller/momentum/README.md).
   ComOffsetObserverConfig com_offset;
   /// Measured CoP inside the safe region shrunk by this extra margin => the foot is resting
   /// (Sec. 4.2 moving-support rule) [m]. 0: the safe region itself.
