@@ -271,6 +271,35 @@ TEST(BalanceController, ContactProblemMatchesKinematicsAndEquations10And11) {
 // that acceleration lies under the sole mid-point -- its velocity target is the feet's velocity
 // plus that lean's rate h j / g, and (11) carries m a on top of the feedback. Off: none of it;
 // with a reference's CoM target: none of it either.
+// The optimiser's mu: robot.yaml's contact.friction_mu unless the controller configuration
+// (a scenario's `controller: {contact: {friction_mu: X}}`) says otherwise; bad values named.
+TEST(BalanceController, TheOptimisersFrictionIsRobotYamlsUnlessTheConfigurationSetsIt) {
+  std::mt19937 rng(3);
+  ControllerConfig cfg = eq11_config();
+  cfg.contact.friction_mu = 0.45;
+  BalanceController told = make_controller(cfg);
+  BalanceController plain = make_controller(eq11_config());
+  ASSERT_NE(plain.robot().friction_mu, 0.45);
+  const RobotState s = test::random_state(told, rng);
+  contact::ContactProblem p_told, p_plain;
+  told.prepare(s, told.make_reference(), p_told);
+  plain.prepare(s, plain.make_reference(), p_plain);
+  for (int i = 0; i < 2; ++i) {
+    EXPECT_EQ(p_told.feet[i].mu, 0.45);
+    EXPECT_EQ(p_plain.feet[i].mu, plain.robot().friction_mu);
+  }
+  EXPECT_EQ(parse_controller_config("contact: {friction_mu: 0.3}", "t").contact.friction_mu, 0.3);
+  for (const char* bad : {"contact: {friction_mu: -0.1}", "contact: {friction_mu: .nan}",
+                          "contact: {friction_mu: 11}"}) {
+    try {
+      parse_controller_config(bad, "t");
+      ADD_FAILURE() << bad << " was accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("contact.friction_mu"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(BalanceController, AcceleratingSupportsLeanTheCoMTargetAndFeedTheirAccelerationForward) {
   std::mt19937 rng(11);
   for (int trial = 0; trial < 6; ++trial) {

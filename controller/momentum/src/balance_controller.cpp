@@ -229,7 +229,7 @@ BalanceController::BalanceController(const model::Model& model, const model::Rob
     pf.sole.y_max = foot.sole.y_max;
     pf.ankle_height = foot.sole.height;
     pf.safety_margin = robot_.safety_margin;
-    pf.mu = robot_.friction_mu;
+    pf.mu = config_.contact.friction_mu > 0.0 ? config_.contact.friction_mu : robot_.friction_mu;
     pf.mu_torsion = robot_.torsional_mu;
   }
   problem_.weights.w_k = config_.contact.w_k;

@@ -107,6 +107,9 @@ void ControllerConfig::validate() const {
           "com_offset.limit", "must be in [0, 0.2] m");
   require(std::isfinite(com_offset.speed_gate) && com_offset.speed_gate > 0.0,
           "com_offset.speed_gate", "must be > 0 m/s");
+  require(std::isfinite(contact.friction_mu) && contact.friction_mu >= 0.0 &&
+              contact.friction_mu <= 10.0,
+          "contact.friction_mu", "must be in [0, 10] (0: robot.yaml's contact.friction_mu)");
   require(contact.w_k >= 0.0 && contact.eps_f >= 0.0 && contact.eps_cop >= 0.0, "contact",
           "weights must be >= 0");
   require(foot.kp >= 0.0 && foot.kd >= 0.0, "foot", "gains must be >= 0");
@@ -193,7 +196,8 @@ ControllerConfig from_yaml(const YAML::Node& root, const std::string& file) {
     r.vec3(m, "gamma22", "momentum.", c.momentum.gamma22);
   }
   if (const auto m = root["contact"]) {
-    r.keys(m, "contact", {"w_k", "eps_f", "eps_cop", "priority", "torsion_limit"});
+    r.keys(m, "contact", {"w_k", "eps_f", "eps_cop", "priority", "torsion_limit", "friction_mu"});
+    r.number(m, "friction_mu", "contact.", c.contact.friction_mu);
     if (const YAML::Node tl = m["torsion_limit"]) {
       const std::string name = tl.IsScalar() ? tl.as<std::string>() : std::string();
       const auto parsed = contact::parse_torsion_limit(name);

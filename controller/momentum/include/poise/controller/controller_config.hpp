@@ -98,6 +98,11 @@ struct ContactWeights {
   double w_k = 0.1;       ///< angular momentum weight in (21) (paper: 0.1)
   double eps_f = 1e-4;    ///< force regularisation in (21) (paper: 0.01 as a row scale)
   double eps_cop = 1e-4;  ///< CoP / normal torque regularisation in (29) (same reading)
+  /// > 0: the Coulomb coefficient the contact optimiser assumes, instead of robot.yaml's
+  /// contact.friction_mu (a scenario's `controller: {contact: {friction_mu: X}}`: a floor the
+  /// robot is told is slippery). Not the simulated ground's (world.ground.friction) nor a
+  /// reality draw's: what the controller believes, not what the floor does. 0: robot.yaml's.
+  double friction_mu = 0.0;
   /// Linear momentum first strictly (lexicographic, the paper's stated priority) or eq. (21)'s
   /// weighted sum. Not on the wire: `poise run` passes it to poise-contact as --priority.
   contact::Priority priority = contact::Priority::kLexicographic;
