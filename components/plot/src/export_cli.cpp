@@ -77,7 +77,8 @@ int export_main(int argc, char** argv) {
   app.add_option("file", file, "MCAP file")->required();
   app.add_flag("--csv", csv, "write CSV (the one format so far; required)");
   app.add_option("-o,--output", output_dir,
-                 "output directory (default: <file stem>_csv next to the file)");
+                 "directory for one CSV file per topic (default: <file stem>_csv next to the "
+                 "file)");
   app.add_option("--topics", topics, "export only these topics, e.g. poise/state poise/sensors");
   app.add_flag("-q,--quiet", quiet, "print nothing but problems");
   POISE_CLI_PARSE(app, argc, argv);

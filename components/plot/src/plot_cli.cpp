@@ -30,7 +30,9 @@ int plot_main(int argc, char** argv) {
   app.name("poise plot");
   app.add_option("file", o.file, "MCAP recording of a run (poise run SCENARIO --record FILE)")
       ->required();
-  app.add_option("-o,--output", o.output_dir, "output directory (default: the file's directory)");
+  app.add_option("-o,--output", o.output_dir,
+                 "directory for the panels' PNG and SVG files (default: the recording's "
+                 "directory)");
   app.add_option("--title", o.title, "sheet title (default: the file name)");
   app.add_option("--push", pushes,
                  "an extra push band START,DURATION in robot time [s], e.g. 1.0,0.1 (pushes of a "

@@ -153,8 +153,8 @@ int record_main(int argc, char** argv) {
   app.add_option("topics", options.topics, "topics to record (default: every Poise topic)");
   app.add_flag("-a,--all", all, "record every Poise topic (the default when none is named)");
   app.add_option("-o,--output", options.output,
-                 "output file (default: poise_<date>-<time>.mcap); with splitting, "
-                 "<stem>_<k>.mcap");
+                 "MCAP file to write (default: poise_<date>-<time>.mcap in the working "
+                 "directory); with splitting, <stem>_<k>.mcap");
   std::string if_exists;
   app.add_option("--if-exists", if_exists,
                  "when the output file exists: refuse (exit 2, the default for a named -o), "

@@ -1120,7 +1120,8 @@ int cli_main(int argc, char** argv) {
       "with the CoM over the feet, PD gains from each joint's effective inertia. Prints what it "
       "guessed and what to check");
   init->add_option("urdf", opt.urdf, "URDF file")->required();
-  init->add_option("-o,--output", opt.out_dir, "output folder (default: ./<urdf stem>_poise/)");
+  init->add_option("-o,--output", opt.out_dir,
+                   "folder for the robot.yaml it writes (default: ./<urdf stem>_poise/)");
   init->add_option("--name", opt.name, "robot name (default: the URDF's)");
   init->add_flag("--force", opt.force, "overwrite an existing robot.yaml");
   init->add_option("--wn", opt.wn, "natural frequency of each joint's PD loop, rad/s")

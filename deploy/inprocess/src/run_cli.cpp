@@ -102,7 +102,9 @@ int cli_main(int argc, char** argv) {
                "(no DDS)");
   app.add_flag("--ground-truth-state", ground_truth,
                "DEBUG: feed the controller the simulator's ground truth instead of the estimator");
-  app.add_option("--output,-o", output, "Write the result as JSON to this file");
+  app.add_option("--output,-o", output,
+                 "JSON result file, the distributed run's fields (default: none; the verdict is "
+                 "printed)");
   app.add_option("--contact-method", method,
                  "Contact optimiser: sequential (paper) or qp (default: the scenario's "
                  "contact.method, else sequential)")
