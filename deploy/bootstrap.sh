@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # One entry point for a fresh Debian 12 machine (run as root, or with sudo available):
-#   bash deploy/bootstrap.sh run    install packages, build, run the main job
+#   bash deploy/bootstrap.sh run    install packages, build the tools and nodes, run the main job
 #   bash deploy/bootstrap.sh test   install packages, build, run the whole test suite (ctest)
 #   bash deploy/bootstrap.sh build  install packages and build only
 # Environment: POISE_BUILD_DIR (default: build), POISE_JOBS (default: nproc),
@@ -39,8 +39,14 @@ if [[ "${POISE_SKIP_APT:-0}" != 1 ]]; then
   command -v npm >/dev/null || $sudo apt-get install -y -q --no-install-recommends npm
 fi
 
-step "Configuring ($build, Release)"
-cmake -S "$here" -B "$build" -DCMAKE_BUILD_TYPE=Release
+# `run` builds what it runs: the tools and nodes, not the test suites and benchmarks (half the
+# build); `test` and `build` build everything. The choice is written into the build's cache each
+# time, so one build directory serves both.
+all=ON
+[[ "$mode" == run ]] && all=OFF
+step "Configuring ($build, Release; tests and benchmarks: $all)"
+cmake -S "$here" -B "$build" -DCMAKE_BUILD_TYPE=Release \
+  -DPOISE_BUILD_TESTS="$all" -DPOISE_BUILD_BENCHMARKS="$all"
 step "Building with $jobs jobs"
 cmake --build "$build" -j "$jobs"
 
