@@ -23,14 +23,7 @@ using test::biped_lying_on_back_config;
 using test::box_config;
 
 // Holds the biped posture with stiff PD around its initial joint angles.
-JointCommand posture_command(const Simulator& sim, const SensorFrame& s, double kp, double kd) {
-  JointCommand c = sim.make_command();
-  c.mode = CommandMode::kPd;
-  c.q_ref = s.q;
-  c.kp.setConstant(kp);
-  c.kd.setConstant(kd);
-  return c;
-}
+using test::hold_command;
 
 // A link that collides through a <mesh> (most public humanoid URDFs: Unitree's, all of their
 // links) collides as the mesh's convex hull. The biped's torso box (0.2 x 0.3 x 0.4 m) replaced
@@ -226,7 +219,7 @@ TEST(SimPhysics, FreeFallingRobotAcceleratesAtG) {
     sim.read(s, g);
     const Eigen::Vector3d c0 = g.com_W, v0 = g.com_vel_W;
     // Internal joint torques (PD posture + URDF damping) must not change the CoM motion.
-    JointCommand cmd = posture_command(sim, s, 200.0, 5.0);
+    JointCommand cmd = hold_command(sim, s, 200.0, 5.0);
     cmd.q_ref.array() += 0.2;
     const int steps = 400;
     for (int k = 0; k < steps; ++k)
@@ -414,7 +407,7 @@ void run_scenario(GroundTruth& g, std::vector<double>& trace) {
   SensorFrame s = sim.make_sensor_frame();
   g = sim.make_ground_truth();
   sim.read(s, g);
-  JointCommand cmd = posture_command(sim, s, 400.0, 10.0);
+  JointCommand cmd = hold_command(sim, s, 400.0, 10.0);
   for (int k = 0; k < 600; ++k) {
     sim.step(cmd, s, g);
     trace.insert(trace.end(), g.X_WB.matrix().data(), g.X_WB.matrix().data() + 16);

@@ -303,6 +303,17 @@ TEST(SimScenario, MonitorMeasuresComErrorAndSlipAgainstTheSupports) {
   EXPECT_EQ(mon.result().non_foot_contacts, 1);
 }
 
+/// The truth of a robot on both feet at y = +-0.1 m (no CoM, no time yet).
+GroundTruth standing_on_both_feet() {
+  GroundTruth g;
+  g.feet.resize(2);
+  g.non_foot_contact.assign(3, 0);
+  g.feet[0].X_WF.translation() = Eigen::Vector3d(0.0, 0.1, 0.0);
+  g.feet[1].X_WF.translation() = Eigen::Vector3d(0.0, -0.1, 0.0);
+  g.feet[0].in_contact = g.feet[1].in_contact = true;
+  return g;
+}
+
 // A fall is never a recovery (#54): with no final-error bound (the platform scenarios) a robot
 // on the floor reported recovery 0.
 TEST(SimScenario, AFallNeverReportsARecoveryTime) {
@@ -311,11 +322,7 @@ TEST(SimScenario, AFallNeverReportsARecoveryTime) {
   sc.success.com_error_final_m = std::numeric_limits<double>::infinity();
   sc.success.allow_non_foot_contacts = false;
   ScenarioMonitor mon(sc, platforms_of_feet(sc));
-  GroundTruth g;
-  g.feet.resize(2);
-  g.non_foot_contact.assign(3, 0);
-  g.feet[0].X_WF.translation() = Eigen::Vector3d(0.0, 0.1, 0.0);
-  g.feet[1].X_WF.translation() = Eigen::Vector3d(0.0, -0.1, 0.0);
+  GroundTruth g = standing_on_both_feet();
   g.com_W = Eigen::Vector3d(0.0, 0.0, 0.8);
   mon.update(g);
   EXPECT_EQ(mon.result().last_recovery_time_s, 0.0) << "standing: recovered at once";
@@ -334,12 +341,7 @@ TEST(SimScenario, MonitorCountsTheModelsCoMErrorAsError) {
   Scenario sc = parse_scenario(kInline, fs::path(POISE_SOURCE_DIR) / "tests/simulator");
   sc.sim.world.platforms.clear();
   ScenarioMonitor stays(sc, platforms_of_feet(sc)), moves(sc, platforms_of_feet(sc));
-  GroundTruth g;
-  g.feet.resize(2);
-  g.non_foot_contact.assign(3, 0);
-  g.feet[0].X_WF.translation() = Eigen::Vector3d(0.0, 0.1, 0.0);
-  g.feet[1].X_WF.translation() = Eigen::Vector3d(0.0, -0.1, 0.0);
-  g.feet[0].in_contact = g.feet[1].in_contact = true;
+  GroundTruth g = standing_on_both_feet();
   // The robot's CoM 6 mm ahead and 8 mm left of the model's at the start.
   g.com_W = Eigen::Vector3d(0.026, 0.008, 0.8);
   g.model_com_shift_W = Eigen::Vector3d(-0.006, -0.008, 0.0);
@@ -360,12 +362,7 @@ TEST(SimScenario, MonitorDoesNotCountABalanceReferencesCoMMoveAsError) {
   Scenario sc = parse_scenario(kInline, fs::path(POISE_SOURCE_DIR) / "tests/simulator");
   sc.sim.world.platforms.clear();
   ScenarioMonitor follows(sc, platforms_of_feet(sc)), stays(sc, platforms_of_feet(sc));
-  GroundTruth g;
-  g.feet.resize(2);
-  g.non_foot_contact.assign(3, 0);
-  g.feet[0].X_WF.translation() = Eigen::Vector3d(0.0, 0.1, 0.0);
-  g.feet[1].X_WF.translation() = Eigen::Vector3d(0.0, -0.1, 0.0);
-  g.feet[0].in_contact = g.feet[1].in_contact = true;
+  GroundTruth g = standing_on_both_feet();
   // The references (estimator frame, offset by (5, -3) m from the truth's: only their
   // differences count): none before tick 100, then a move of 0.1 m to the left over ticks
   // 100..199, held; tick 300 drops the CoM target (back over the feet's mid-point).
