@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <functional>
 #include <memory>
 #include <set>
@@ -639,6 +640,17 @@ TEST(Launch, AKilledComponentIsRestartedByItsPolicy) {
   EXPECT_EQ(r["components"]["contact"]["restarts"], 1) << r.dump(2);
   EXPECT_FALSE(r["failed"].get<bool>()) << r.dump(2);
   EXPECT_NE(r["components"]["contact"]["pid"].get<int>(), contact) << r.dump(2);
+  // The restarted optimiser's log follows the killed one's: appended, never truncated.
+  for (const char* ext : {".out", ".err"}) {
+    std::ifstream in(dir / "logs" / (std::string("contact") + ext));
+    const std::string log((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const auto mark = log.find("a new instance starts here");
+    if (std::string(ext) == ".out" && mark == std::string::npos) continue;  // nothing printed
+    ASSERT_NE(mark, std::string::npos) << ext << ":\n" << log;
+    EXPECT_EQ(log.find("a new instance starts here", mark + 1), std::string::npos) << log;
+    EXPECT_LT(log.find_first_not_of(" \n"), mark) << ext << ": the first instance's lines are lost\n"
+                                                   << log;
+  }
   // Whether the robot survived 0.5 s without contact solutions is #15's business (the
   // controller's fallback); the launcher's job was to bring the optimiser back.
   std::printf("after a restart of the contact optimiser: exit %d, survived %s\n", *code,

@@ -7,6 +7,7 @@
 // Built twice (tests/model/CMakeLists.txt): against poise::model with the scenario parser, and,
 // without it, together with the model sources under AddressSanitizer + UndefinedBehaviorSanitizer.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -366,7 +367,12 @@ TEST(MutatedUrdf, FilesEmptyZeroOversizedMissing) {
   expect_names(error_of([&] { build_model_from_urdf_file(empty); }), {"empty.urdf"}, "empty file");
   const auto t0 = std::chrono::steady_clock::now();
   expect_names(error_of([] { build_model_from_urdf_file("/dev/zero"); }),
-               {"/dev/zero", "limit", "16 MB"}, "/dev/zero");
+               {"/dev/zero", "not a regular file"}, "/dev/zero");
+  // A FIFO where a file is expected is refused at once (reading it would wait for a writer).
+  const fs::path fifo = dir / "fifo.urdf";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  expect_names(error_of([&] { build_model_from_urdf_file(fifo); }),
+               {"fifo.urdf", "not a regular file"}, "a FIFO");
   EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(10));
   const fs::path big = dir / "big.urdf";
   {
@@ -383,10 +389,12 @@ TEST(MutatedUrdf, FilesEmptyZeroOversizedMissing) {
   const fs::path yaml = dir / "robot.yaml";
   std::ofstream(yaml) << std::regex_replace(yaml_text(), std::regex("urdf: [^\\n]*"),
                                             "urdf: /dev/zero");
-  expect_names(error_of([&] { load_robot_config(yaml); }), {"/dev/zero", "limit"},
+  expect_names(error_of([&] { load_robot_config(yaml); }), {"/dev/zero", "not a regular file"},
                "urdf: /dev/zero");
-  expect_names(error_of([] { load_robot_config("/dev/zero"); }), {"/dev/zero", "limit"},
-               "robot config /dev/zero");
+  expect_names(error_of([] { load_robot_config("/dev/zero"); }),
+               {"/dev/zero", "not a regular file"}, "robot config /dev/zero");
+  expect_names(error_of([&] { load_robot_config(fifo); }), {"fifo.urdf", "not a regular file"},
+               "robot config FIFO");
   // from files too, URDF and robot.yaml defects come in one message
   const fs::path urdf = dir / "robot.urdf";
   std::string xml = urdf_text();
@@ -802,8 +810,17 @@ TEST(MutatedScenario, TopLevelFields) {
   expect_names(scenario_error(sub("../robots/poise_humanoid/robot.yaml",
                                   (dir / "robot.yaml").string())),
                {"robot.config", "colour"}, "scenario with a bad robot.yaml");
-  expect_names(error_of([] { scenario::load_scenario("/dev/zero"); }), {"/dev/zero", "16 MB"},
-               "scenario /dev/zero");
+  expect_names(error_of([] { scenario::load_scenario("/dev/zero"); }),
+               {"/dev/zero", "not a regular file"}, "scenario /dev/zero");
+  {
+    const fs::path fifo = dir / "fifo.yaml";
+    ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+    expect_names(error_of([&] { scenario::load_scenario(fifo); }),
+                 {"fifo.yaml", "not a regular file"}, "scenario FIFO");
+    expect_names(scenario_error(sub("  config: ../robots/poise_humanoid/robot.yaml",
+                                    "  config: " + fifo.string())),
+                 {"robot.config", "not a regular file"}, "robot.config FIFO");
+  }
   fs::remove_all(dir);
   // shipped scenarios all still load
   for (const auto& e : fs::directory_iterator(std::string(POISE_SOURCE_DIR) + "/deploy/scenarios")) {

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <urdf_model/model.h>
 #include <urdf_parser/urdf_parser.h>
+#include <unistd.h>
 
 #include <Eigen/Dense>
 #include <Eigen/Geometry>
@@ -13,6 +14,8 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
+#include <vector>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -190,3 +193,85 @@ TEST(ScaledRobots, SixtyFourJointsStandInProcess) {
 }
 
 }  // namespace
+
+namespace {
+
+// The 64-joint URDF with one more joint (on the left wrist), beside a copy of its robot.yaml.
+fs::path write_sixty_five_joint_robot(const fs::path& dir) {
+  fs::create_directories(dir);
+  std::string urdf = slurp(folder(64) / "poise_humanoid_64.urdf");
+  const std::string extra =
+      "  <joint name=\"extra_joint\" type=\"revolute\"><parent link=\"l_wrist_yaw_link\"/>"
+      "<child link=\"extra_link\"/><axis xyz=\"0 0 1\"/>"
+      "<limit lower=\"-1\" upper=\"1\" effort=\"10\" velocity=\"5\"/></joint>\n"
+      "  <link name=\"extra_link\"><inertial><mass value=\"0.01\"/>"
+      "<inertia ixx=\"1e-6\" iyy=\"1e-6\" izz=\"1e-6\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/>"
+      "</inertial></link>\n</robot>";
+  urdf.replace(urdf.rfind("</robot>"), 8, extra);
+  std::ofstream(dir / "poise_humanoid_64.urdf") << urdf;
+  std::ofstream(dir / "robot.yaml") << slurp(folder(64) / "robot.yaml");
+  std::string scenario =
+      slurp(fs::path(POISE_SOURCE_DIR) / "deploy/scenarios/scaling/standing_64.yaml");
+  const std::string rel = "../../robots/poise_humanoid_64/robot.yaml";
+  scenario.replace(scenario.find(rel), rel.size(), (dir / "robot.yaml").string());
+  std::ofstream(dir / "standing_65.yaml") << scenario;
+  return dir;
+}
+
+struct Ran {
+  std::optional<int> code;
+  std::string output;
+};
+
+Ran run_poise(std::vector<std::string> args) {
+  args.insert(args.begin(), poise::testing::bin("poise"));
+  poise::testing::ChildProcess p(args, {}, false, true);
+  Ran r;
+  r.code = p.wait_for(120s);
+  r.output = p.output();
+  return r;
+}
+
+}  // namespace
+
+// (d) The wire carries 64 joints (MAX_JOINTS): a robot with 65 is refused by every tool with a
+// message naming the count and the limit (it used to run in process and write past the joint
+// command's arrays), while the 64-joint robot runs in both modes.
+TEST(ScaledRobots, SixtyFiveJointsAreRefusedByEveryToolSixtyFourRunInBothModes) {
+  const fs::path dir = write_sixty_five_joint_robot(
+      fs::path(::testing::TempDir()) / ("poise_65_" + std::to_string(::getpid())));
+  const std::string urdf = (dir / "poise_humanoid_64.urdf").string();
+  const std::string scenario = (dir / "standing_65.yaml").string();
+  const std::vector<std::vector<std::string>> refusing = {
+      {"model", "info", urdf},
+      {"robot", "init", urdf, "-o", (dir / "init").string()},
+      {"run", scenario, "--in-process", "--duration", "0.01"},
+      {"run", scenario, "--duration", "0.01"},
+  };
+  for (const auto& args : refusing) {
+    const Ran r = run_poise(args);
+    ASSERT_TRUE(r.code.has_value()) << args[0] << " did not end:\n" << r.output;
+    EXPECT_NE(*r.code, 0) << args[0] << " " << args[1] << ":\n" << r.output;
+    EXPECT_NE(r.output.find("65 moving joints"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("at most 64"), std::string::npos) << r.output;
+    EXPECT_EQ(r.output.find("double free"), std::string::npos) << r.output;
+  }
+  EXPECT_FALSE(fs::exists(dir / "init" / "robot.yaml"));
+
+  const std::string standing_64 =
+      std::string(POISE_SOURCE_DIR) + "/deploy/scenarios/scaling/standing_64.yaml";
+  for (const bool in_process : {true, false}) {
+    const std::string out = (dir / (in_process ? "inproc.json" : "dist.json")).string();
+    std::vector<std::string> args = {"run", standing_64, "--duration", "0.3", "-o", out};
+    if (in_process) args.push_back("--in-process");
+    const Ran r = run_poise(args);
+    ASSERT_TRUE(r.code.has_value()) << r.output;
+    EXPECT_EQ(*r.code, 0) << r.output;
+    std::ifstream in(out);
+    ASSERT_TRUE(in.good()) << r.output;
+    const auto j = nlohmann::json::parse(in);
+    EXPECT_TRUE(j.value("survived", false)) << (in_process ? "in process\n" : "distributed\n")
+                                            << r.output;
+  }
+  fs::remove_all(dir);
+}

@@ -1,6 +1,8 @@
 // Model building from URDF (urdfdom) and configuration helpers.
 #include "poise/model/model.hpp"
 
+#include "poise/cli/read_file.hpp"
+
 #include "detail.hpp"
 
 #include <tinyxml.h>
@@ -850,6 +852,12 @@ Model build_model_from_urdf_string(const std::string& xml, const std::string& or
        << " kg (implausible for a robot)";
     b.errors.push_back(os.str());
   }
+  const int moving = static_cast<int>(m.parent.size()) - 1;
+  if (moving > kMaxWireJoints)
+    b.errors.push_back("URDF " + origin + ": " + std::to_string(moving) +
+                       " moving joints; Poise's messages carry at most " +
+                       std::to_string(kMaxWireJoints) +
+                       " (MAX_JOINTS of idl/common.idl): fix the extra joints in the URDF");
   if (!b.errors.empty()) throw ModelError(join_lines(b.errors));
 
   m.nbodies = static_cast<int>(m.parent.size());
@@ -877,27 +885,11 @@ Model build_model_from_urdf_string(const std::string& xml, const std::string& or
 
 std::string read_text_file_limited(const std::filesystem::path& path, const std::string& what,
                                    std::size_t max_bytes) {
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec))
-    throw ModelError(what + " file not found: '" + path.string() + "'");
-  if (std::filesystem::is_directory(path, ec))
-    throw ModelError(what + " path is a directory, not a file: '" + path.string() + "'");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw ModelError("cannot read " + what + " file '" + path.string() + "'");
-  std::string out;
-  char buf[65536];
-  while (in) {
-    in.read(buf, sizeof buf);
-    const auto got = static_cast<std::size_t>(in.gcount());
-    if (got == 0) break;
-    if (out.size() + got > max_bytes)
-      throw ModelError(what + " file '" + path.string() + "' is larger than the limit of " +
-                       std::to_string(max_bytes) + " bytes (" +
-                       std::to_string(max_bytes >> 20) + " MB); refused");
-    out.append(buf, got);
+  try {
+    return cli::read_regular_file(path, what, max_bytes);
+  } catch (const cli::FileError& e) {
+    throw ModelError(e.what());
   }
-  if (in.bad()) throw ModelError("error reading " + what + " file '" + path.string() + "'");
-  return out;
 }
 
 Model build_model_from_urdf_file(const std::filesystem::path& path) {

@@ -1,4 +1,5 @@
 #include "poise/node/robot_description.hpp"
+#include "poise/cli/read_file.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -156,11 +157,7 @@ msg::RobotDescription describe_robot(const model::RobotConfig& robot, const mode
   d.robot_name(robot.name);
   std::string urdf = robot.urdf_xml;
   if (urdf.empty()) {
-    std::ifstream in(robot.urdf_path);
-    if (!in) throw std::runtime_error("cannot read the URDF " + robot.urdf_path.string());
-    std::stringstream text;
-    text << in.rdbuf();
-    urdf = text.str();
+    urdf = cli::read_regular_file(robot.urdf_path, "URDF", model::kMaxFileBytes);
   }
   d.urdf(urdf);
   d.robot_config(robot_yaml);

@@ -80,6 +80,7 @@ void to_msg(const controller::JointCommand& in, const msg::Header& header,
   for (std::size_t j = 0; j < model_to_wire.size(); ++j) {
     const auto i = static_cast<Eigen::Index>(j);
     const int w = model_to_wire[j];
+    if (w < 0 || w >= static_cast<int>(msg::MAX_JOINTS)) continue;  // loaders refuse such robots
     out.tau_ff()[w] = in.tau_ff[i];
     out.q_ref()[w] = in.q_ref[i];
     out.qd_ref()[w] = in.qd_ref[i];

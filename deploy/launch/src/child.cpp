@@ -5,17 +5,33 @@
 #include <signal.h>
 #include <string.h>
 #include <sys/prctl.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <chrono>
+#include <ctime>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
 
 namespace poise::launch {
+namespace {
+
+/// In a log that already holds an earlier instance's output, a line saying that a new one starts.
+void mark_new_instance(int fd) {
+  struct stat st{};
+  if (::fstat(fd, &st) != 0 || st.st_size == 0) return;
+  const std::time_t now = std::time(nullptr);
+  char when[32] = "";
+  std::tm tm{};
+  if (::localtime_r(&now, &tm) != nullptr) std::strftime(when, sizeof when, "%F %T", &tm);
+  ::dprintf(fd, "\n----- poise launch: a new instance starts here (%s) -----\n", when);
+}
+
+}  // namespace
 
 Child::Child(std::string name, std::vector<std::string> argv, const std::filesystem::path& log_dir,
              const Scheduling& scheduling)
@@ -23,10 +39,14 @@ Child::Child(std::string name, std::vector<std::string> argv, const std::filesys
       argv_(std::move(argv)),
       out_path_(log_dir / (name_ + ".out")),
       err_path_(log_dir / (name_ + ".err")) {
-  const int out = ::open(out_path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  const int err = ::open(err_path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  // Appended, never truncated: a restarted component's log follows its predecessor's, whose
+  // last words tell why it was restarted. A line marks where each later instance begins.
+  const int out = ::open(out_path_.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
+  const int err = ::open(err_path_.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
   if (out < 0 || err < 0)
     throw std::runtime_error("cannot create the log files of " + name_ + " in " + log_dir.string());
+  mark_new_instance(out);
+  mark_new_instance(err);
   std::vector<char*> args;
   for (auto& a : argv_)
     args.push_back(a.data());

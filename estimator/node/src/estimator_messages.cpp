@@ -48,6 +48,8 @@ void to_msg(const estimator::EstimatorState& in, const std::vector<int>& model_t
   out.q().fill(0.0);
   out.qd().fill(0.0);
   for (std::size_t j = 0; j < model_to_wire.size(); ++j) {
+    if (model_to_wire[j] < 0 || model_to_wire[j] >= static_cast<int>(msg::MAX_JOINTS))
+      continue;  // loaders refuse robots with more joints than the wire carries
     out.q()[model_to_wire[j]] = in.q[static_cast<Eigen::Index>(j)];
     out.qd()[model_to_wire[j]] = in.qd[static_cast<Eigen::Index>(j)];
   }

@@ -48,17 +48,14 @@
 #include "poise/node/robot_description.hpp"
 #include "poise/safety/safety_layer.hpp"
 #include "poise/cli/parse.hpp"
+#include "poise/cli/read_file.hpp"
 
 namespace {
 
 using namespace poise;
 
 std::string read_text(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error("cannot read " + path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
+  return cli::read_regular_file(path, "robot", model::kMaxFileBytes);
 }
 
 struct Settings {

@@ -1,5 +1,6 @@
 
 #include "poise/sim_node/sim_messages.hpp"
+#include "poise/cli/read_file.hpp"
 #include "poise/node/convert.hpp"
 
 #include <tinyxml.h>
@@ -47,11 +48,7 @@ FootOrder foot_order(const sim::Simulator& sim) {
 msg::RobotDescription make_robot_description(const sim::World& scenario,
                                              const sim::Simulator& sim, const FootOrder& feet) {
   msg::RobotDescription d;
-  std::ifstream file(scenario.sim.robot.urdf_path);
-  if (!file) throw std::runtime_error("cannot read the URDF " + scenario.sim.robot.urdf_path);
-  std::stringstream text;
-  text << file.rdbuf();
-  d.urdf(text.str());
+  d.urdf(cli::read_regular_file(scenario.sim.robot.urdf_path, "URDF", model::kMaxFileBytes));
   d.joint_names(sim.joint_names());
   d.imu_frame(scenario.sim.robot.imu_frame);
   double margin = 0.0, mu = scenario.sim.world.ground.friction, mu_torsion = 0.0;
@@ -63,13 +60,8 @@ msg::RobotDescription make_robot_description(const sim::World& scenario,
     mu_torsion = rc.torsional_mu;
     // The configuration text as the scenario's robot has it: the nodes build their robot from it
     // and the urdf field (its `urdf:` entry is ignored on the receiving side).
-    std::ifstream config(scenario.robot_config);
-    if (!config)
-      throw std::runtime_error("cannot read the robot configuration " +
-                               scenario.robot_config.string());
-    std::stringstream config_text;
-    config_text << config.rdbuf();
-    d.robot_config(config_text.str());
+    d.robot_config(
+        cli::read_regular_file(scenario.robot_config, "robot config", model::kMaxFileBytes));
   } else {
     // A robot given inline (urdf + feet): no configuration to send (nodes need --robot); the
     // name is the URDF's robot name.
@@ -99,7 +91,8 @@ msg::RobotDescription make_robot_description(const sim::World& scenario,
 void to_msg(const sim::SensorFrame& in, const FootOrder& feet, msg::Sensors& out) noexcept {
   out.header().tick(static_cast<std::uint64_t>(in.tick));
   out.header().stamp_ns(std::llround(in.time * 1e9));
-  const auto n = static_cast<std::size_t>(in.q.size());
+  // Loaders refuse robots with more joints than the wire carries; never write past the arrays.
+  const auto n = std::min(static_cast<std::size_t>(in.q.size()), std::size_t{msg::MAX_JOINTS});
   out.joint_count(static_cast<std::uint32_t>(n));
   for (std::size_t j = 0; j < n; ++j) {
     const auto i = static_cast<Eigen::Index>(j);

@@ -1,4 +1,5 @@
 #include "robot_tree.hpp"
+#include "poise/cli/read_file.hpp"
 
 #include <urdf_parser/urdf_parser.h>
 #if POISE_SIM_HAVE_MODEL
@@ -236,15 +237,17 @@ RobotTree parse_robot_tree(const std::string& urdf_xml, const std::string& what,
   b.visit(*root, 0, Eigen::Isometry3d::Identity());
   if (!(b.tree.bodies[0].mass > 0.0))
     fail(what, "the root link '" + root->name + "' and the links fixed to it have no mass");
+  // Every per-joint array on the wire has 64 entries (MAX_JOINTS of idl/common.idl).
+  constexpr std::size_t kMaxWireJoints = 64;
+  if (b.tree.bodies.size() - 1 > kMaxWireJoints)
+    fail(what, std::to_string(b.tree.bodies.size() - 1) +
+                   " moving joints; Poise's messages carry at most 64 (MAX_JOINTS of "
+                   "idl/common.idl)");
   return b.tree;
 }
 
 RobotTree load_robot_tree(const std::string& urdf_path) {
-  std::ifstream in(urdf_path);
-  if (!in) throw std::runtime_error("URDF file '" + urdf_path + "' cannot be opened");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return parse_robot_tree(ss.str(), "'" + urdf_path + "'",
+  return parse_robot_tree(poise::cli::read_regular_file(urdf_path, "URDF", std::size_t{16} << 20), "'" + urdf_path + "'",
                           std::filesystem::absolute(urdf_path).parent_path().string());
 }
 

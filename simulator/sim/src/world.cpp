@@ -1,4 +1,5 @@
 #include "poise/sim/world.hpp"
+#include "poise/cli/read_file.hpp"
 #include "poise/sim/simulator.hpp"
 #include "poise/sim/yaml_checks.hpp"
 #include "reality_detail.hpp"
@@ -638,22 +639,8 @@ std::string read_scenario_text(const fs::path& path) {
                              (names.empty() ? std::string()
                                             : "; the shipped scenarios (by name) are " + names));
   }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error("scenario file '" + path.string() + "' cannot be opened");
-  // Read at most 16 MB (a scenario is a few kB; /dev/zero must not fill the memory).
-  constexpr std::size_t kMaxBytes = std::size_t{16} << 20;
-  std::string text;
-  char buf[65536];
-  while (in) {
-    in.read(buf, sizeof buf);
-    const auto got = static_cast<std::size_t>(in.gcount());
-    if (got == 0) break;
-    if (text.size() + got > kMaxBytes)
-      throw std::runtime_error("scenario file '" + path.string() +
-                               "' is larger than the limit of 16 MB; refused");
-    text.append(buf, got);
-  }
-  return text;
+  // At most 16 MB (a scenario is a few kB), a regular file only (a FIFO would block).
+  return poise::cli::read_regular_file(path, "scenario", std::size_t{16} << 20);
 }
 
 World load_world(const fs::path& path) {

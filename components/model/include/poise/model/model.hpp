@@ -117,6 +117,9 @@ struct Model {
 constexpr std::size_t kMaxFileBytes = std::size_t{16} << 20;  ///< URDF, robot.yaml, scenario
 constexpr int kMaxXmlDepth = 256;            ///< element nesting in a URDF (real ones: < 10)
 constexpr std::size_t kMaxLinks = 10000;     ///< links (and joints) in a URDF
+/// Moving joints a robot may have: every per-joint array on the wire has MAX_JOINTS (64) entries
+/// (idl/common.idl), so a robot with more cannot be run, and every loader refuses it.
+constexpr int kMaxWireJoints = 64;
 constexpr std::size_t kMaxTreeDepth = 1000;  ///< joints between the root and any link
 constexpr double kMaxLinkMass = 1e4;         ///< kg, one link
 constexpr double kMaxTotalMass = 1e5;        ///< kg, the whole robot
