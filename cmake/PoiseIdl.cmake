@@ -9,6 +9,9 @@
 # Output goes to ${CMAKE_BINARY_DIR}/generated/poise/msg/ so that code writes
 #   #include <poise/msg/state.h>
 #
+# After generation, PoiseIdlBoundStrings.cmake makes every deserialiser refuse a bounded string
+# longer than its bound (fastddsgen's code truncates it silently).
+#
 # fastddsgen flags: -cs (case-sensitive: `Header header;` would collide without it) and -replace.
 # Deliberately NO -typeobject: Cyclone DDS 0.10 rejects the type information it produces, which
 # breaks Cyclone <-> Fast DDS matching (see shared/design/dds-notes.md).
@@ -54,7 +57,9 @@ function(poise_generate_idl)
     OUTPUT ${type_sources} ${type_headers} ${pubsub_sources} ${pubsub_headers}
     COMMAND ${CMAKE_COMMAND} -E make_directory ${out_dir}
     COMMAND ${POISE_FASTDDSGEN} -cs -replace -d ${out_dir} ${include_flags} ${idl_abs}
-    DEPENDS ${idl_abs}
+    COMMAND ${CMAKE_COMMAND} "-DFILES=${type_sources}"
+            -P ${CMAKE_CURRENT_FUNCTION_LIST_DIR}/PoiseIdlBoundStrings.cmake
+    DEPENDS ${idl_abs} ${CMAKE_CURRENT_FUNCTION_LIST_DIR}/PoiseIdlBoundStrings.cmake
     COMMENT "fastddsgen: generating C++ types from ${CMAKE_CURRENT_SOURCE_DIR}/*.idl"
     VERBATIM)
 

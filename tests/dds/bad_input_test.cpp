@@ -4,6 +4,9 @@
 
 #include <poise/msg/sensors.h>
 #include <poise/msg/state.h>
+#include <poise/msg/estop.h>
+#include <fastcdr/Cdr.h>
+#include <fastcdr/FastBuffer.h>
 #include <poise/dds/dds.hpp>
 
 #include <cmath>
@@ -141,6 +144,47 @@ TEST_P(BadInput, WriterOfAnotherTypeIsDetectedAndCounted) {
   EXPECT_GE(pr_->type_mismatches(), 1u);
   EXPECT_EQ(sub.matched(), 0);
   EXPECT_EQ(sub.counters().received.load(), 0u);
+}
+
+// CDR of an EStop / Disturbance written field by field with fastcdr, its strings unbounded: what a
+// writer built from another IDL (or by hand) can send. `engaged` stands for the Disturbance's id.
+std::vector<std::uint8_t> estop_cdr(std::uint64_t tick, const std::string& source,
+                                    const std::string& reason) {
+  std::vector<std::uint8_t> buf(64 + source.size() + reason.size());
+  eprosima::fastcdr::FastBuffer fb(reinterpret_cast<char*>(buf.data()), buf.size());
+  eprosima::fastcdr::Cdr ser(fb, eprosima::fastcdr::Cdr::LITTLE_ENDIANNESS,
+                             eprosima::fastcdr::Cdr::DDS_CDR);
+  ser.serialize_encapsulation();
+  ser << tick << std::int64_t{0} << true << source << reason << std::uint64_t{0};
+  buf.resize(ser.getSerializedDataLength());
+  return buf;
+}
+
+// A string longer than its IDL bound is a rejected sample, counted and named (fastddsgen's code
+// used to cut it to the bound and deliver it): a 10,000-character e-stop reason (bound 128) and
+// a 33-character source (bound 32), then a valid e-stop that arrives.
+TEST_P(BadInput, AStringLongerThanItsBoundIsRejectedNotCut) {
+  Subscriber<poise::msg::EStop> sub(*pr_, Qos::latched(8));  // deep: every sample is seen
+  RawPublisher raw(*pw_, "poise/estop", "poise::msg::EStop", Qos::latched(8));
+  ASSERT_TRUE(raw.wait_for_matches(1, 10s));
+  ASSERT_TRUE(sub.wait_for_matches(1, 10s));
+  for (const auto& bytes : {estop_cdr(1, "operator", std::string(10000, 'r')),
+                            estop_cdr(2, std::string(33, 's'), "too long a source"),
+                            estop_cdr(3, std::string(32, 's'), std::string(128, 'r'))})
+    ASSERT_TRUE(raw.publish(bytes.data(), bytes.size()));
+  poise::msg::EStop got;
+  std::vector<std::uint64_t> ticks;
+  ASSERT_TRUE(test::eventually([&] {
+    while (sub.take(got))
+      ticks.push_back(got.header().tick());
+    return !ticks.empty();
+  }));
+  EXPECT_EQ(ticks, std::vector<std::uint64_t>{3});  // exactly at the bounds: delivered whole
+  EXPECT_EQ(got.reason().size(), 128u);
+  EXPECT_EQ(sub.counters().deserialize_errors.load() + sub.counters().rejected.load(), 2u);
+  const std::string err = sub.last_error();
+  EXPECT_NE(err.find("poise/estop"), std::string::npos) << err;
+  EXPECT_NE(err.find("longer than its bound"), std::string::npos) << err;
 }
 
 INSTANTIATE_TEST_SUITE_P(Vendors, BadInput,

@@ -121,7 +121,7 @@ TEST(Vendor, MissingConfigFileIsAClearError) {
 
 // The table's QoS must say what the header comment of each IDL file says.
 TEST(TopicTable, DefaultQosMatchesTheIdlHeaderComments) {
-  ASSERT_EQ(topic_table().size(), 11u);
+  ASSERT_EQ(topic_table().size(), 12u);
   for (const auto& row : topic_table()) {
     const std::string file = std::string(row.topic_name.substr(row.topic_name.find('/') + 1));
     std::ifstream in(std::string(POISE_SOURCE_DIR) + "/idl/" + file + ".idl");

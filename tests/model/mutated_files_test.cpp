@@ -273,6 +273,28 @@ TEST(MutatedUrdf, StructuralDefects) {
                {"'pelvis'", "cone"}, "unknown shape");
 }
 
+// Masses (issue #51 item 4): a denormal mass on a moving link, a massless floating base and a joint
+// that moves nothing are refused by the model as by the simulator (they passed `model info`, and
+// robot init wrote kp: -nan for the last); a massless link between joints stays accepted.
+TEST(MutatedUrdf, MassesTheSimulatorCannotIntegrateAreRefused) {
+  // The mass of `link` set to `value`.
+  auto with_mass = [](std::string xml, const std::string& link, const std::string& value) {
+    const std::size_t at = xml.find("<link name=\"" + link + "\">");
+    EXPECT_NE(at, std::string::npos) << link;
+    const std::size_t m = xml.find("<mass value=\"", at) + 13;
+    xml.replace(m, xml.find('"', m) - m, value);
+    return xml;
+  };
+  expect_names(urdf_error(with_mass(urdf_text(), "l_forearm", "1e-320")),
+               {"'l_forearm'", "at least 1e-06 kg"}, "forearm 1e-320 kg");
+  expect_names(urdf_error(with_mass(urdf_text(), "pelvis", "0")),
+               {"'pelvis'", "floating base"}, "massless pelvis");
+  expect_names(urdf_error(with_mass(with_mass(urdf_text(), "l_forearm", "0"), "l_hand", "0")),
+               {"'l_forearm'", "moves no mass"}, "massless forearm and hand");
+  EXPECT_EQ(urdf_error(with_mass(urdf_text(), "l_forearm", "0")), "(no error)")
+      << "a massless link with a massive link fixed below it is one body with mass";
+}
+
 // Several defects in one file: every one reported in one run, one per line.
 TEST(MutatedUrdf, EveryDefectReportedInOneRun) {
   std::string xml = urdf_text();
@@ -763,6 +785,32 @@ TEST(MutatedScenario, EveryBadNumberIsRefusedNamingTheKey) {
       t.replace(p + num, site.size() - num, v);
       expect_names(scenario_error(t), {key}, key + " = " + v);
     }
+}
+
+// Physical ranges and duplicated keys (issue #51 item 4): each refused naming the key, none run.
+TEST(MutatedScenario, PhysicalRangesAndDuplicatedKeysAreRefused) {
+  const std::string& s = scenario_text();
+  auto sub = [&](const std::string& a, const std::string& b) {
+    const std::size_t p = s.find(a);
+    EXPECT_NE(p, std::string::npos) << a;
+    return s.substr(0, p) + b + s.substr(p + a.size());
+  };
+  const std::vector<std::tuple<std::string, std::string, std::vector<std::string>>> cases = {
+      {"ground: {friction: 0.8", "gravity: [0, 0, -1e6]\n  ground: {friction: 0.8",
+       {"world.gravity", "at most 100"}},
+      {"force: [120.0", "force: [1e9", {"disturbances.pushes[0].force", "at most 5000 N"}},
+      {"force: [120.0", "force: [1e300", {"disturbances.pushes[0].force"}},
+      {"point: [0.0", "point: [1000.0", {"disturbances.pushes[0].point", "within 5 m"}},
+      {"start: 1.0", "start: 1e300", {"disturbances.pushes[0].start", "before the end"}},
+      {"duration: 0.1", "duration: 1e300", {"disturbances.pushes[0].duration", "at most the run"}},
+      {"com_error_max_m: 0.15", "com_error_max_m: -1", {"success.com_error_max_m", ">= 0"}},
+      {"foot_slip_max_m: 0.01", "foot_slip_max_m: -0.01", {"success.foot_slip_max_m", ">= 0"}},
+      {"duration: 4.0", "duration: 1e-9", {"duration", "one control period"}},
+      {"duration: 4.0", "duration: 4.0\nduration: 8.0", {"duration", "duplicated key"}},
+      {"com_error_max_m: 0.15", "com_error_max_m: 0.15\n  com_error_max_m: 0.5",
+       {"success.com_error_max_m", "duplicated key"}},
+  };
+  for (const auto& [from, to, names] : cases) expect_names(scenario_error(sub(from, to)), names, to);
 }
 
 TEST(MutatedScenario, TopLevelFields) {

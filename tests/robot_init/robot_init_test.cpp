@@ -739,7 +739,10 @@ TEST(RobotInit, BadInputsAreRefusedWithAClearError) {
   EXPECT_FALSE(fs::exists(dir / "hanging" / "robot.yaml"));
 
   // No links with joints at all.
-  std::ofstream(dir / "empty.urdf") << "<robot name=\"empty\"><link name=\"base\"/></robot>";
+  std::ofstream(dir / "empty.urdf")
+      << "<robot name=\"empty\"><link name=\"base\"><inertial><mass value=\"1\"/>"
+         "<inertia ixx=\"1\" iyy=\"1\" izz=\"1\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/>"
+         "</inertial></link></robot>";
   auto [c2, t2] = run_command({bin("poise"), "robot", "init", (dir / "empty.urdf").string(), "-o",
                            (dir / "empty").string()}, 30s);
   EXPECT_EQ(c2, 1) << t2;

@@ -11,6 +11,7 @@
 #include "poise/model/robot_config.hpp"
 #include "poise/node/tick_sequencer.hpp"
 #include "poise/safety/safety_layer.hpp"
+#include "poise/safety/writer_gate.hpp"
 
 namespace {
 
@@ -405,6 +406,36 @@ TEST(TickSequencer, ARestartedStreamIsFollowedAfterSilenceOrConfirmation) {
     EXPECT_EQ(s.accept(6, t + kMs), Verdict::kNext);
     EXPECT_EQ(s.restarts(), 1u);
   }
+}
+
+// One commanding writer: the first writer owns the robot; another is refused while the owner is
+// alive (matched and sending), and adopted once the owner is gone (unmatched, or silent for the
+// handover time: a killed controller stays matched until its DDS lease expires).
+TEST(CommandWriterGate, TheFirstWriterCommandsAnotherIsRefusedUntilTheFirstIsGone) {
+  using V = poise::safety::CommandWriterGate::Verdict;
+  poise::safety::CommandWriterGate gate(100 * kMs);
+  std::int64_t t = 0;
+  EXPECT_EQ(gate.check(7, 1, t), V::kOwner);
+  EXPECT_EQ(gate.owner(), 7u);
+  for (int i = 0; i < 50; ++i) {  // a forger interleaved with a live controller, at 1 kHz
+    t += kMs;
+    EXPECT_EQ(gate.check(7, 2, t), V::kOwner);
+    EXPECT_EQ(gate.check(9, 2, t), V::kForeign);
+  }
+  EXPECT_EQ(gate.foreign_samples(), 50u);
+  EXPECT_EQ(gate.last_foreign_writer(), 9u);
+  EXPECT_EQ(gate.owner(), 7u);
+  // The controller is killed: still matched, silent; its successor is refused for 100 ms ...
+  const std::int64_t killed = t;
+  EXPECT_EQ(gate.check(11, 3, killed + 99 * kMs), V::kForeign);
+  // ... then adopted; from then on the old writer is the foreign one.
+  EXPECT_EQ(gate.check(11, 3, killed + 101 * kMs), V::kAdopted);
+  EXPECT_EQ(gate.owner(), 11u);
+  EXPECT_EQ(gate.check(7, 3, killed + 102 * kMs), V::kForeign);
+  EXPECT_EQ(gate.handovers(), 1u);
+  // A restart seen as an unmatch: the only writer matched is adopted at once.
+  EXPECT_EQ(gate.check(13, 1, killed + 103 * kMs), V::kAdopted);
+  EXPECT_EQ(gate.owner(), 13u);
 }
 
 }  // namespace

@@ -132,6 +132,15 @@ bool ReaderCore::take_raw(std::vector<std::uint8_t>& bytes, SampleMeta& meta) no
   return true;
 }
 
+void ReaderCore::set_callback(void* scratch,
+                              std::function<void(const void*, const SampleMeta&)> callback) {
+  reader_->set_on_data_available([this, scratch, cb = std::move(callback)] {
+    SampleMeta meta;
+    while (take(scratch, &meta))
+      cb(scratch, meta);
+  });
+}
+
 void ReaderCore::set_callback(void* scratch, std::function<void(const void*)> callback) {
   reader_->set_on_data_available([this, scratch, cb = std::move(callback)] {
     while (take(scratch))

@@ -16,6 +16,7 @@
 #include <poise/msg/diagnostics.h>
 #include <poise/msg/disturbance.h>
 #include <poise/msg/estop.h>
+#include <poise/msg/estop_state.h>
 #include <poise/msg/ground_truth.h>
 #include <poise/msg/joint_command.h>
 #include <poise/msg/robot_description.h>
@@ -144,17 +145,18 @@ POISE_DDS_DEFINE_TOPIC(ContactSolution)
 POISE_DDS_DEFINE_TOPIC(JointCommand)
 POISE_DDS_DEFINE_TOPIC(Disturbance)
 POISE_DDS_DEFINE_TOPIC(EStop)
+POISE_DDS_DEFINE_TOPIC(EStopState)
 POISE_DDS_DEFINE_TOPIC(Diagnostics)
 #undef POISE_DDS_DEFINE_TOPIC
 
 std::span<const TopicDescription> topic_table() noexcept {
-  static const std::array<TopicDescription, 11> table = {
+  static const std::array<TopicDescription, 12> table = {
       row<poise::msg::RobotDescription>(), row<poise::msg::Sensors>(),
       row<poise::msg::GroundTruth>(),      row<poise::msg::State>(),
       row<poise::msg::BalanceReference>(), row<poise::msg::ContactProblem>(),
       row<poise::msg::ContactSolution>(),  row<poise::msg::JointCommand>(),
       row<poise::msg::Disturbance>(),      row<poise::msg::EStop>(),
-      row<poise::msg::Diagnostics>()};
+      row<poise::msg::EStopState>(),       row<poise::msg::Diagnostics>()};
   return table;
 }
 

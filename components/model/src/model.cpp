@@ -644,6 +644,13 @@ Inertia link_inertia(const urdf::Link& link, const std::string& origin,
     errors.push_back(os.str());
     return Inertia::Zero();
   }
+  if (in.mass > 0.0 && in.mass < kMinBodyMass) {
+    std::ostringstream os;
+    os << where << ": mass " << in.mass << " kg; a link needs at least " << kMinBodyMass
+       << " kg (or exactly 0 for a massless link)";
+    errors.push_back(os.str());
+    return Inertia::Zero();
+  }
   const Eigen::SelfAdjointEigenSolver<Matrix3> es(I, Eigen::EigenvaluesOnly);
   const Vector3 ev = es.eigenvalues();
   const double scale = std::max(1e-12, ev.cwiseAbs().maxCoeff());
@@ -667,6 +674,16 @@ void check_body(const Model& m, int b, const std::string& origin,
     if (f.body == b && !f.is_body) merged += (merged.empty() ? "'" : ", '") + f.name + "'";
   const std::string where = "URDF " + origin + ": link '" + m.body_name[b] + "'" +
                             (merged.empty() ? "" : " (with the fixed links " + merged + ")");
+  // A massless link between two joints is a common way to write a 2- or 3-axis joint; a mass
+  // above zero but below kMinBodyMass (1e-320, a typo) is not, and a floating base needs mass.
+  if ((b == 0 && !(in.mass >= kMinBodyMass)) || (in.mass > 0.0 && in.mass < kMinBodyMass)) {
+    std::ostringstream os;
+    os << where << ": mass " << in.mass << " kg; " << (b == 0 ? "the floating base" : "a body")
+       << " needs at least " << kMinBodyMass << " kg"
+       << (b == 0 ? " (an <inertial> with a mass)" : " (or exactly 0 for a massless link)");
+    errors.push_back(os.str());
+    return;
+  }
   const Eigen::SelfAdjointEigenSolver<Matrix3> es(in.I_com, Eigen::EigenvaluesOnly);
   const Vector3 ev = es.eigenvalues();
   const double scale = std::max(1e-12, ev.cwiseAbs().maxCoeff());
@@ -690,6 +707,22 @@ void check_body(const Model& m, int b, const std::string& origin,
     os << where << ": massless but its inertia has negative eigenvalues " << ev.transpose();
     errors.push_back(os.str());
   }
+}
+
+// Every joint moves some mass: the bodies at and below it weigh at least kMinBodyMass (a massless
+// leaf has no inertia for a gain or an acceleration to act on: robot init wrote kp: -nan).
+void check_moved_mass(const Model& m, const std::string& origin,
+                      std::vector<std::string>& errors) {
+  std::vector<double> below(m.parent.size(), 0.0);
+  for (int b = static_cast<int>(m.parent.size()) - 1; b >= 0; --b) {
+    below[b] += m.inertia[b].mass;
+    if (m.parent[b] >= 0) below[m.parent[b]] += below[b];
+  }
+  for (std::size_t b = 1; b < m.parent.size(); ++b)
+    if (!(below[b] >= kMinBodyMass))
+      errors.push_back("URDF " + origin + ": the joint moving link '" + m.body_name[b] +
+                       "' moves no mass (it and every link below it are massless); give the "
+                       "link an <inertial> or make the joint fixed");
 }
 
 struct Builder {
@@ -844,6 +877,7 @@ Model build_model_from_urdf_string(const std::string& xml, const std::string& or
   b.visit(*root, 0, SE3::Identity());
   for (int body = 0; body < static_cast<int>(m.parent.size()); ++body)
     check_body(m, body, origin, b.errors);
+  check_moved_mass(m, origin, b.errors);
   double total = 0.0;
   for (const Inertia& I : m.inertia) total += I.mass;
   if (total > kMaxTotalMass) {

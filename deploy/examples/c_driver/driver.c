@@ -35,6 +35,7 @@
 #include <dds/dds.h>
 
 #include "estop.h"             /* idlc output of idl/estop.idl */
+#include "estop_state.h"       /* idl/estop_state.idl */
 #include "joint_command.h"     /* idl/joint_command.idl */
 #include "robot_description.h" /* idl/robot_description.idl */
 #include "robot_files.h"
@@ -278,6 +279,8 @@ static int check_entity(dds_entity_t e, const char *what) {
 typedef struct dds_handles {
   dds_entity_t domain, participant;
   dds_entity_t description_writer, sensors_writer, command_reader, estop_reader;
+  dds_entity_t estop_state_writer;
+  poise_msg_EStopState estop_state; /* what it last said on poise/estop_state */
 } dds_handles;
 
 static int dds_setup(const options *o, dds_handles *h) {
@@ -305,6 +308,9 @@ static int dds_setup(const options *o, dds_handles *h) {
                                               "poise/joint_command", NULL, NULL);
   const dds_entity_t t_estop =
       dds_create_topic(h->participant, &poise_msg_EStop_desc, "poise/estop", NULL, NULL);
+  const dds_entity_t t_estop_state = dds_create_topic(h->participant, &poise_msg_EStopState_desc,
+                                                      "poise/estop_state", NULL, NULL);
+  if (check_entity(t_estop_state, "topic poise/estop_state")) return -1;
   if (check_entity(t_desc, "topic poise/robot_description") ||
       check_entity(t_sens, "topic poise/sensors") ||
       check_entity(t_cmd, "topic poise/joint_command") || check_entity(t_estop, "topic poise/estop"))
@@ -323,6 +329,18 @@ static int dds_setup(const options *o, dds_handles *h) {
   q = make_qos(1, 1, 0); /* estop: reliable, transient-local, keep-last 1 (latched) */
   h->estop_reader = dds_create_reader(h->participant, t_estop, q, NULL);
   dds_delete_qos(q);
+  /* estop_state: reliable, transient-local, keep-last 16: this robot side's acknowledgement of
+   * each e-stop sample (request id echoed), which `poise estop` waits for. */
+  q = make_qos(1, 16, 1);
+  h->estop_state_writer = dds_create_writer(h->participant, t_estop_state, q, NULL);
+  dds_delete_qos(q);
+  if (check_entity(h->estop_state_writer, "the estop_state writer")) return -1;
+  memset(&h->estop_state, 0, sizeof h->estop_state);
+  char host[64] = "";
+  if (gethostname(host, sizeof host - 1) != 0) strcpy(host, "unknown-host");
+  snprintf(h->estop_state.robot, sizeof h->estop_state.robot, "c-driver@%s", host);
+  if (dds_write(h->estop_state_writer, &h->estop_state) < 0)
+    fprintf(stderr, "driver: cannot announce itself on poise/estop_state\n");
   if (check_entity(h->description_writer, "the robot_description writer") ||
       check_entity(h->sensors_writer, "the sensors writer") ||
       check_entity(h->command_reader, "the joint_command reader") ||
@@ -449,6 +467,7 @@ typedef struct counters {
   uint64_t answerable;         /* ticks published since the first command */
   uint64_t late_commands;      /* valid command answering an older tick */
   uint64_t watchdog_events, holds, damps, estops;
+  uint64_t foreign_commands;   /* from a second writer while the commanding one is alive */
   uint64_t deadline_misses, skipped_ticks, publish_failures;
   double max_deviation; /* largest |q - q_initial| seen [rad] or [m] */
   int max_deviation_joint;
@@ -522,6 +541,8 @@ int main(int argc, char **argv) {
   const int64_t end = o.duration_s > 0 ? start + (int64_t)(o.duration_s * 1e9) : INT64_MAX;
   int64_t next = start;
   uint64_t tick = 0;
+  dds_instance_handle_t owner = 0; /* the commanding writer of poise/joint_command */
+  int64_t owner_seen_ns = 0;
   while (!g_stop) {
     next += PERIOD_NS;
     sleep_until(next);
@@ -543,6 +564,30 @@ int main(int argc, char **argv) {
       const dds_return_t got = dds_take(h.command_reader, buf, &info, 1, 1);
       if (got <= 0) break;
       if (!info.valid_data) continue;
+      /* One commanding writer: the first whose command comes. Another is refused while the
+       * commanding one is alive (sent within 100 ms, or still matched with it); a restarted
+       * controller is adopted once the old writer is gone. */
+      {
+        dds_subscription_matched_status_t st;
+        const int writers =
+            dds_get_subscription_matched_status(h.command_reader, &st) == 0 ? (int)st.current_count : 1;
+        if (owner == 0 || info.publication_handle == owner) {
+          owner = info.publication_handle;
+          owner_seen_ns = t;
+        } else if (writers <= 1 || t - owner_seen_ns >= 100000000LL) {
+          logf_("poise/joint_command: a new writer %016llx replaces %016llx (a restarted controller)",
+                (unsigned long long)info.publication_handle, (unsigned long long)owner);
+          owner = info.publication_handle;
+          owner_seen_ns = t;
+        } else {
+          if (c.foreign_commands++ < 5 || c.foreign_commands % 1000 == 0)
+            logf_("FAULT poise/joint_command: command from a second writer %016llx refused "
+                  "(%llu so far); writer %016llx commands the robot",
+                  (unsigned long long)info.publication_handle,
+                  (unsigned long long)c.foreign_commands, (unsigned long long)owner);
+          continue;
+        }
+      }
       c.commands++;
       char field[160];
       const driver_reject why = driver_check_command(&cmd, n, field, sizeof field);
@@ -596,6 +641,13 @@ int main(int argc, char **argv) {
       } else if (!estop.engaged && mode == DRIVER_ESTOP) {
         set_mode(&mode, DRIVER_DAMP, t, "e-stop released: damping until fresh commands come");
       }
+      /* Acknowledge: the request id echoed with the stop as now held. */
+      h.estop_state.header.tick = tick;
+      h.estop_state.engaged = mode == DRIVER_ESTOP;
+      h.estop_state.request = estop.request;
+      snprintf(h.estop_state.source, sizeof h.estop_state.source, "%s", estop.source);
+      if (dds_write(h.estop_state_writer, &h.estop_state) < 0)
+        fprintf(stderr, "driver: cannot acknowledge the e-stop on poise/estop_state\n");
     }
 
     /* 2. Watchdog. */
@@ -655,7 +707,8 @@ int main(int argc, char **argv) {
   printf("poise-example-c-driver summary: ticks=%llu last_tick=%llu commands=%llu rejected=%llu "
          "non_finite=%llu bad_joint_count=%llu negative_gain=%llu late_commands=%llu "
          "first_command_tick=%llu answered_within_1_tick=%llu answerable=%llu answered_pct=%.2f "
-         "watchdog_events=%llu holds=%llu damps=%llu estops=%llu deadline_misses=%llu "
+         "watchdog_events=%llu holds=%llu damps=%llu estops=%llu foreign_commands=%llu "
+         "deadline_misses=%llu "
          "skipped_ticks=%llu publish_failures=%llu command_age_ticks=%llu/%llu/%llu/%llu/%llu "
          "max_joint_deviation=%.4f (%s) final_mode=%s\n",
          (unsigned long long)c.ticks, (unsigned long long)tick, (unsigned long long)c.commands,
@@ -665,7 +718,7 @@ int main(int argc, char **argv) {
          (unsigned long long)c.answered, (unsigned long long)c.answerable, pct,
          (unsigned long long)c.watchdog_events, (unsigned long long)c.holds,
          (unsigned long long)c.damps, (unsigned long long)c.estops,
-         (unsigned long long)c.deadline_misses, (unsigned long long)c.skipped_ticks,
+         (unsigned long long)c.foreign_commands, (unsigned long long)c.deadline_misses, (unsigned long long)c.skipped_ticks,
          (unsigned long long)c.publish_failures, (unsigned long long)c.age[0],
          (unsigned long long)c.age[1], (unsigned long long)c.age[2], (unsigned long long)c.age[3],
          (unsigned long long)c.age[4], c.max_deviation, robot.joints[c.max_deviation_joint].name,

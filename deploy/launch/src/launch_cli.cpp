@@ -419,6 +419,15 @@ int launch_main(int argc, char** argv) {
       j["sim"] = summary;
       j["survived"] = summary.value("survived", false);
       code = j["survived"].get<bool>() ? 0 : 1;
+      // One commanding writer: another process on the domain commanded the robot.
+      const auto foreign = summary.value("foreign_commands", 0ULL);
+      if (foreign > 0) {
+        failure = std::to_string(foreign) +
+                  " joint commands from a second writer of poise/joint_command were refused by "
+                  "the simulator (another process on the domain commanded the robot; " +
+                  sim->name + ".err names both writers)";
+        code = 1;
+      }
     }
   }
   // The controller on this host declared the robot fallen (FallConfig): it damps the joints

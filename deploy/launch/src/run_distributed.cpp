@@ -751,6 +751,17 @@ int run_distributed(int argc, char** argv) {
                                      " damping ticks > " + std::to_string(damping_tolerance));
       r["survived"] = false;
     }
+    // One commanding writer: joint commands from anyone else on the domain were refused by the
+    // robot side; the run is not the scenario's (someone else tried to command the robot).
+    misses["robot_foreign_commands"] = num(sim_r, "foreign_commands");
+    if (num(sim_r, "foreign_commands") > 0) {
+      r["failed_criteria"].push_back(
+          std::to_string(num(sim_r, "foreign_commands")) +
+          " joint commands from a second writer of poise/joint_command were refused (another "
+          "process on the domain commanded the robot; the simulator's log names both writers)");
+      r["survived"] = false;
+    }
+    r["misses"] = misses;
     // The scenario's reference trajectory must have been played in full: a player that fell
     // behind the state stream never sends the references of the ticks it skipped (a step in place that never stepped
     // "survived" before). The in-process loop's player sees every state: it skips none.

@@ -25,6 +25,9 @@
 // ------------------------------------------------------------------------------------------------
 #include <CLI/CLI.hpp>
 
+#include <atomic>
+#include <cstdio>
+
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
@@ -44,6 +47,8 @@
 #include "poise/model/kinematics.hpp"
 #include "poise/model/robot_config.hpp"
 #include "poise/node/mailbox.hpp"
+#include "poise/node/estop_channel.hpp"
+#include "poise/safety/writer_gate.hpp"
 #include "poise/node/node.hpp"
 #include "poise/node/robot_description.hpp"
 #include "poise/safety/safety_layer.hpp"
@@ -79,11 +84,20 @@ class Gantry {
         safety_(make_safety(robot_, model_, settings)),
         description_pub_(node.participant()),
         sensors_pub_(node.participant()),
-        estops_(node.participant()),
-        commands_(node.participant(), box_.callback()),
+        estops_(node.participant(), node::robot_side_name("poise-" + node.name())),
+        commands_(node.participant(),
+                  [this](const msg::JointCommand& c, const dds::detail::SampleMeta& m) {
+                    // One commanding writer (safety::CommandWriterGate); the loop reports.
+                    if (gate_.check(m.writer_id, commands_.matched(), node::now_ns()) ==
+                        safety::CommandWriterGate::Verdict::kForeign) {
+                      foreign_.fetch_add(1, std::memory_order_relaxed);
+                      return;
+                    }
+                    box_.put(c);
+                  }),
         rng_(settings.seed) {
     node.watch(commands_);
-    node.watch(estops_);
+    node.watch(estops_.subscriber());
     node.expect_one_writer(commands_);
     q_full_ = robot_.q_nominal;
     v_full_ = Eigen::VectorXd::Zero(model_.nv);
@@ -123,13 +137,17 @@ class Gantry {
       timer.wait_next();
       const std::int64_t t0 = node::now_ns();
       std::int64_t arrival = 0;
+      report_foreign_commands();
       while (box_.take(command_, seen_, &arrival))
         if (!safety_.on_command(command_, k, arrival) && safety_.mode() != safety::Mode::kEStop) {
           ++rejected_;
           node_.error("%s", safety_.last_error());
         }
-      while (estops_.take(estop_))
-        safety_.on_estop(estop_.engaged(), estop_.reason().c_str(), q_, node::now_ns());
+      while (const msg::EStop* e = estops_.take()) {
+        safety_.on_estop(e->engaged(), e->reason().c_str(), q_, node::now_ns());
+        estops_.acknowledge(*e, safety_.mode() == safety::Mode::kEStop,
+                            static_cast<std::uint64_t>(k));
+      }
       const safety::Command& c = safety_.update(node::now_ns(), q_);
       report_mode();
       safety::evaluate(c, q_, qd_, effort_, tau_);
@@ -146,6 +164,20 @@ class Gantry {
     return k >= steps;
   }
 
+  /// A FAULT naming the count once commands from a second writer were refused (latched).
+  void report_foreign_commands() noexcept {
+    const std::uint64_t n = foreign_.load(std::memory_order_relaxed);
+    if (n == foreign_reported_) return;
+    foreign_reported_ = n;
+    std::snprintf(foreign_text_, sizeof foreign_text_,
+                  "poise/joint_command: %llu command(s) from a second writer refused; writer "
+                  "%016llx commands the robot",
+                  static_cast<unsigned long long>(n),
+                  static_cast<unsigned long long>(gate_.owner()));
+    node_.set_condition(msg::HEALTH_FAULT, foreign_text_);
+    node_.error("%s", foreign_text_);
+  }
+
   std::string result_json() const {
     const safety::Counters& s = safety_.counters();
     nlohmann::json j;
@@ -157,6 +189,7 @@ class Gantry {
     j["hold_drift_rad"] = hold_drift_;        // max |q - q_ref| while holding
     j["active_tracking_rad"] = active_error_;  // max |q - q_ref| under control
     j["finite"] = q_.allFinite() && qd_.allFinite();
+    j["foreign_commands"] = foreign_.load();
     j["safety"] = {{"accepted", s.accepted},         {"rejected", s.rejected},
                    {"rejected_tick", s.rejected_tick}, {"ignored_during_estop", s.ignored_estop},
                    {"hold_events", s.hold_events},   {"damp_events", s.damp_events},
@@ -254,7 +287,7 @@ class Gantry {
       reported_ = mode;
       ++transitions_;
       const safety::ModeReport r = safety::report(mode);
-      node_.set_condition(r.health, r.text);
+      if (foreign_reported_ == 0) node_.set_condition(r.health, r.text);
     }
     if (mode == logged_) return;
     const std::int64_t now = node::now_ns();
@@ -278,8 +311,12 @@ class Gantry {
   safety::SafetyLayer safety_;
   dds::Publisher<msg::RobotDescription> description_pub_;
   dds::Publisher<msg::Sensors> sensors_pub_;
-  dds::Subscriber<msg::EStop> estops_;
+  node::EStopChannel estops_;
   node::Mailbox<msg::JointCommand> box_;
+  safety::CommandWriterGate gate_;  // the DDS listener thread's
+  std::atomic<std::uint64_t> foreign_{0};
+  std::uint64_t foreign_reported_ = 0;
+  char foreign_text_[160] = "";
   dds::Subscriber<msg::JointCommand> commands_;
   std::mt19937 rng_;
   Eigen::VectorXd q_full_, v_full_, zero_a_, q_, qd_, tau_, qdd_, rhs_, effort_;
@@ -288,7 +325,6 @@ class Gantry {
   double plate_force_ = 0.0, hold_drift_ = 0.0, active_error_ = 0.0;
   msg::Sensors sensors_;
   msg::JointCommand command_;
-  msg::EStop estop_;
   std::uint64_t seen_ = 0, rejected_ = 0, overruns_ = 0;
   std::int64_t tick_ = 0, ticks_ = 0;
   safety::Mode reported_ = safety::Mode::kStartup, logged_ = safety::Mode::kStartup;

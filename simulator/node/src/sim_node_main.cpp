@@ -62,6 +62,8 @@
 #include <poise/msg/balance_reference.h>
 
 #include "poise/node/mailbox.hpp"
+#include "poise/node/estop_channel.hpp"
+#include "poise/safety/writer_gate.hpp"
 #include "poise/node/node.hpp"
 #include "poise/node/shutdown.hpp"
 #include "poise/sim/world.hpp"
@@ -127,12 +129,15 @@ class SimNode {
         truth_(sim_.make_ground_truth()),
         safety_(make_safety_config(scenario_, sim_, settings)),
         disturbances_(node.participant()),
-        estops_(node.participant()),
+        estops_(node.participant(), node::robot_side_name("poise-" + node.name())),
         description_pub_(node.participant()),
         sensors_pub_(node.participant()),
         truth_pub_(node.participant()),
         publish_ns_(1024, 0),
-        commands_in_(node.participant(), [this](const msg::JointCommand& c) { on_command(c); }),
+        commands_in_(node.participant(),
+                     [this](const msg::JointCommand& c, const dds::detail::SampleMeta& m) {
+                       on_command_from(c, m.writer_id);
+                     }),
         references_(
             node.participant(),
             [this](const msg::BalanceReference& r) {
@@ -144,7 +149,7 @@ class SimNode {
     node.watch(references_);
     node.expect_one_writer(commands_in_);
     node.watch(disturbances_);
-    node.watch(estops_);
+    node.watch(estops_.subscriber());
     applied_ = sim_.make_command();
     applied_.mode = sim::CommandMode::kPd;
     const msg::RobotDescription description =
@@ -250,6 +255,8 @@ class SimNode {
     j["command_timeouts"] = figures_.command_timeouts;
     j["start_repeats"] = figures_.start_repeats;
     j["rejected_commands"] = figures_.rejected_commands;
+    j["foreign_commands"] = foreign_commands_.load();  // from a second writer, refused
+    j["command_writer_handovers"] = writer_handovers_.load();  // a restarted controller adopted
     j["damping_ticks"] = figures_.damping_ticks;
     const safety::Counters& sc = safety_.counters();
     j["watchdog_stale_events"] = sc.hold_events;
@@ -318,9 +325,11 @@ class SimNode {
 
   /// E-stops, then the safety layer's command for this tick; mode changes logged and reported.
   const safety::Command& safety_command() noexcept {
-    while (estops_.take(estop_msg_)) {
-      safety_.on_estop(estop_msg_.engaged(), estop_msg_.reason().c_str(), sensors_.q,
-                       node::now_ns());
+    report_foreign_commands();
+    while (const msg::EStop* e = estops_.take()) {
+      safety_.on_estop(e->engaged(), e->reason().c_str(), sensors_.q, node::now_ns());
+      estops_.acknowledge(*e, safety_.mode() == safety::Mode::kEStop,
+                          static_cast<std::uint64_t>(sensors_.tick));
       note_safety_mode();
     }
     const safety::Command& c = safety_.update(node::now_ns(), sensors_.q);
@@ -346,7 +355,7 @@ class SimNode {
       noted_mode_ = mode;
       ++mode_transitions_;
       const safety::ModeReport report = safety::report(mode);
-      node_.set_condition(report.health, report.text);
+      if (foreign_reported_ == 0) node_.set_condition(report.health, report.text);
     }
     if (mode == logged_mode_) return;
     const std::int64_t now = node::now_ns();
@@ -492,6 +501,40 @@ class SimNode {
     std::int64_t t_pub = 0, wall0 = 0;
     int consecutive = 0;
   };
+
+  /// One commanding writer (safety::CommandWriterGate), on the listener thread: a command from
+  /// another writer while the commanding one is alive is refused and counted; the loop thread
+  /// reports it (report_foreign_commands).
+  void on_command_from(const msg::JointCommand& c, std::uint64_t writer) noexcept {
+    switch (writer_gate_.check(writer, commands_in_.matched(), node::now_ns())) {
+      case safety::CommandWriterGate::Verdict::kForeign:
+        foreign_writer_.store(writer, std::memory_order_relaxed);
+        owner_writer_.store(writer_gate_.owner(), std::memory_order_relaxed);
+        foreign_commands_.fetch_add(1, std::memory_order_release);
+        return;
+      case safety::CommandWriterGate::Verdict::kAdopted:
+        writer_handovers_.fetch_add(1, std::memory_order_relaxed);
+        break;
+      default: break;
+    }
+    on_command(c);
+  }
+
+  /// Loop thread: a FAULT naming both writers once commands from a second writer were refused
+  /// (latched for the rest of the run, which fails: deploy/launch).
+  void report_foreign_commands() noexcept {
+    const std::uint64_t n = foreign_commands_.load(std::memory_order_acquire);
+    if (n == foreign_reported_) return;
+    foreign_reported_ = n;
+    std::snprintf(foreign_text_, sizeof foreign_text_,
+                  "poise/joint_command: %llu command(s) from a second writer (%016llx) refused; "
+                  "writer %016llx commands the robot",
+                  static_cast<unsigned long long>(n),
+                  static_cast<unsigned long long>(foreign_writer_.load()),
+                  static_cast<unsigned long long>(owner_writer_.load()));
+    node_.set_condition(msg::HEALTH_FAULT, foreign_text_);
+    node_.error("%s", foreign_text_);
+  }
 
   void on_command(const msg::JointCommand& c) noexcept {
     command_box_.put(c);
@@ -694,7 +737,12 @@ class SimNode {
   std::condition_variable lockstep_wake_;  ///< the lockstep run ended
   Lockstep lockstep_;
   dds::Subscriber<msg::Disturbance> disturbances_;
-  dds::Subscriber<msg::EStop> estops_;
+  node::EStopChannel estops_;
+  safety::CommandWriterGate writer_gate_;  // the DDS listener thread's
+  std::atomic<std::uint64_t> foreign_commands_{0}, foreign_writer_{0}, owner_writer_{0},
+      writer_handovers_{0};
+  std::uint64_t foreign_reported_ = 0;  // the loop thread's
+  char foreign_text_[200] = "";
   dds::Publisher<msg::RobotDescription> description_pub_;
   dds::Publisher<msg::Sensors> sensors_pub_;
   dds::Publisher<msg::GroundTruth> truth_pub_;
@@ -702,7 +750,6 @@ class SimNode {
   msg::GroundTruth truth_msg_;
   msg::JointCommand command_msg_;
   msg::Disturbance disturbance_;
-  msg::EStop estop_msg_;
   std::vector<std::int64_t> publish_ns_;  ///< publication time of sensors k, ring by k
   Figures figures_;
   // The CoM target shifts of poise/balance_reference, for the monitor (ScenarioMonitor's CoM

@@ -203,9 +203,9 @@ struct Builder {
       const int cb = static_cast<int>(tree.bodies.size()) - 1;
       visit(*child, cb, Eigen::Isometry3d::Identity());
       const BodySpec& made = tree.bodies[static_cast<std::size_t>(cb)];
-      if (!(made.mass > 0.0))
+      if (!(made.mass >= 1e-6))  // poise::model::kMinBodyMass: the same rule as every loader
         fail(what, "link '" + made.name + "' (moved by joint '" + j->name +
-                       "') has no mass: a movable body needs an <inertial> with mass > 0");
+                       "') has no mass: a movable body needs an <inertial> with mass >= 1e-6 kg");
     }
   }
 };
@@ -235,7 +235,7 @@ RobotTree parse_robot_tree(const std::string& urdf_xml, const std::string& what,
   base.name = root->name;
   b.tree.bodies.push_back(base);
   b.visit(*root, 0, Eigen::Isometry3d::Identity());
-  if (!(b.tree.bodies[0].mass > 0.0))
+  if (!(b.tree.bodies[0].mass >= 1e-6))
     fail(what, "the root link '" + root->name + "' and the links fixed to it have no mass");
   // Every per-joint array on the wire has 64 entries (MAX_JOINTS of idl/common.idl).
   constexpr std::size_t kMaxWireJoints = 64;

@@ -49,6 +49,11 @@ struct Ctx : YamlChecks {
 };
 
 constexpr double kDeg = M_PI / 180.0;
+// Physical ranges of a scenario (deploy/scenarios/README.md).
+constexpr double kMaxGravity = 100.0;     // m/s^2, |world.gravity|
+constexpr double kMaxPushForce = 5000.0;  // N, |force| of a scripted push
+constexpr double kMaxPushLever = 5.0;     // m, |point| of a push in its link's frame
+constexpr double kMinDuration = 0.001;    // s, one control period
 
 Sinusoid sinusoid(const Ctx& c, const YAML::Node& n, const std::string& key, bool angular,
                   Eigen::Vector3d& axis) {
@@ -263,6 +268,9 @@ void load_world(const Ctx& c, const YAML::Node& n, World& sc) {
   WorldConfig& w = sc.sim.world;
   if (!n) return;
   if (n["gravity"]) w.gravity = c.vec3(n["gravity"], key + ".gravity");
+  if (!(w.gravity.norm() <= kMaxGravity))
+    c.fail(key + ".gravity", "|g| must be at most " + std::to_string(int(kMaxGravity)) +
+                                 " m/s^2 (Earth: 9.81)");
   if (const YAML::Node g = n["ground"]) {
     c.allow(g, key + ".ground", {"enabled", "height", "friction"});
     w.ground.enabled = c.boolean(g, "enabled", key + ".ground", true);
@@ -320,6 +328,7 @@ World parse_world(const std::string& yaml_text, const fs::path& base_dir,
     throw std::runtime_error(what + ": invalid YAML: " + e.what());
   }
   if (!root.IsMap()) throw std::runtime_error(what + ": the top level must be a mapping");
+  c.refuse_duplicated_keys(root);
   c.allow(root, "",
           {"name", "description", "robot", "world", "initial", "disturbances", "duration",
            "success", "sensors", "solver", "reality", "dds", "estimator", "contact",
@@ -332,7 +341,8 @@ World parse_world(const std::string& yaml_text, const fs::path& base_dir,
   if (root["description"]) sc.description = c.str(root["description"], "description");
   if (!root["duration"]) c.fail("duration", "is required");
   sc.duration = c.num(root["duration"], "duration");
-  if (!(sc.duration > 0.0)) c.fail("duration", "must be > 0");
+  if (!(sc.duration >= kMinDuration))
+    c.fail("duration", "must be at least one control period (0.001 s)");
   if (sc.duration > 1e6) c.fail("duration", "must be at most 1e6 s");
 
   std::vector<std::pair<std::string, double>> nominal;
@@ -450,6 +460,20 @@ World parse_world(const std::string& yaml_text, const fs::path& base_dir,
         push.duration = c.num(p["duration"], pk + ".duration");
         if (push.start < 0.0) c.fail(pk + ".start", "must be >= 0");
         if (push.duration <= 0.0) c.fail(pk + ".duration", "must be > 0");
+        // Physical ranges: a push that could throw a humanoid across the room, or that never
+        // happens within the run, is a mistake in the file.
+        if (!(push.force_W.norm() <= kMaxPushForce))
+          c.fail(pk + ".force", "|force| must be at most " + std::to_string(int(kMaxPushForce)) +
+                                    " N");
+        if (!(push.point_L.norm() <= kMaxPushLever))
+          c.fail(pk + ".point", "must be within " + std::to_string(int(kMaxPushLever)) +
+                                    " m of the link's origin");
+        if (root["duration"] && push.start >= sc.duration)
+          c.fail(pk + ".start", "must be before the end of the run (duration " +
+                                    std::to_string(sc.duration) + " s)");
+        if (push.duration > sc.duration)
+          c.fail(pk + ".duration", "must be at most the run's duration (" +
+                                       std::to_string(sc.duration) + " s)");
         sc.sim.pushes.push_back(push);
       }
     }
@@ -590,6 +614,11 @@ World parse_world(const std::string& yaml_text, const fs::path& base_dir,
     k.com_error_max_m = c.num(s, "com_error_max_m", "success", k.com_error_max_m);
     k.com_error_final_m = c.num(s, "com_error_final_m", "success", k.com_error_final_m);
     k.foot_slip_max_m = c.num(s, "foot_slip_max_m", "success", k.foot_slip_max_m);
+    for (const auto& [name, v] :
+         {std::pair<const char*, double>{"com_error_max_m", k.com_error_max_m},
+          {"com_error_final_m", k.com_error_final_m},
+          {"foot_slip_max_m", k.foot_slip_max_m}})
+      if (s[name] && !(v >= 0.0)) c.fail(std::string("success.") + name, "must be >= 0");
     k.foot_tilt_max_deg = c.num(s, "foot_tilt_max_deg", "success", k.foot_tilt_max_deg);
     if (!(k.foot_tilt_max_deg >= 0.0)) c.fail("success.foot_tilt_max_deg", "must be >= 0");
     k.recovery_time_s = c.num(s, "recovery_time_s", "success", k.recovery_time_s);

@@ -44,6 +44,18 @@ class Subscriber {
                        [this](const void* s) { callback_(*static_cast<const T*>(s)); });
   }
 
+  /// A callback given each sample with its metadata (`meta.writer_id` tells writers apart).
+  using MetaCallback = std::function<void(const T&, const detail::SampleMeta&)>;
+  Subscriber(Participant& participant, MetaCallback callback,
+             const Qos& qos = TopicTraits<T>::default_qos(),
+             std::string_view topic_name = TopicTraits<T>::topic_name)
+      : Subscriber(participant, qos, topic_name) {
+    meta_callback_ = std::move(callback);
+    core_.set_callback(scratch_.get(), [this](const void* s, const detail::SampleMeta& m) {
+      meta_callback_(*static_cast<const T*>(s), m);
+    });
+  }
+
   /// The oldest unread valid sample into `out`. False (out untouched) when there is none.
   /// No allocation for fixed-size types. Never throws.
   bool take(T& out) noexcept {
@@ -75,6 +87,7 @@ class Subscriber {
  private:
   std::unique_ptr<T> scratch_;
   Callback callback_;
+  MetaCallback meta_callback_;
   detail::ReaderCore core_;  // last: its reader (and listener) goes first
 };
 

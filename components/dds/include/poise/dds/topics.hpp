@@ -26,6 +26,7 @@ class ContactSolution;
 class JointCommand;
 class Disturbance;
 class EStop;
+class EStopState;
 class Diagnostics;
 }  // namespace poise::msg
 
@@ -87,6 +88,7 @@ POISE_DDS_DECLARE_TOPIC(ContactSolution, "poise/contact_solution", Qos::control(
 POISE_DDS_DECLARE_TOPIC(JointCommand, "poise/joint_command", Qos::control())
 POISE_DDS_DECLARE_TOPIC(Disturbance, "poise/disturbance", Qos::reliable(16))
 POISE_DDS_DECLARE_TOPIC(EStop, "poise/estop", Qos::latched(1))
+POISE_DDS_DECLARE_TOPIC(EStopState, "poise/estop_state", Qos::latched(16))
 POISE_DDS_DECLARE_TOPIC(Diagnostics, "poise/diagnostics", Qos::best_effort(1))
 
 #undef POISE_DDS_DECLARE_TOPIC

@@ -122,6 +122,9 @@ constexpr std::size_t kMaxLinks = 10000;     ///< links (and joints) in a URDF
 constexpr int kMaxWireJoints = 64;
 constexpr std::size_t kMaxTreeDepth = 1000;  ///< joints between the root and any link
 constexpr double kMaxLinkMass = 1e4;         ///< kg, one link
+/// kg: every body (a link with the links fixed to it), the floating base included, has at least
+/// this mass; lighter (0, a denormal 1e-320) has no dynamics the simulator can integrate.
+constexpr double kMinBodyMass = 1e-6;
 constexpr double kMaxTotalMass = 1e5;        ///< kg, the whole robot
 constexpr double kMaxInertia = 1e5;          ///< kg m^2, any entry of a link's inertia
 constexpr double kMaxOffset = 100.0;         ///< m, any origin offset, shape size or prismatic limit

@@ -11,6 +11,7 @@
 #include <initializer_list>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace poise::sim {
 
@@ -19,6 +20,31 @@ struct YamlChecks {
 
   [[noreturn]] void fail(const std::string& key, const std::string& msg) const {
     throw std::runtime_error(what + ": " + key + ": " + msg);
+  }
+  /// No mapping anywhere below `n` has a key twice (yaml-cpp keeps both and reads the first, so
+  /// the second would be ignored without a word). At most a million nodes are walked.
+  void refuse_duplicated_keys(const YAML::Node& n, const std::string& key = "") const {
+    std::size_t budget = 1000000;
+    walk_for_duplicates(n, key, budget);
+  }
+  void walk_for_duplicates(const YAML::Node& n, const std::string& key,
+                           std::size_t& budget) const {
+    if (budget-- == 0) fail(key.empty() ? "(document)" : key, "more than a million nodes");
+    if (n.IsMap()) {
+      std::vector<std::string> seen;
+      for (const auto& kv : n) {
+        const std::string k = kv.first.IsScalar() ? kv.first.Scalar() : "?";
+        const std::string path = key.empty() ? k : key + "." + k;
+        if (std::find(seen.begin(), seen.end(), k) != seen.end())
+          fail(path, "duplicated key (the second would be ignored)");
+        seen.push_back(k);
+        walk_for_duplicates(kv.second, path, budget);
+      }
+    } else if (n.IsSequence()) {
+      std::size_t i = 0;
+      for (const auto& e : n)
+        walk_for_duplicates(e, key + "[" + std::to_string(i++) + "]", budget);
+    }
   }
   /// A mapping whose keys are all in `keys` (absent is fine).
   void allow(const YAML::Node& n, const std::string& key,

@@ -55,6 +55,8 @@ class ReaderCore {
   /// Typed callback: every accepted sample is deserialised into `scratch` and passed to
   /// `callback` on a vendor listener thread. Call at most once, right after construction.
   void set_callback(void* scratch, std::function<void(const void*)> callback);
+  /// The same, with each sample's metadata (its writer, timestamps).
+  void set_callback(void* scratch, std::function<void(const void*, const SampleMeta&)> callback);
   /// Raw callback.
   void set_raw_callback(
       std::function<void(const std::vector<std::uint8_t>&, const SampleMeta&)> cb);
