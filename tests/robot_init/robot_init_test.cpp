@@ -685,6 +685,34 @@ TEST(RobotInit, RotatedSoleFramesFromRobotYamlStandInProcess) {
 }
 
 // What it cannot use is refused with an error naming the problem, and nothing is overwritten.
+// Missing collision meshes are named, the same way for every format and by every tool (JVRC-1
+// without its mesh files got "no movable link carries collision geometry"): the humanoid with
+// its pelvis and torso colliding through meshes that are not there (COLLADA and STL).
+TEST(RobotInit, MissingCollisionMeshesAreNamedByEveryTool) {
+  const fs::path dir = work_dir("missing_meshes");
+  std::string urdf = shipped_urdf();
+  for (const char* link : {"pelvis", "torso"}) {
+    const std::size_t at = urdf.find("<link name=\"" + std::string(link) + "\">");
+    const std::size_t c = urdf.find("<collision>", at);
+    const std::size_t g0 = urdf.find("<geometry>", c), g1 = urdf.find("</geometry>", c);
+    urdf.replace(g0, g1 - g0, std::string("<geometry><mesh filename=\"package://robot/meshes/") +
+                                  link + (std::string(link) == "pelvis" ? ".dae" : ".STL") +
+                                  "\"/>");
+  }
+  std::ofstream(dir / "robot.urdf") << urdf;
+  for (const std::vector<std::string>& args :
+       {std::vector<std::string>{bin("poise"), "model", "info", (dir / "robot.urdf").string()},
+        std::vector<std::string>{bin("poise"), "robot", "init", (dir / "robot.urdf").string(),
+                                 "-o", (dir / "out").string()}}) {
+    auto [code, out] = run_command(args, 30s);
+    EXPECT_NE(code, 0) << out;
+    for (const char* w : {"'pelvis'", "meshes/pelvis.dae", "'torso'", "meshes/torso.STL",
+                          "not found"})
+      EXPECT_NE(out.find(w), std::string::npos) << args[1] << ": no '" << w << "' in\n" << out;
+  }
+  EXPECT_FALSE(fs::exists(dir / "out" / "robot.yaml"));
+}
+
 TEST(RobotInit, BadInputsAreRefusedWithAClearError) {
   const fs::path dir = work_dir("bad");
   const std::string link = R"(<inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial>)";

@@ -1,5 +1,6 @@
 // `poise model ...`: inspect a URDF model and evaluate its dynamics from a JSON query.
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <iomanip>
@@ -10,6 +11,7 @@
 #include <sstream>
 
 #include "poise/model/centroidal.hpp"
+#include "poise/model/mesh.hpp"
 #include "poise/model/dynamics.hpp"
 #include "poise/model/kinematics.hpp"
 #include "poise/model/model.hpp"
@@ -56,6 +58,15 @@ int run_info(const std::string& path_arg, const std::string& config_arg) {
   }
   if (cfg) urdf = cfg->urdf_path;
   Model model = build_model_from_urdf_file(urdf);
+  // Collision meshes as strictly as the simulator and robot init read them.
+  const std::vector<std::string> meshes =
+      collision_mesh_problems(read_text_file_limited(urdf, "URDF"), urdf.parent_path());
+  if (!meshes.empty()) {
+    std::string all = "URDF '" + urdf.string() + "': " + std::to_string(meshes.size()) +
+                      " collision mesh(es) the simulator cannot read:";
+    for (const std::string& m : meshes) all += "\n  " + m;
+    throw ModelError(all);
+  }
   if (!cfg) cfg = config_beside(urdf);
   if (cfg) add_config_frames(model, *cfg);  // sole frames given as offsets in robot.yaml
 
@@ -67,11 +78,14 @@ int run_info(const std::string& path_arg, const std::string& config_arg) {
   for (const std::string& n : model.notes) std::cout << "note: " << n << "\n";
   std::cout << "\n";
   std::cout << "joints (model order; q index, v index):\n";
+  std::size_t name_width = 22;  // long names must not run into the type column
+  for (const std::string& n : model.joint_names) name_width = std::max(name_width, n.size() + 1);
   for (int j = 0; j < model.njoints; ++j) {
     const JointLimits& l = model.limits[j];
     const int b = j + 1;
-    std::cout << "  " << std::setw(3) << j << "  " << std::left << std::setw(22)
-              << model.joint_names[j] << std::setw(11) << type_name(model.joint_type[b])
+    std::cout << "  " << std::setw(3) << j << "  " << std::left
+              << std::setw(static_cast<int>(name_width)) << model.joint_names[j] << std::setw(11)
+              << type_name(model.joint_type[b])
               << std::right << " " << model.body_name[model.parent[b]] << " -> "
               << model.body_name[b] << "  q[" << model.idx_q(j) << "] v[" << model.idx_v(j)
               << "]  pos [" << l.lower << ", " << l.upper << "]  vel " << l.velocity << "  effort "

@@ -264,4 +264,60 @@ std::vector<Eigen::Vector3d> read_mesh_vertices(const fs::path& path) {
   return v;
 }
 
+std::string read_collision_mesh(const std::string& filename, const Eigen::Vector3d& scale,
+                                const fs::path& urdf_dir, std::vector<Eigen::Vector3d>& points) {
+  points.clear();
+  if (!scale.allFinite() || (scale.array().abs() < 1e-9).any()) {
+    std::ostringstream os;
+    os << "scale " << scale.transpose() << ": every factor must be finite and non-zero";
+    return os.str();
+  }
+  const fs::path file = resolve_mesh_path(filename, urdf_dir);
+  if (file.empty())
+    return "not found (or not a regular file), looked for from " + urdf_dir.string() +
+           " and its parents";
+  try {
+    points = read_mesh_vertices(file);
+  } catch (const ModelError& e) {
+    return e.what();
+  }
+  if (points.size() < 4)
+    return file.string() + ": " + std::to_string(points.size()) +
+           " vertices, fewer than a solid's 4";
+  for (Eigen::Vector3d& p : points)
+    p = p.cwiseProduct(scale);
+  return "";
+}
+
+std::vector<std::string> collision_mesh_problems(const std::string& urdf_xml,
+                                                 const fs::path& urdf_dir) {
+  std::vector<std::string> problems;
+  TiXmlDocument doc;
+  doc.Parse(urdf_xml.c_str());
+  const TiXmlElement* robot = doc.FirstChildElement("robot");
+  if (robot == nullptr) return problems;  // the model's own checks say why
+  std::vector<Eigen::Vector3d> points;
+  for (const TiXmlElement* link = robot->FirstChildElement("link"); link != nullptr;
+       link = link->NextSiblingElement("link"))
+    for (const TiXmlElement* c = link->FirstChildElement("collision"); c != nullptr;
+         c = c->NextSiblingElement("collision")) {
+      const TiXmlElement* g = c->FirstChildElement("geometry");
+      const TiXmlElement* mesh = g ? g->FirstChildElement("mesh") : nullptr;
+      if (mesh == nullptr || mesh->Attribute("filename") == nullptr) continue;
+      Eigen::Vector3d scale = Eigen::Vector3d::Ones();
+      if (const char* s = mesh->Attribute("scale")) {
+        std::istringstream in(s);
+        for (int k = 0; k < 3; ++k)
+          if (!(in >> scale[k])) scale[k] = std::nan("");
+      }
+      const std::string filename = mesh->Attribute("filename");
+      const std::string why = read_collision_mesh(filename, scale, urdf_dir, points);
+      if (!why.empty())
+        problems.push_back("link '" + std::string(link->Attribute("name") ? link->Attribute("name")
+                                                                            : "?") +
+                           "': collision mesh '" + filename + "': " + why);
+    }
+  return problems;
+}
+
 }  // namespace poise::model

@@ -927,8 +927,10 @@ std::string read_text_file_limited(const std::filesystem::path& path, const std:
 }
 
 Model build_model_from_urdf_file(const std::filesystem::path& path) {
-  return build_model_from_urdf_string(read_text_file_limited(path, "URDF"),
-                                      "'" + path.string() + "'");
+  std::string origin(1, '\'');  // appended: GCC 12 warns (-Wrestrict) on "'" + s
+  origin += path.string();
+  origin += '\'';
+  return build_model_from_urdf_string(read_text_file_limited(path, "URDF"), origin);
 }
 
 int Model::joint_index(const std::string& n) const {

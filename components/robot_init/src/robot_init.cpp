@@ -99,7 +99,6 @@ SE3 pose_of(const urdf::Pose& p) {
 
 struct BodyGeometry {
   std::vector<Vector3> points_B;   ///< collision points in the body frame
-  std::vector<std::string> meshes;  ///< links with mesh collisions that could not be read
   std::vector<std::string> mesh_files;  ///< mesh files read
 };
 
@@ -241,6 +240,7 @@ int run_init(const Options& opt) {
 
   // ---- collision geometry per body, in the body frame ------------------------------------------
   std::vector<BodyGeometry> geo(m.nbodies);
+  std::vector<std::string> unreadable_meshes;  // the simulator would refuse the robot for these
   for (const model::Frame& f : m.frames) {
     const auto it = u->links_.find(f.name);
     if (it == u->links_.end() || !it->second) continue;
@@ -250,24 +250,31 @@ int run_init(const Options& opt) {
       if (!shape_points(*c->geometry, pts)) {
         if (c->geometry->type != urdf::Geometry::MESH) continue;
         const auto& mesh = static_cast<const urdf::Mesh&>(*c->geometry);
-        const fs::path file = model::resolve_mesh_path(mesh.filename, urdf_path.parent_path());
-        if (file.empty()) {
-          geo[f.body].meshes.push_back(f.name + " (" + mesh.filename + ": not found)");
+        const std::string why = model::read_collision_mesh(
+            mesh.filename, Vector3(mesh.scale.x, mesh.scale.y, mesh.scale.z),
+            urdf_path.parent_path(), pts);
+        if (!why.empty()) {
+          unreadable_meshes.push_back("link '" + f.name + "': collision mesh '" + mesh.filename +
+                                      "': " + why);
           continue;
         }
-        std::vector<Vector3> vertices;
-        try {
-          vertices = model::read_mesh_vertices(file);
-        } catch (const model::ModelError& e) {
-          throw InitError(e.what());
-        }
-        for (const Vector3& p : vertices)
-          pts.emplace_back(p.x() * mesh.scale.x, p.y() * mesh.scale.y, p.z() * mesh.scale.z);
-        geo[f.body].mesh_files.push_back(file.string());
+        geo[f.body].mesh_files.push_back(
+            model::resolve_mesh_path(mesh.filename, urdf_path.parent_path()).string());
       }
       const SE3 X_BC = f.X_BF * pose_of(c->origin);
       for (const Vector3& p : pts) geo[f.body].points_B.push_back(X_BC.act(p));
     }
+  }
+
+  if (!unreadable_meshes.empty()) {
+    std::string all = std::to_string(unreadable_meshes.size()) +
+                      " collision mesh(es) cannot be read (the simulator would refuse the robot; "
+                      "are the robot's mesh files beside its URDF?):";
+    for (std::size_t i = 0; i < unreadable_meshes.size() && i < 8; ++i)
+      all += "\n  " + unreadable_meshes[i];
+    if (unreadable_meshes.size() > 8)
+      all += "\n  ... and " + std::to_string(unreadable_meshes.size() - 8) + " more";
+    throw InitError(all);
   }
 
   // A floating base without collision geometry passes through the floor when the robot falls
@@ -393,9 +400,6 @@ int run_init(const Options& opt) {
     const SE3 A_inv = leg.X_BA.inverse();
     std::vector<Vector3> pts_A;
     for (const Vector3& p : geo[fb].points_B) pts_A.push_back(A_inv.act(p));
-    if (!geo[fb].meshes.empty())
-      checks.push_back("mesh collisions of '" + geo[fb].meshes.front() +
-                       "' were not read: the sole comes from the other shapes only");
     for (const std::string& file : geo[fb].mesh_files)
       checks.push_back("the " + leg.side + " sole comes from the mesh " + file +
                        ": the simulator collides a box of that rectangle, not the mesh");

@@ -344,10 +344,13 @@ int launch_main(int argc, char** argv) {
   }
 
   const auto t0 = std::chrono::steady_clock::now();
-  std::unique_ptr<LineFollower> progress;
+  std::unique_ptr<LineFollower> progress, robot_log;
   if (sim) {
     const Supervisor::Entry* e = supervisor.find(sim->name);
-    if (e && e->child) progress = std::make_unique<LineFollower>(e->child->stdout_path());
+    if (e && e->child) {
+      progress = std::make_unique<LineFollower>(e->child->stdout_path());
+      robot_log = std::make_unique<LineFollower>(e->child->stderr_path());
+    }
   }
   std::string stopped_by;
   while (failure.empty()) {
@@ -355,6 +358,15 @@ int launch_main(int argc, char** argv) {
     if (progress && !quiet) {  // relay the simulator's progress lines
       for (const auto& line : progress->poll())
         if (line.rfind("progress ", 0) == 0) std::printf("  %s\n", line.c_str() + 9);
+      std::fflush(stdout);
+    }
+    // The robot side's safety events on this console, even when quiet: commands that stopped
+    // (HOLD, DAMP), an e-stop, commands from a second writer.
+    if (robot_log) {
+      for (const auto& line : robot_log->poll())
+        if (line.find("safety: ") != std::string::npos ||
+            line.find("second writer") != std::string::npos)
+          std::printf("  robot side: %s\n", line.c_str());
       std::fflush(stdout);
     }
     const Supervisor::Status st = supervisor.poll();

@@ -86,7 +86,7 @@ struct Builder {
         }
         case urdf::Geometry::MESH: {
           body.has_mesh = true;
-          if (!read_mesh(static_cast<const urdf::Mesh&>(*col->geometry), s.points)) continue;
+          if (!read_mesh(link, static_cast<const urdf::Mesh&>(*col->geometry), s.points)) continue;
           s.type = ShapeSpec::Type::kConvex;
           break;
         }
@@ -101,21 +101,22 @@ struct Builder {
 
   // The mesh's vertices, scaled (its frame is the collision's origin); false when it is not found
   // or not readable (another format than STL, OBJ or COLLADA): the link then has no such collision.
-  bool read_mesh(const urdf::Mesh& mesh, std::vector<Eigen::Vector3d>& points) const {
+  // The mesh's vertices, scaled (its frame is the collision's origin); false when meshes are not
+  // read (no folder to find them in). A mesh that cannot be read (missing, not a regular file,
+  // malformed, a zero scale) is refused, naming the link and the file, as by `poise model info`
+  // and `poise robot init` (model::read_collision_mesh).
+  bool read_mesh(const urdf::Link& link, const urdf::Mesh& mesh,
+                 std::vector<Eigen::Vector3d>& points) const {
 #if POISE_SIM_HAVE_MODEL
     if (mesh_dir.empty()) return false;
-    const std::filesystem::path file = model::resolve_mesh_path(mesh.filename, mesh_dir);
-    if (file.empty()) return false;
-    try {
-      points = model::read_mesh_vertices(file);
-    } catch (const model::ModelError&) {
-      return false;
-    }
-    const Eigen::Vector3d scale(mesh.scale.x, mesh.scale.y, mesh.scale.z);
-    if (!scale.allFinite()) fail(what, "mesh '" + mesh.filename + "' has an invalid scale");
-    for (Eigen::Vector3d& p : points) p = p.cwiseProduct(scale);
-    return points.size() >= 4;
+    const std::string why = model::read_collision_mesh(
+        mesh.filename, Eigen::Vector3d(mesh.scale.x, mesh.scale.y, mesh.scale.z), mesh_dir,
+        points);
+    if (!why.empty())
+      fail(what, "link '" + link.name + "': collision mesh '" + mesh.filename + "': " + why);
+    return true;
 #else
+    (void)link;
     (void)mesh;
     (void)points;
     return false;

@@ -23,4 +23,18 @@ std::filesystem::path resolve_mesh_path(const std::string& name,
 /// naming the file: unreadable, another format, malformed, or no vertex.
 std::vector<Eigen::Vector3d> read_mesh_vertices(const std::filesystem::path& path);
 
+/// A collision mesh as a URDF names it (`filename`, `scale`), its vertices scaled into `points`.
+/// Returns "" on success, else the problem in words: a zero or non-finite scale factor, a file
+/// not found (or not a regular file), a file that cannot be read (read_mesh_vertices' reason),
+/// fewer than 4 vertices. The simulator, `poise model info` and `poise robot init` all use it,
+/// so that a mesh one of them refuses, every one refuses.
+std::string read_collision_mesh(const std::string& filename, const Eigen::Vector3d& scale,
+                                const std::filesystem::path& urdf_dir,
+                                std::vector<Eigen::Vector3d>& points);
+
+/// Every collision mesh of the URDF text checked with read_collision_mesh: one line per problem,
+/// "link 'L': collision mesh 'F': reason" (empty: all readable).
+std::vector<std::string> collision_mesh_problems(const std::string& urdf_xml,
+                                                 const std::filesystem::path& urdf_dir);
+
 }  // namespace poise::model
