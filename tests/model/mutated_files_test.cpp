@@ -162,7 +162,7 @@ std::vector<AttrCase> attr_cases() {
       {"origin", "rpy", "<collision>", "rpy", kVectorJunk},
       {"origin", "xyz", "<visual>", "xyz", kVectorJunk},
       {"box", "size", "<collision>", "size", plus(kVectorJunk, {"0.1 0 0.1", "-1 1 1", "1e9 1 1"})},
-      {"sphere", "radius", "<collision>", "radius", plus(kScalarJunk, {"0", "-0.1", "1e6"})},
+      {"sphere", "radius", "<collision>", "radius", plus(kScalarJunk, {"-0.1", "1e6"})},  // 0: a contact point
       {"cylinder", "radius", "<collision>", "radius", plus(kScalarJunk, {"0", "-0.1"})},
       {"cylinder", "length", "<collision>", "length", plus(kScalarJunk, {"-1", "1e300"})},
       {"origin", "xyz", "<joint ", "xyz", plus(kVectorJunk, {"1e300 0 0", "0 0 -250"})},

@@ -713,6 +713,37 @@ TEST(RobotInit, MissingCollisionMeshesAreNamedByEveryTool) {
   EXPECT_FALSE(fs::exists(dir / "out" / "robot.yaml"));
 }
 
+// Point-contact feet (Drake's Atlas: zero-radius spheres) and elements of other XML namespaces
+// (<drake:declare_convex/>, which was "more than one shape"): the humanoid's foot boxes replaced
+// by zero-radius spheres at the corners of their bottom faces, and a Drake element beside the
+// pelvis's shape. Init finds the same soles, the robot stands, and model info names the
+// ignored element once.
+TEST(RobotInit, ZeroRadiusSpheresAreContactPointsAndOtherNamespacesAreIgnored) {
+  const fs::path dir = work_dir("point_feet");
+  std::string xml = shipped_urdf();
+  const std::string box = "<geometry><box size=\"0.22 0.11 0.05\"/></geometry>";
+  std::string points;
+  for (const char* xy : {"-0.08 -0.055", "-0.08 0.055", "0.14 -0.055", "0.14 0.055"})
+    points += std::string("<collision><origin xyz=\"") + xy +
+              " -0.08\"/><geometry><sphere radius=\"0\"/></geometry></collision>";
+  for (const char* foot : {"<link name=\"l_foot\">", "<link name=\"r_foot\">"}) {
+    const std::size_t at = xml.find(foot);
+    ASSERT_NE(at, std::string::npos) << foot;
+    const std::size_t c0 = xml.find("<collision>", at), c1 = xml.find("</collision>", at) + 12;
+    ASSERT_NE(xml.substr(c0, c1 - c0).find(box), std::string::npos) << foot;
+    xml.replace(c0, c1 - c0, points);
+  }
+  const std::size_t pelvis = xml.find("<geometry>", xml.find("<collision>", xml.find("<link name=\"pelvis\">")));
+  xml.insert(pelvis + 10, "<drake:declare_convex/>");
+  const std::string text = write_init_and_stand(xml, dir / "point_feet.urdf", false);
+  EXPECT_EQ(text.find("out of the accepted range"), std::string::npos) << text;
+  auto [code, info] = run_command({bin("poise"), "model", "info", (dir / "point_feet.urdf").string()}, 30s);
+  EXPECT_EQ(code, 0) << info;
+  EXPECT_NE(info.find("other XML namespaces are ignored: drake:declare_convex (1)"),
+            std::string::npos)
+      << info;
+}
+
 TEST(RobotInit, BadInputsAreRefusedWithAClearError) {
   const fs::path dir = work_dir("bad");
   const std::string link = R"(<inertial><mass value="1"/><inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial>)";

@@ -90,6 +90,43 @@ namespace {
 // ---- limits and pre-checks on the raw text, before tinyxml and urdfdom see it ------------------
 
 // Joins collected problems, one per line (each line is a complete message naming its subject).
+/// An element of another XML namespace (`drake:declare_convex`): not URDF, ignored.
+bool is_namespaced(const TiXmlElement* e) {
+  return e->ValueStr().find(':') != std::string::npos;
+}
+
+/// Removes every element of another XML namespace below `e`; their names (with counts) go to
+/// `removed`. True when one was removed.
+bool strip_namespaced(TiXmlElement* e, std::map<std::string, int>& removed) {
+  bool any = false;
+  for (TiXmlElement* c = e->FirstChildElement(); c != nullptr;) {
+    TiXmlElement* next = c->NextSiblingElement();
+    if (is_namespaced(c)) {
+      ++removed[c->ValueStr()];
+      e->RemoveChild(c);
+      any = true;
+    } else {
+      any = strip_namespaced(c, removed) || any;
+    }
+    c = next;
+  }
+  return any;
+}
+
+/// One note naming the elements of other XML namespaces in the URDF text ("" when none).
+std::string namespaced_note(const std::string& xml) {
+  if (xml.find(':') == std::string::npos) return "";
+  TiXmlDocument doc;
+  doc.Parse(xml.c_str());
+  TiXmlElement* robot = doc.FirstChildElement("robot");
+  std::map<std::string, int> found;
+  if (robot == nullptr || !strip_namespaced(robot, found)) return "";
+  std::string names;
+  for (const auto& [name, n] : found)
+    names += (names.empty() ? "" : ", ") + name + " (" + std::to_string(n) + ")";
+  return "elements of other XML namespaces are ignored: " + names;
+}
+
 std::string join_lines(const std::vector<std::string>& errs, std::size_t max_lines = 60) {
   std::string out;
   for (std::size_t i = 0; i < errs.size() && i < max_lines; ++i)
@@ -225,12 +262,20 @@ class RawChecker {
       err(where, "<" + shape_owner->ValueStr() + "> has no <geometry>");
       return;
     }
-    const TiXmlElement* s = g->FirstChildElement();
+    // Elements of other XML namespaces (Drake's <drake:declare_convex/>) are not shapes: ignored
+    // (precheck_xml removes them; the model notes them).
+    auto next_shape = [](const TiXmlElement* e) {
+      while (e != nullptr && is_namespaced(e)) e = e->NextSiblingElement();
+      return e;
+    };
+    const TiXmlElement* s = next_shape(g->FirstChildElement());
     if (s == nullptr) {
       err(w, "no shape");
       return;
     }
-    if (s->NextSiblingElement() != nullptr) err(w, "more than one shape");
+    if (next_shape(s->NextSiblingElement()) != nullptr)
+      err(w, "more than one shape (<" + s->ValueStr() + "> and <" +
+                 next_shape(s->NextSiblingElement())->ValueStr() + ">)");
     const double lo = collision ? std::numeric_limits<double>::min() : 0.0;
     const std::string t = s->ValueStr();
     if (t == "box") {
@@ -238,7 +283,8 @@ class RawChecker {
         if (v->minCoeff() < lo)
           err(w + ": <box> size", collision ? "every size must be > 0" : "sizes must be >= 0");
     } else if (t == "sphere") {
-      scalar(s, "radius", w, true, lo, kMaxOffset);
+      // radius 0: a contact point (Drake's point contacts), accepted in a collision too
+      scalar(s, "radius", w, true, 0.0, kMaxOffset);
     } else if (t == "cylinder" || t == "capsule") {
       scalar(s, "radius", w, true, lo, kMaxOffset);
       scalar(s, "length", w, true, lo, kMaxOffset);
@@ -594,6 +640,8 @@ std::string precheck_xml(const std::string& xml, const std::string& origin) {
       stripped = true;
     }
   }
+  std::map<std::string, int> foreign;
+  stripped = strip_namespaced(doc.FirstChildElement("robot"), foreign) || stripped;
   if (!stripped) return xml;
   TiXmlPrinter printer;
   doc.Accept(&printer);
@@ -914,6 +962,7 @@ Model build_model_from_urdf_string(const std::string& xml, const std::string& or
   m.total_mass = 0.0;
   for (const Inertia& I : m.inertia)
     m.total_mass += I.mass;
+  if (const std::string note = namespaced_note(xml); !note.empty()) m.notes.push_back(note);
   return m;
 }
 

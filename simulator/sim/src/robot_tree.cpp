@@ -25,6 +25,9 @@ Eigen::Isometry3d to_iso(const urdf::Pose& p) {
   return X;
 }
 
+// A <sphere radius="0"> collides as a sphere of this radius, m.
+constexpr double kPointContactRadius = 1e-4;
+
 [[noreturn]] void fail(const std::string& what, const std::string& msg) {
   throw std::runtime_error("URDF " + what + ": " + msg);
 }
@@ -75,7 +78,8 @@ struct Builder {
         case urdf::Geometry::SPHERE: {
           const auto& g = static_cast<const urdf::Sphere&>(*col->geometry);
           s.type = ShapeSpec::Type::kSphere;
-          s.size = Eigen::Vector3d(g.radius, 0.0, 0.0);
+          // radius 0 is a contact point (Drake's point contacts): a 0.1 mm sphere to Bullet
+          s.size = Eigen::Vector3d(std::max(g.radius, kPointContactRadius), 0.0, 0.0);
           break;
         }
         case urdf::Geometry::CYLINDER: {
