@@ -92,7 +92,8 @@ std::pair<int, std::string> stand_in_process(const fs::path& robot_yaml, const f
 }
 
 // init -> model info -> 10 s standing in process, the scenario pointing at the new robot.yaml.
-std::string init_and_stand(const fs::path& urdf, const fs::path& dir, bool expect_added) {
+std::string init_and_stand(const fs::path& urdf, const fs::path& dir, bool expect_added,
+                           bool knees_bend = true) {
   const std::string before = read(urdf);
   const fs::path out = dir / "robot";
   auto [code, text] = run_command({bin("poise"), "robot", "init", urdf.string(), "-o", out.string()}, 60s);
@@ -168,8 +169,10 @@ std::string init_and_stand(const fs::path& urdf, const fs::path& dir, bool expec
         return cfg.q_nominal[7 + cfg.leg_joint_indices[k]];
     return 0.0;
   };
-  EXPECT_GT(knee("l_knee"), 0.2);
-  EXPECT_GT(knee("r_knee"), 0.2);
+  if (knees_bend) {
+    EXPECT_GT(knee("l_knee"), 0.2);
+    EXPECT_GT(knee("r_knee"), 0.2);
+  }
 
   auto [info_code, info] =
       run_command({bin("poise"), "model", "info", (out / "robot.yaml").string()}, 30s);
@@ -182,9 +185,10 @@ std::string init_and_stand(const fs::path& urdf, const fs::path& dir, bool expec
 }
 
 // init_and_stand() on a URDF text written to `urdf` first (a mutated copy of a test robot).
-std::string write_init_and_stand(const std::string& xml, const fs::path& urdf, bool expect_added) {
+std::string write_init_and_stand(const std::string& xml, const fs::path& urdf, bool expect_added,
+                                 bool knees_bend = true) {
   std::ofstream(urdf) << xml;
-  return init_and_stand(urdf, urdf.parent_path(), expect_added);
+  return init_and_stand(urdf, urdf.parent_path(), expect_added, knees_bend);
 }
 
 }  // namespace
@@ -742,6 +746,48 @@ TEST(RobotInit, ZeroRadiusSpheresAreContactPointsAndOtherNamespacesAreIgnored) {
   EXPECT_NE(info.find("other XML namespaces are ignored: drake:declare_convex (1)"),
             std::string::npos)
       << info;
+}
+
+// Pitch joints found by geometry (Unitree H2 cants its hip pitch axes 30 deg about x; the 0.95
+// threshold on |axis . y| missed them, the knees stayed straight and every run failed): the
+// humanoid with both hip pitch axes canted 30 deg finds hip, knee and ankle on each leg, bends
+// its knees and stands.
+TEST(RobotInit, CantedHipPitchAxesAreStillPitchJoints) {
+  const fs::path dir = work_dir("canted_hips");
+  std::string xml = shipped_urdf();
+  for (const char* side : {"l", "r"}) {
+    const std::size_t at = xml.find(std::string("<joint name=\"") + side + "_hip_pitch\"");
+    const std::size_t a = xml.find("<axis xyz=\"0 1 0\"/>", at);
+    ASSERT_NE(a, std::string::npos) << side;
+    xml.replace(a, 20, "<axis xyz=\"0 0.866025 0.5\"/>");
+  }
+  const std::string text = write_init_and_stand(xml, dir / "canted.urdf", false);
+  EXPECT_NE(text.find("pitch joints: hip l_hip_pitch, knee l_knee"), std::string::npos) << text;
+  EXPECT_EQ(text.find("knees not bent"), std::string::npos) << text;
+}
+
+// The CoM over the stance always (H2 as generated: knees straight, CoM 37.5 mm behind the sole
+// centres, standing failed): the humanoid with knees that cannot bend forward and its torso's
+// mass 4 cm forward gets stand points under its CoM, said under "check", and stands.
+TEST(RobotInit, StraightKneesGetStandPointsUnderTheCoM) {
+  const fs::path dir = work_dir("straight_knees");
+  std::string xml = shipped_urdf();
+  for (const char* side : {"l", "r"}) {
+    const std::size_t at = xml.find(std::string("<joint name=\"") + side + "_knee\"");
+    const std::string limit = "<limit lower=\"0\" upper=\"2.4\"";
+    const std::size_t l = xml.find(limit, at);
+    ASSERT_NE(l, std::string::npos) << side;
+    xml.replace(l, limit.size(), "<limit lower=\"-0.01\" upper=\"0.01\"");
+  }
+  const std::size_t torso = xml.find("<origin xyz=\"0 0 0.22\"", xml.find("<link name=\"torso\">"));
+  ASSERT_NE(torso, std::string::npos);
+  xml.replace(torso, std::string("<origin xyz=\"0 0 0.22\"").size(), "<origin xyz=\"0.04 0 0.22\"");
+  const std::string text = write_init_and_stand(xml, dir / "straight.urdf", false, false);
+  EXPECT_NE(text.find("the knees cannot bend"), std::string::npos) << text;
+  EXPECT_NE(text.find("stand_point"), std::string::npos) << text;
+  const std::string yaml = read(dir / "robot" / "robot.yaml");
+  EXPECT_NE(yaml.find("stand_point:"), std::string::npos) << yaml;
+  EXPECT_EQ(yaml.find("effort_limited_sole"), std::string::npos) << yaml;
 }
 
 TEST(RobotInit, BadInputsAreRefusedWithAClearError) {

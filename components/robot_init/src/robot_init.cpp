@@ -493,14 +493,31 @@ int run_init(const Options& opt) {
     checks.push_back("the robot's own left foot is '" + legs[1].foot_frame +
                      "' (on its left, seen along its forward axis)");
   }
+  // Pitch joints by geometry: the leg's sagittal plane holds the robot's forward and the line
+  // from the hip to the ankle; a joint is a pitch joint when its axis is within 45 deg of that
+  // plane's normal, so that most of its motion is in the plane (Unitree's H2 and R1 cant their
+  // hip pitch axes 30 and 25 deg about x: |a.n| = 0.87 and 0.91; roll and yaw axes are near 0).
+  const double kPitchCos = std::cos(M_PI / 4.0);
   for (Leg& leg : legs) {
-    std::vector<std::pair<int, double>> pitch;  // joint, sign of its world axis along ey
+    Vector3 n = ey;
+    if (!leg.joints.empty()) {
+      const Vector3 hip_to_ankle =
+          data.oMi[leg.foot_body].p - data.oMi[leg.joints.front() + 1].p;
+      const Vector3 c = hip_to_ankle.cross(forward);
+      if (c.norm() > 1e-6) n = (c.dot(ey) >= 0.0 ? 1.0 : -1.0) * c.normalized();
+    }
+    std::vector<std::pair<int, double>> pitch;  // joint, sign of its world axis along n
+    std::string others;  // the leg's other revolute joints, with their axes' angle to n
     for (int j : leg.joints) {
       if (m.joint_type[j + 1] != model::JointType::kRevolute &&
           m.joint_type[j + 1] != model::JointType::kContinuous)
         continue;
       const Vector3 aw = data.oMi[j + 1].R * m.axis[j + 1];
-      if (std::abs(aw.dot(ey)) > 0.95) pitch.emplace_back(j, aw.dot(ey) > 0 ? 1.0 : -1.0);
+      if (std::abs(aw.dot(n)) > kPitchCos)
+        pitch.emplace_back(j, aw.dot(n) > 0 ? 1.0 : -1.0);
+      else
+        others += (others.empty() ? "" : ", ") + m.joint_names[j] + " (" +
+                  fmt(std::acos(std::min(1.0, std::abs(aw.dot(n)))) * 180.0 / M_PI, 0) + " deg)";
     }
     if (pitch.size() >= 3) {
       leg.hip = pitch.front().first;
@@ -510,8 +527,13 @@ int run_init(const Options& opt) {
       leg.ankle = pitch.back().first;
       leg.s_ankle = pitch.back().second;
     } else {
+      std::string found;
+      for (const auto& pj : pitch) found += (found.empty() ? "" : ", ") + m.joint_names[pj.first];
       checks.push_back("the " + leg.side + " leg has " + std::to_string(pitch.size()) +
-                       " pitch joints (axis along y), not 3 (hip, knee, ankle): knees not bent");
+                       " pitch joint(s) (axis within 45 deg of the normal of its sagittal plane)" +
+                       (found.empty() ? std::string() : ": " + found) +
+                       ", not 3 (hip, knee, ankle): knees not bent; its other joints' axes from "
+                       "that normal: " + (others.empty() ? std::string("none") : others));
     }
   }
   const bool can_bend = legs[0].knee >= 0 && legs[1].knee >= 0;
@@ -650,9 +672,36 @@ int run_init(const Options& opt) {
     st = stance();
   };
   lean();
-  if (knee > 0.0 && std::abs(st.com_error.dot(fwd2)) > 0.005) {
-    checks.push_back("the CoM could not be put over the sole centres by leaning the legs (" +
-                     fmt(st.com_error.dot(fwd2) * 1000, 1) + " mm off forward)");
+  bool com_stand_points = false;  // stand points under the CoM (not for the joints' efforts)
+  // The CoM over the stance, always. Where the legs cannot lean it over the sole centres (knees
+  // that cannot bend, or a lean that falls short), the stand points go under the CoM: the
+  // controller's CoM target is then where the robot's CoM stands (Unitree H2, hip pitch axes
+  // canted 30 deg: knees straight, CoM 37.5 mm behind the centres, every run failed).
+  if (std::abs(st.com_error.dot(fwd2)) > 0.005 && !opt.stand_centres) {
+    const double off_mm = st.com_error.dot(fwd2) * 1000;
+    const Vector3 e_W(fwd2.x() * st.com_error.dot(fwd2), fwd2.y() * st.com_error.dot(fwd2), 0.0);
+    bool inside = true;
+    for (Leg& leg : legs) {
+      const SE3 X = data.oMi[leg.foot_body] * leg.X_BA;
+      const Eigen::Vector2d p = leg.stand_F().head<2>() + (X.R.transpose() * e_W).head<2>();
+      leg.stand = Eigen::Vector2d(std::round(p.x() * 1e4) / 1e4, std::round(p.y() * 1e4) / 1e4);
+      const auto& so = leg.sole;
+      inside = inside && p.x() > so.x_min + 0.01 && p.x() < so.x_max - 0.01;  // safety_margin
+    }
+    if (!inside)
+      throw InitError("in the nominal posture the CoM is " + fmt(off_mm, 1) +
+                      " mm off forward of the sole centres and the legs cannot lean it over "
+                      "them (" + std::string(knee > 0.0 ? "the lean falls short" : "knees straight") +
+                      "); under the CoM is outside the soles' safe region: it cannot stand");
+    st = stance();
+    com_stand_points = true;
+    checks.push_back("the CoM is " + fmt(off_mm, 1) + " mm off forward of the sole centres (" +
+                     std::string(knee > 0.0 ? "leaning the legs falls short"
+                                            : "the knees cannot bend, so the legs cannot lean") +
+                     "): feet.<side>.stand_point puts the controller's CoM target over the points "
+                     "under the CoM, (" + fmt(legs[1].stand->x(), 4) + ", " +
+                     fmt(legs[1].stand->y(), 4) + ") and (" + fmt(legs[0].stand->x(), 4) + ", " +
+                     fmt(legs[0].stand->y(), 4) + ") of the left and right soles");
   }
   if (st.tilt > 1e-3)
     throw InitError("in the nominal posture a sole is tilted by " + fmt(st.tilt, 4) +
@@ -1018,7 +1067,7 @@ int run_init(const Options& opt) {
        "# axis, toward the end farther from the ankle), both feet averaged.\n"
     << "forward_axis: [" << fmt(forward.x(), 6) << ", " << fmt(forward.y(), 6) << ", 0]\n";
   y << "\ncontact:\n  safety_margin: 0.01\n  friction_mu: 0.8\n  torsional_mu: 0.02\n";
-  if (legs[0].stand || legs[1].stand)
+  if ((legs[0].stand || legs[1].stand) && !com_stand_points)
     y << "  effort_limited_sole: true   # weak leg joints (stand points): the CoP only where they "
          "hold the load\n";
   y << "\n"
