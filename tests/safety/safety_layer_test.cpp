@@ -26,8 +26,11 @@ constexpr std::int64_t kMs = 1'000'000;
 
 Config small_config(int n) {
   Config c;
-  for (int i = 0; i < n; ++i)
-    c.joint_names.push_back("j" + std::to_string(i));
+  for (int i = 0; i < n; ++i) {
+    std::string name = std::to_string(i);  // "j" + name: GCC 12's false -Wrestrict warning
+    name.insert(name.begin(), 'j');
+    c.joint_names.push_back(name);
+  }
   c.hold_kp = Eigen::VectorXd::Constant(n, 100.0);
   c.hold_kd = Eigen::VectorXd::Constant(n, 2.0);
   c.damping_kd = Eigen::VectorXd::Constant(n, 5.0);
@@ -436,6 +439,26 @@ TEST(CommandWriterGate, TheFirstWriterCommandsAnotherIsRefusedUntilTheFirstIsGon
   // A restart seen as an unmatch: the only writer matched is adopted at once.
   EXPECT_EQ(gate.check(13, 1, killed + 103 * kMs), V::kAdopted);
   EXPECT_EQ(gate.owner(), 13u);
+}
+
+// The refusals reach the loop thread once each, naming both writers; the FAULT stays.
+TEST(CommandWriterGate, RefusedCommandsAreReportedOnceNamingBothWriters) {
+  poise::safety::ForeignCommands f;
+  EXPECT_EQ(f.news(), nullptr);
+  EXPECT_FALSE(f.faulted());
+  f.refuse(0xabcd, 0x1234);
+  f.refuse(0xabcd, 0x1234);
+  const char* text = f.news();
+  ASSERT_NE(text, nullptr);
+  const std::string t = text;
+  EXPECT_NE(t.find("2 command(s)"), std::string::npos) << t;
+  EXPECT_NE(t.find("000000000000abcd"), std::string::npos) << t;
+  EXPECT_NE(t.find("0000000000001234"), std::string::npos) << t;
+  EXPECT_EQ(f.news(), nullptr);  // nothing new
+  EXPECT_TRUE(f.faulted());
+  f.refuse(0xabcd, 0x1234);
+  ASSERT_NE(f.news(), nullptr);
+  EXPECT_EQ(f.refused(), 3u);
 }
 
 }  // namespace

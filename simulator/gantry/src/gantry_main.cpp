@@ -90,7 +90,7 @@ class Gantry {
                     // One commanding writer (safety::CommandWriterGate); the loop reports.
                     if (gate_.check(m.writer_id, commands_.matched(), node::now_ns()) ==
                         safety::CommandWriterGate::Verdict::kForeign) {
-                      foreign_.fetch_add(1, std::memory_order_relaxed);
+                      foreign_.refuse(m.writer_id, gate_.owner());
                       return;
                     }
                     box_.put(c);
@@ -164,18 +164,12 @@ class Gantry {
     return k >= steps;
   }
 
-  /// A FAULT naming the count once commands from a second writer were refused (latched).
+  /// A FAULT naming both writers once commands from a second writer were refused (latched).
   void report_foreign_commands() noexcept {
-    const std::uint64_t n = foreign_.load(std::memory_order_relaxed);
-    if (n == foreign_reported_) return;
-    foreign_reported_ = n;
-    std::snprintf(foreign_text_, sizeof foreign_text_,
-                  "poise/joint_command: %llu command(s) from a second writer refused; writer "
-                  "%016llx commands the robot",
-                  static_cast<unsigned long long>(n),
-                  static_cast<unsigned long long>(gate_.owner()));
-    node_.set_condition(msg::HEALTH_FAULT, foreign_text_);
-    node_.error("%s", foreign_text_);
+    if (const char* text = foreign_.news()) {
+      node_.set_condition(msg::HEALTH_FAULT, text);
+      node_.error("%s", text);
+    }
   }
 
   std::string result_json() const {
@@ -189,7 +183,7 @@ class Gantry {
     j["hold_drift_rad"] = hold_drift_;        // max |q - q_ref| while holding
     j["active_tracking_rad"] = active_error_;  // max |q - q_ref| under control
     j["finite"] = q_.allFinite() && qd_.allFinite();
-    j["foreign_commands"] = foreign_.load();
+    j["foreign_commands"] = foreign_.refused();
     j["safety"] = {{"accepted", s.accepted},         {"rejected", s.rejected},
                    {"rejected_tick", s.rejected_tick}, {"ignored_during_estop", s.ignored_estop},
                    {"hold_events", s.hold_events},   {"damp_events", s.damp_events},
@@ -287,7 +281,7 @@ class Gantry {
       reported_ = mode;
       ++transitions_;
       const safety::ModeReport r = safety::report(mode);
-      if (foreign_reported_ == 0) node_.set_condition(r.health, r.text);
+      if (!foreign_.faulted()) node_.set_condition(r.health, r.text);
     }
     if (mode == logged_) return;
     const std::int64_t now = node::now_ns();
@@ -314,9 +308,7 @@ class Gantry {
   node::EStopChannel estops_;
   node::Mailbox<msg::JointCommand> box_;
   safety::CommandWriterGate gate_;  // the DDS listener thread's
-  std::atomic<std::uint64_t> foreign_{0};
-  std::uint64_t foreign_reported_ = 0;
-  char foreign_text_[160] = "";
+  safety::ForeignCommands foreign_;
   dds::Subscriber<msg::JointCommand> commands_;
   std::mt19937 rng_;
   Eigen::VectorXd q_full_, v_full_, zero_a_, q_, qd_, tau_, qdd_, rhs_, effort_;

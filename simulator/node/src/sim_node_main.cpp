@@ -255,7 +255,7 @@ class SimNode {
     j["command_timeouts"] = figures_.command_timeouts;
     j["start_repeats"] = figures_.start_repeats;
     j["rejected_commands"] = figures_.rejected_commands;
-    j["foreign_commands"] = foreign_commands_.load();  // from a second writer, refused
+    j["foreign_commands"] = foreign_.refused();  // from a second writer, refused
     j["command_writer_handovers"] = writer_handovers_.load();  // a restarted controller adopted
     j["damping_ticks"] = figures_.damping_ticks;
     const safety::Counters& sc = safety_.counters();
@@ -355,7 +355,7 @@ class SimNode {
       noted_mode_ = mode;
       ++mode_transitions_;
       const safety::ModeReport report = safety::report(mode);
-      if (foreign_reported_ == 0) node_.set_condition(report.health, report.text);
+      if (!foreign_.faulted()) node_.set_condition(report.health, report.text);
     }
     if (mode == logged_mode_) return;
     const std::int64_t now = node::now_ns();
@@ -508,9 +508,7 @@ class SimNode {
   void on_command_from(const msg::JointCommand& c, std::uint64_t writer) noexcept {
     switch (writer_gate_.check(writer, commands_in_.matched(), node::now_ns())) {
       case safety::CommandWriterGate::Verdict::kForeign:
-        foreign_writer_.store(writer, std::memory_order_relaxed);
-        owner_writer_.store(writer_gate_.owner(), std::memory_order_relaxed);
-        foreign_commands_.fetch_add(1, std::memory_order_release);
+        foreign_.refuse(writer, writer_gate_.owner());
         return;
       case safety::CommandWriterGate::Verdict::kAdopted:
         writer_handovers_.fetch_add(1, std::memory_order_relaxed);
@@ -523,17 +521,10 @@ class SimNode {
   /// Loop thread: a FAULT naming both writers once commands from a second writer were refused
   /// (latched for the rest of the run, which fails: deploy/launch).
   void report_foreign_commands() noexcept {
-    const std::uint64_t n = foreign_commands_.load(std::memory_order_acquire);
-    if (n == foreign_reported_) return;
-    foreign_reported_ = n;
-    std::snprintf(foreign_text_, sizeof foreign_text_,
-                  "poise/joint_command: %llu command(s) from a second writer (%016llx) refused; "
-                  "writer %016llx commands the robot",
-                  static_cast<unsigned long long>(n),
-                  static_cast<unsigned long long>(foreign_writer_.load()),
-                  static_cast<unsigned long long>(owner_writer_.load()));
-    node_.set_condition(msg::HEALTH_FAULT, foreign_text_);
-    node_.error("%s", foreign_text_);
+    if (const char* text = foreign_.news()) {
+      node_.set_condition(msg::HEALTH_FAULT, text);
+      node_.error("%s", text);
+    }
   }
 
   void on_command(const msg::JointCommand& c) noexcept {
@@ -739,10 +730,8 @@ class SimNode {
   dds::Subscriber<msg::Disturbance> disturbances_;
   node::EStopChannel estops_;
   safety::CommandWriterGate writer_gate_;  // the DDS listener thread's
-  std::atomic<std::uint64_t> foreign_commands_{0}, foreign_writer_{0}, owner_writer_{0},
-      writer_handovers_{0};
-  std::uint64_t foreign_reported_ = 0;  // the loop thread's
-  char foreign_text_[200] = "";
+  safety::ForeignCommands foreign_;
+  std::atomic<std::uint64_t> writer_handovers_{0};
   dds::Publisher<msg::RobotDescription> description_pub_;
   dds::Publisher<msg::Sensors> sensors_pub_;
   dds::Publisher<msg::GroundTruth> truth_pub_;

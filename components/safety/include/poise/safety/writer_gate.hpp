@@ -12,7 +12,9 @@
 // controller is alive; only DDS Security keeps it out altogether.
 //
 // Real-time: check() does not allocate and does not throw.
+#include <atomic>
 #include <cstdint>
+#include <cstdio>
 
 namespace poise::safety {
 
@@ -55,6 +57,39 @@ class CommandWriterGate {
   std::uint64_t owner_ = 0, foreign_ = 0;
   std::int64_t owner_seen_ns_ = 0;
   std::uint64_t foreign_samples_ = 0, handovers_ = 0;
+};
+
+/// Commands a CommandWriterGate refused, handed from the DDS listener thread (refuse()) to the
+/// loop thread (news()), which reports them: a FAULT naming both writers, latched.
+class ForeignCommands {
+ public:
+  /// Listener thread: a command of `writer` refused while `owner` commands the robot.
+  void refuse(std::uint64_t writer, std::uint64_t owner) noexcept {
+    writer_.store(writer, std::memory_order_relaxed);
+    owner_.store(owner, std::memory_order_relaxed);
+    refused_.fetch_add(1, std::memory_order_release);
+  }
+  /// Loop thread: the FAULT text when commands were refused since the last call, else nullptr.
+  const char* news() noexcept {
+    const std::uint64_t n = refused_.load(std::memory_order_acquire);
+    if (n == reported_) return nullptr;
+    reported_ = n;
+    std::snprintf(text_, sizeof text_,
+                  "poise/joint_command: %llu command(s) from a second writer (%016llx) refused; "
+                  "writer %016llx commands the robot",
+                  static_cast<unsigned long long>(n),
+                  static_cast<unsigned long long>(writer_.load(std::memory_order_relaxed)),
+                  static_cast<unsigned long long>(owner_.load(std::memory_order_relaxed)));
+    return text_;
+  }
+  /// Loop thread: true once a refusal was reported (the FAULT stays).
+  bool faulted() const noexcept { return reported_ > 0; }
+  std::uint64_t refused() const noexcept { return refused_.load(std::memory_order_relaxed); }
+
+ private:
+  std::atomic<std::uint64_t> refused_{0}, writer_{0}, owner_{0};
+  std::uint64_t reported_ = 0;
+  char text_[200] = "";
 };
 
 }  // namespace poise::safety
