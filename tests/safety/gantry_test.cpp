@@ -55,7 +55,6 @@ TEST(Gantry, EStopThenReleaseThenAKilledControllerHoldsThenDamps) {
   e.engaged(false);
   ASSERT_TRUE(estop.publish(e));
   std::this_thread::sleep_for(1500ms);
-  const std::size_t before_kill = gantry.output().size();
   ::kill(controller.pid(), SIGKILL);
   ASSERT_TRUE(gantry.wait_for_output("safety: DAMP", 10s)) << gantry.output();
   // HOLD came first: DAMP is entered only from HOLD (damp_events below), and the hold lasted

@@ -3,12 +3,29 @@
 #include <algorithm>
 #include <filesystem>
 #include <map>
+#include <mutex>
+#include <set>
 #include <stdexcept>
 #include <utility>
 
+#include "poise/dds/domain_claim.hpp"
 #include "poise/dds/log.hpp"
 
 namespace poise::dds {
+namespace {
+
+// Once per domain and process: a domain whose ports lie in the ephemeral range can be discovered
+// from another domain (domain_claim.hpp says how).
+void warn_if_domain_exposed(int domain) {
+  static std::mutex mutex;
+  static std::set<int> warned;
+  std::lock_guard lock(mutex);
+  if (!warned.insert(domain).second) return;
+  const std::string warning = domain_port_warning(domain);
+  if (!warning.empty()) log(LogLevel::warn, "%s", warning.c_str());
+}
+
+}  // namespace
 
 Participant::Participant(const DdsOptions& options)
     : vendor_(options.vendor),
@@ -19,6 +36,7 @@ Participant::Participant(const DdsOptions& options)
   if (domain_id_ < 0 || domain_id_ > 232) {
     throw std::runtime_error(where + ": domain id must be in 0..232");
   }
+  warn_if_domain_exposed(domain_id_);
   config_path_ = options.config_path.empty() ? default_config_path(vendor_) : options.config_path;
   if (config_path_.empty()) {
     throw std::runtime_error(where + ": cannot find deploy/dds/" + std::string(to_string(vendor_)) +

@@ -176,7 +176,7 @@ int run_distributed(int argc, char** argv) {
   app.add_option("--dds-estimator", s.dds_estimator, "vendor of the estimator")->check(vendors);
   app.add_option("--dds-contact", s.dds_contact, "vendor of the contact optimiser")->check(vendors);
   app.add_option("--dds-controller", s.dds_controller, "vendor of the controller")->check(vendors);
-  app.add_option("--domain", s.domain, "DDS domain id (default: $POISE_DDS_DOMAIN, else a free one in 100..231)")
+  app.add_option("--domain", s.domain, "DDS domain id (default: $POISE_DDS_DOMAIN, else a free one in 50..100)")
       ->check(CLI::Range(0, 232));
   app.add_option("--output,-o", s.output,
                  "JSON result file (default: results/<scenario>.json; <scenario>.2.json and so "
@@ -290,10 +290,8 @@ int run_distributed(int argc, char** argv) {
       const char* env = std::getenv("POISE_DDS_DOMAIN");
       if (env != nullptr && *env != '\0') s.domain = dds::dds_options_from_env().domain_id;
     }
-    int domain = s.domain >= 0 ? s.domain : dds::claim_free_domain();
+    const int domain = s.domain >= 0 ? s.domain : dds::claim_free_domain();
     // Cyclone's security plugins take domains 0..230 only.
-    while (!s.security.empty() && s.domain < 0 && domain > 230)
-      domain = dds::claim_free_domain();
     if (!s.security.empty() && domain > 230)
       throw std::runtime_error("DDS Security takes domains 0..230 (Cyclone's plugins)");
     // The log directory is this run's alone (log_dir.hpp): with the default and another run of
