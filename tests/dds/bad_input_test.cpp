@@ -155,7 +155,8 @@ std::vector<std::uint8_t> estop_cdr(std::uint64_t tick, const std::string& sourc
   eprosima::fastcdr::Cdr ser(fb, eprosima::fastcdr::Cdr::LITTLE_ENDIANNESS,
                              eprosima::fastcdr::Cdr::DDS_CDR);
   ser.serialize_encapsulation();
-  ser << tick << std::int64_t{0} << true << source << reason << std::uint64_t{0};
+  ser << tick << std::int64_t{0} << true << source << reason;
+  ser << std::uint64_t{0} << std::uint32_t{0};  // request, kind
   buf.resize(ser.getSerializedDataLength());
   return buf;
 }

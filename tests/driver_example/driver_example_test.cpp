@@ -21,6 +21,7 @@
 #include <memory>
 #include <string>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 #include "support/child_process.hpp"
@@ -193,6 +194,43 @@ TEST(DriverExample, HoldsWithin10MsThenDampsWhenTheControllerIsKilled) {
   EXPECT_EQ(summary_value(all, "damps"), 1) << all;
   EXPECT_EQ(summary_value(all, "rejected"), 0) << all;
   EXPECT_NE(all.find("final_mode=DAMP"), std::string::npos) << all;
+}
+
+// The stop kinds of poise/estop in the C driver, through `poise estop`: a protective stop holds
+// (PROTECTIVE_STOP), an emergency stop takes over from it (ESTOP), a protective request during
+// the emergency stop is refused and named by the CLI, and each release is acknowledged.
+TEST(DriverExample, ProtectiveAndEmergencyStopsAreAppliedAndAcknowledgedByKind) {
+  const std::string dom = domain();
+  ChildProcess driver(driver_args(dom, {"--duration", "60"}), {}, false, true);
+  ASSERT_TRUE(driver.wait_for_output("domain " + dom, 20000ms)) << driver.output();
+  auto estop = [&](std::vector<std::string> extra) {
+    std::vector<std::string> a{bin("poise"), "estop", "--domain", dom, "--discover-ms", "100"};
+    a.insert(a.end(), extra.begin(), extra.end());
+    return poise::testing::run_command(a, 30000ms);
+  };
+  auto [code, out] = estop({"--protective"});
+  ASSERT_EQ(code, 0) << out << driver.output();
+  EXPECT_NE(out.find("c-driver@"), std::string::npos) << out;
+  EXPECT_NE(out.find("protective stop (holding) ENGAGED"), std::string::npos) << out;
+  EXPECT_TRUE(driver.wait_for_output("PROTECTIVE_STOP t_ns=", 5000ms)) << driver.output();
+  std::tie(code, out) = estop({});
+  ASSERT_EQ(code, 0) << out << driver.output();
+  EXPECT_NE(out.find("e-stop (damping) ENGAGED"), std::string::npos) << out;
+  EXPECT_TRUE(driver.wait_for_output("ESTOP t_ns=", 5000ms)) << driver.output();
+  std::tie(code, out) = estop({"--protective"});
+  EXPECT_EQ(code, 1) << out;
+  EXPECT_NE(out.find("holds an e-stop (damping): release that first"), std::string::npos) << out;
+  std::tie(code, out) = estop({"--release"});
+  EXPECT_EQ(code, 0) << out;
+  std::tie(code, out) = estop({"--protective"});
+  EXPECT_EQ(code, 0) << out;
+  std::tie(code, out) = estop({"--release"});
+  EXPECT_EQ(code, 0) << out;
+  EXPECT_TRUE(driver.wait_for_output("protective stop released", 5000ms)) << driver.output();
+  EXPECT_EQ(driver.interrupt(5000ms).value_or(-1), 0) << driver.output();
+  const std::string all = driver.output();
+  EXPECT_EQ(summary_value(all, "estops"), 1) << all;
+  EXPECT_EQ(summary_value(all, "protective_stops"), 2) << all;
 }
 
 }  // namespace

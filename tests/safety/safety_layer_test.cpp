@@ -7,6 +7,12 @@
 #include <random>
 #include <string>
 
+#include <Eigen/Geometry>
+
+#include <algorithm>
+
+#include "poise/model/centroidal.hpp"
+#include "poise/model/kinematics.hpp"
 #include "poise/model/model.hpp"
 #include "poise/model/robot_config.hpp"
 #include "poise/node/tick_sequencer.hpp"
@@ -251,7 +257,7 @@ TEST(SafetyLayer, EStopDampsIgnoresCommandsAndIsLatchedUntilReleased) {
   const Eigen::VectorXd q = Eigen::Vector4d(0.1, 0.2, 0.3, 0.4);
   s.start(Eigen::VectorXd::Zero(n), 0);
   ASSERT_TRUE(s.on_command(random_command(n, 1, rng), 1, 0));
-  s.on_estop(true, "operator pressed the button", q, kMs);
+  s.on_estop(true, poise::safety::Stop::kEmergencyDamp, "operator pressed the button", q, kMs);
   ASSERT_EQ(s.mode(), Mode::kEStop);
   EXPECT_NE(std::string(s.last_error()).find("operator pressed the button"), std::string::npos);
   for (std::uint64_t k = 2; k < 20; ++k) {  // fresh commands do not release it
@@ -264,13 +270,74 @@ TEST(SafetyLayer, EStopDampsIgnoresCommandsAndIsLatchedUntilReleased) {
   }
   EXPECT_EQ(s.counters().ignored_estop, 18u);
   EXPECT_EQ(s.counters().rejected, 0u);
-  s.on_estop(false, "", q, 30 * kMs);
+  s.on_estop(false, poise::safety::Stop::kEmergencyDamp, "", q, 30 * kMs);
   const Command& held = s.update(30 * kMs, q);
   ASSERT_EQ(s.mode(), Mode::kHold);
   EXPECT_EQ(held.q_ref, q);
   const auto cmd = random_command(n, 31, rng);
   ASSERT_TRUE(s.on_command(cmd, 31, 31 * kMs));
   expect_command_equals(s.update(31 * kMs, q), cmd, n);
+}
+
+// A protective stop (category 2) holds the posture at the stop with the hold gains and the
+// feed-forward that was carrying it, ignores commands, never times out into DAMP, and is
+// released into HOLD. An emergency stop takes over from it; it never eases an emergency stop.
+TEST(SafetyLayer, AProtectiveStopHoldsThePostureWithoutTimeLimitAndNeverEasesAnEStop) {
+  using poise::safety::Stop;
+  const int n = 4;
+  Config config = small_config(n);
+  config.hold_s = 0.5;
+  SafetyLayer s(config);
+  std::mt19937 rng(6);
+  const Eigen::VectorXd q = Eigen::Vector4d(0.1, -0.2, 0.3, -0.4);
+  s.start(Eigen::VectorXd::Zero(n), 0);
+  const auto carrying = random_command(n, 1, rng);
+  ASSERT_TRUE(s.on_command(carrying, 1, kMs));
+  s.on_estop(true, Stop::kProtectiveHold, "cell door opened", q, 2 * kMs);
+  ASSERT_EQ(s.mode(), Mode::kProtectiveStop);
+  EXPECT_TRUE(s.stopped());
+  EXPECT_NE(std::string(s.last_error()).find("cell door opened"), std::string::npos);
+  const std::int64_t ten_hold_times = 5000;  // ms: ten times hold_s
+  for (std::int64_t k = 3; k < ten_hold_times; ++k) {
+    EXPECT_FALSE(s.on_command(random_command(n, static_cast<std::uint64_t>(k), rng), k, k * kMs));
+    const Command& c = s.update(k * kMs, q);
+    ASSERT_EQ(s.mode(), Mode::kProtectiveStop) << "tick " << k;
+    if (k == 3) {
+      EXPECT_EQ(c.q_ref, q);  // the posture at the stop, not the command's targets
+      EXPECT_TRUE(c.qd_ref.isZero());
+      EXPECT_EQ(c.kp, config.hold_kp);
+      EXPECT_EQ(c.kd, config.hold_kd);
+      for (int i = 0; i < n; ++i)  // the feed-forward that carried the robot
+        EXPECT_DOUBLE_EQ(c.tau_ff[i], carrying.tau_ff()[static_cast<std::size_t>(i)]);
+    }
+  }
+  EXPECT_EQ(s.counters().damp_events, 0u);
+  EXPECT_EQ(s.counters().protective_stop_events, 1u);
+  EXPECT_EQ(s.counters().ticks_protective_stop, static_cast<std::uint64_t>(ten_hold_times - 3));
+  // Asked again: nothing changes. An emergency stop takes over at once.
+  s.on_estop(true, Stop::kProtectiveHold, "again", q, ten_hold_times * kMs);
+  EXPECT_EQ(s.counters().protective_stop_events, 1u);
+  s.on_estop(true, Stop::kEmergencyDamp, "fell against the door", q, ten_hold_times * kMs);
+  ASSERT_EQ(s.mode(), Mode::kEStop);
+  EXPECT_TRUE(s.update(ten_hold_times * kMs, q).kp.isZero());
+  // A protective request does not ease the emergency stop into a hold.
+  s.on_estop(true, Stop::kProtectiveHold, "ease it", q, (ten_hold_times + 1) * kMs);
+  EXPECT_EQ(s.mode(), Mode::kEStop);
+  EXPECT_EQ(s.counters().refused_protective_stops, 1u);
+  EXPECT_NE(std::string(s.last_error()).find("release it first"), std::string::npos);
+  // Released: HOLD of the posture now, until a fresh command.
+  s.on_estop(false, Stop::kEmergencyDamp, "", q, (ten_hold_times + 2) * kMs);
+  EXPECT_EQ(s.mode(), Mode::kHold);
+  // A protective stop released goes on holding its posture, into HOLD.
+  s.on_estop(true, Stop::kProtectiveHold, "", q, (ten_hold_times + 3) * kMs);
+  const Eigen::VectorXd moved = q * 2.0;
+  s.on_estop(false, Stop::kProtectiveHold, "", moved, (ten_hold_times + 4) * kMs);
+  ASSERT_EQ(s.mode(), Mode::kHold);
+  EXPECT_EQ(s.update((ten_hold_times + 4) * kMs, moved).q_ref, q);
+  // The wire's kinds: an unknown value reads as the emergency stop.
+  EXPECT_EQ(poise::safety::to_stop(poise::msg::STOP_PROTECTIVE_HOLD), Stop::kProtectiveHold);
+  EXPECT_EQ(poise::safety::to_stop(poise::msg::STOP_EMERGENCY_DAMP), Stop::kEmergencyDamp);
+  EXPECT_EQ(poise::safety::to_stop(static_cast<poise::msg::StopKind>(7)), Stop::kEmergencyDamp);
 }
 
 TEST(SafetyLayer, EvaluateIsTheCommandLawClampedToTheEffortLimits) {
@@ -341,14 +408,81 @@ TEST(SafetyConfig, HoldGainsAreBoundedByEachJointsInertiaSoALightWristStaysStabl
   EXPECT_LT(simulate_pd(inertia, c.hold_kp[0], c.damping_kd[0], dt), 1e-3);
 }
 
-TEST(SafetyConfig, TheShippedHumanoidKeepsItsConfiguredGains) {
+// The robot's potential energy -M g.c after turning joint j's load by `angle` about the joint
+// axis: a joint between the base and a foot turns the rest of the robot about the axis with the
+// foot fixed (the base pose turns, q_j takes the opposite turn); any other joint turns its subtree.
+double potential_after_turn(const poise::model::Model& model, const Eigen::VectorXd& q, int j,
+                            bool foot_side, double angle) {
+  poise::model::Data data(model);
+  poise::model::forward_kinematics(model, data, q);
+  Eigen::VectorXd turned = q;
+  if (foot_side) {
+    const auto& X = data.oMi[static_cast<std::size_t>(j + 1)];
+    const Eigen::Vector3d a = X.R * model.axis[static_cast<std::size_t>(j + 1)];
+    const Eigen::AngleAxisd turn(angle, a);
+    turned.head<3>() = X.p + turn * (q.head<3>() - X.p);
+    const Eigen::Quaterniond base(q[6], q[3], q[4], q[5]);
+    const Eigen::Quaterniond rotated = Eigen::Quaterniond(turn) * base;
+    turned.segment<4>(3) << rotated.x(), rotated.y(), rotated.z(), rotated.w();
+    turned[model.idx_q(j)] -= angle;
+  } else {
+    turned[model.idx_q(j)] += angle;
+  }
+  poise::model::center_of_mass(model, data, turned);
+  return -model.total_mass * model.gravity.dot(data.com);
+}
+
+// gravity_stiffness against the second derivative of the potential energy (central differences)
+// of the robot turned about each joint, at seeded random postures around the nominal one.
+TEST(SafetyConfig, GravityStiffnessIsTheCurvatureOfThePotentialEnergy) {
+  const auto robot = poise::model::load_robot_config(std::string(POISE_SOURCE_DIR) +
+                                                     "/deploy/robots/poise_humanoid/robot.yaml");
+  const auto model = poise::model::load_robot_model(robot);
+  std::vector<bool> foot_side(static_cast<std::size_t>(model.njoints), false);
+  for (const auto& foot : robot.feet) {
+    const int f = model.frames[static_cast<std::size_t>(model.frame_id(foot.link))].body;
+    for (int j = 0; j < model.njoints; ++j)
+      if (f >= j + 1 && f <= model.subtree_end[static_cast<std::size_t>(j + 1)])
+        foot_side[static_cast<std::size_t>(j)] = true;
+  }
+  ASSERT_EQ(std::count(foot_side.begin(), foot_side.end(), true), 12);  // two legs of six
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-0.2, 0.2);
+  const double h = 1e-3;
+  for (int trial = 0; trial < 5; ++trial) {
+    Eigen::VectorXd q = robot.q_nominal;
+    for (int j = 0; j < model.njoints; ++j)
+      q[model.idx_q(j)] += trial == 0 ? 0.0 : u(rng);
+    const Eigen::Quaterniond tilt(Eigen::AngleAxisd(trial == 0 ? 0.0 : u(rng), Eigen::Vector3d::UnitX()) *
+                                  Eigen::AngleAxisd(trial == 0 ? 0.0 : u(rng), Eigen::Vector3d::UnitY()));
+    q.segment<4>(3) << tilt.x(), tilt.y(), tilt.z(), tilt.w();
+    const Eigen::VectorXd k = poise::safety::gravity_stiffness(model, &robot, q);
+    for (int j = 0; j < model.njoints; ++j) {
+      const bool fs = foot_side[static_cast<std::size_t>(j)];
+      const double curvature = (potential_after_turn(model, q, j, fs, h) -
+                                2.0 * potential_after_turn(model, q, j, fs, 0.0) +
+                                potential_after_turn(model, q, j, fs, -h)) / (h * h);
+      EXPECT_NEAR(k[j], -curvature, 1e-3 * std::max(1.0, std::abs(k[j])))
+          << "trial " << trial << " joint " << model.joint_names[static_cast<std::size_t>(j)];
+    }
+  }
+  // Upright at the nominal posture, the ankles carry an inverted pendulum: m g h of the robot
+  // minus its foot, h the height of that load's CoM over the ankle.
+  const Eigen::VectorXd k = poise::safety::gravity_stiffness(model, &robot, robot.q_nominal);
+  EXPECT_GT(k[model.joint_index("l_ankle_pitch")], 300.0);
+  EXPECT_LT(k[model.joint_index("l_elbow")], 0.0);  // a hanging forearm is a stable pendulum
+}
+
+TEST(SafetyConfig, TheShippedHumanoidKeepsItsGainsWhereTheyHoldItsLoad) {
   const auto robot = poise::model::load_robot_config(std::string(POISE_SOURCE_DIR) +
                                                      "/deploy/robots/poise_humanoid/robot.yaml");
   const auto model = poise::model::load_robot_model(robot);
   const Config c = poise::safety::make_config(model, &robot, model.joint_names, 0.001, 5.0);
+  const Eigen::VectorXd kg = poise::safety::gravity_stiffness(model, &robot, robot.q_nominal);
   for (std::size_t j = 0; j < model.joint_names.size(); ++j) {
     SCOPED_TRACE(model.joint_names[j]);
-    EXPECT_DOUBLE_EQ(c.hold_kp[static_cast<Eigen::Index>(j)], robot.gains[j].kp);
+    const auto w = static_cast<Eigen::Index>(j);
+    EXPECT_DOUBLE_EQ(c.hold_kp[w], std::max(robot.gains[j].kp, 2.0 * kg[w]));
     EXPECT_DOUBLE_EQ(c.hold_kd[static_cast<Eigen::Index>(j)], robot.gains[j].kd);
   }
   EXPECT_THROW(poise::safety::make_config(model, &robot, {"no_such_joint"}, 0.001, 5.0),

@@ -24,9 +24,11 @@ const msg::EStop* EStopChannel::take() noexcept {
   return in_.take(stop_) ? &stop_ : nullptr;
 }
 
-void EStopChannel::acknowledge(const msg::EStop& stop, bool engaged, std::uint64_t tick) noexcept {
+void EStopChannel::acknowledge(const msg::EStop& stop, bool engaged, msg::StopKind kind,
+                               std::uint64_t tick) noexcept {
   state_.header().tick(tick);
   state_.engaged(engaged);
+  state_.kind(kind);
   state_.request(stop.request());
   state_.source(stop.source());
   if (out_.publish(state_)) ++acknowledged_;

@@ -15,6 +15,7 @@ const char* to_string(Mode mode) noexcept {
     case Mode::kHold: return "HOLD";
     case Mode::kDamp: return "DAMP";
     case Mode::kEStop: return "ESTOP";
+    case Mode::kProtectiveStop: return "PROTECTIVE_STOP";
   }
   return "?";
 }
@@ -27,6 +28,9 @@ ModeReport report(Mode mode) noexcept {
       return {msg::HEALTH_FAULT, "safety layer DAMP: no joint command for the hold time"};
     case Mode::kEStop:
       return {msg::HEALTH_FAULT, "safety layer ESTOP: e-stop engaged (poise/estop)"};
+    case Mode::kProtectiveStop:
+      return {msg::HEALTH_FAULT,
+              "safety layer PROTECTIVE_STOP: protective stop engaged, posture held (poise/estop)"};
     default:
       return {msg::HEALTH_OK, nullptr};
   }
@@ -56,6 +60,7 @@ SafetyLayer::SafetyLayer(Config config) : config_(std::move(config)) {
   check(config_.hold_kp, "hold_kp");
   check(config_.hold_kd, "hold_kd");
   check(config_.damping_kd, "damping_kd");
+  if (config_.settle_kp.size() != 0) check(config_.settle_kp, "settle_kp");
   check(config_.effort, "effort");
   check(config_.q_min, "q_min");
   check(config_.q_max, "q_max");
@@ -74,9 +79,11 @@ SafetyLayer::SafetyLayer(Config config) : config_(std::move(config)) {
   hold_.kd = config_.hold_kd;
 }
 
-void SafetyLayer::start(const Eigen::Ref<const Eigen::VectorXd>& q0, std::int64_t now_ns) noexcept {
+void SafetyLayer::start(const Eigen::Ref<const Eigen::VectorXd>& q0, std::int64_t now_ns,
+                        bool settling) noexcept {
   have_command_ = false;
   hold_targets(q0, false);
+  if (settling && config_.settle_kp.size() == n_) hold_.kp = config_.settle_kp;
   mode_ = Mode::kStartup;
   hold_since_ns_ = now_ns;
   changed_ = true;
@@ -107,7 +114,7 @@ bool SafetyLayer::on_command(const msg::JointCommand& c, std::int64_t robot_tick
                              std::int64_t now_ns) noexcept {
   changed_ = false;
   const auto k = static_cast<unsigned long long>(c.header().tick());
-  if (mode_ == Mode::kEStop) {
+  if (stopped()) {
     ++counters_.ignored_estop;
     return false;
   }
@@ -180,23 +187,42 @@ bool SafetyLayer::on_command(const msg::JointCommand& c, std::int64_t robot_tick
   return true;
 }
 
-void SafetyLayer::on_estop(bool engaged, const char* reason,
+void SafetyLayer::on_estop(bool engaged, Stop kind, const char* reason,
                            const Eigen::Ref<const Eigen::VectorXd>& q, std::int64_t now_ns) noexcept {
   changed_ = false;
-  if (engaged) {
+  const char* why = reason && *reason ? reason : "(no reason given)";
+  if (engaged && kind == Stop::kEmergencyDamp) {
     if (mode_ != Mode::kEStop) {
       ++counters_.estop_events;
-      std::snprintf(last_error_, sizeof(last_error_), "ESTOP engaged: %s: damping",
-                    reason && *reason ? reason : "(no reason given)");
+      std::snprintf(last_error_, sizeof(last_error_), "ESTOP engaged: %s: damping", why);
       set_mode(Mode::kEStop, now_ns);
     }
     return;
   }
-  if (mode_ == Mode::kEStop) {
-    hold_targets(q, false);
+  if (engaged) {  // protective
+    if (mode_ == Mode::kEStop) {
+      ++counters_.refused_protective_stops;
+      std::snprintf(last_error_, sizeof(last_error_),
+                    "protective stop refused: the e-stop is damping (release it first): %s", why);
+    } else if (mode_ != Mode::kProtectiveStop) {
+      ++counters_.protective_stop_events;
+      // The posture now, with the feed-forward that was carrying it (gravity, while standing).
+      hold_targets(q, have_command_ && config_.hold_feedforward);
+      std::snprintf(last_error_, sizeof(last_error_),
+                    "PROTECTIVE_STOP engaged: %s: holding the posture until released", why);
+      set_mode(Mode::kProtectiveStop, now_ns);
+    }
+    return;
+  }
+  if (stopped()) {
+    const bool was_protective = mode_ == Mode::kProtectiveStop;
+    // A protective stop's hold goes on (its targets and feed-forward); after a damping stop, the
+    // posture now, without the feed-forward of a command from before the stop.
+    if (!was_protective) hold_targets(q, false);
     have_command_ = false;  // only a command newer than the release resumes control
     std::snprintf(last_error_, sizeof(last_error_),
-                  "ESTOP released: holding the posture until a fresh command");
+                  "%s released: holding the posture until a fresh command",
+                  was_protective ? "PROTECTIVE_STOP" : "ESTOP");
     set_mode(Mode::kHold, now_ns);
   }
 }
@@ -239,6 +265,7 @@ const Command& SafetyLayer::update(std::int64_t now_ns,
     case Mode::kHold: ++counters_.ticks_hold; return hold_;
     case Mode::kDamp: ++counters_.ticks_damp; return damp_;
     case Mode::kEStop: ++counters_.ticks_estop; return damp_;
+    case Mode::kProtectiveStop: ++counters_.ticks_protective_stop; return hold_;
   }
   return damp_;
 }

@@ -7,7 +7,7 @@
  *               poise/sensors            every 1 ms tick, ticks 1, 2, 3 ... (CLOCK_MONOTONIC):
  *                                        reliable, writer keep-last 32
  *   subscribes  poise/joint_command      reliable, keep-last 1: checked, then obeyed
- *               poise/estop              reliable, transient-local, keep-last 1: latched damping
+ *               poise/estop              reliable, transient-local, keep-last 1: latched stop (damp, or hold)
  *   safety      watchdog: no fresh command for --watchdog-ms -> HOLD the last targets with the
  *               robot.yaml PD gains for --hold-ms, then DAMP; fresh commands resume control.
  *               Commands with joint_count != the robot's, a non-finite number or a negative gain
@@ -466,7 +466,7 @@ typedef struct counters {
   uint64_t age[5]; /* fresh commands by tick age when taken: 1 (in time), 2, 3, 4, >= 5 */
   uint64_t answerable;         /* ticks published since the first command */
   uint64_t late_commands;      /* valid command answering an older tick */
-  uint64_t watchdog_events, holds, damps, estops;
+  uint64_t watchdog_events, holds, damps, estops, protective_stops;
   uint64_t foreign_commands;   /* from a second writer while the commanding one is alive */
   uint64_t deadline_misses, skipped_ticks, publish_failures;
   double max_deviation; /* largest |q - q_initial| seen [rad] or [m] */
@@ -633,17 +633,33 @@ int main(int argc, char **argv) {
       const dds_return_t got = dds_take(h.estop_reader, buf, &info, 1, 1);
       if (got <= 0) break;
       if (!info.valid_data) continue;
-      if (estop.engaged && mode != DRIVER_ESTOP) {
+      /* A damping stop takes over from anything; a protective one (hold the posture) from
+       * anything but a damping stop, which is never eased into a hold. */
+      const int protective = estop.kind == poise_msg_STOP_PROTECTIVE_HOLD;
+      char why[200];
+      snprintf(why, sizeof why, "%s from '%s': %s", protective ? "protective stop" : "e-stop",
+               estop.source, estop.reason);
+      if (estop.engaged && !protective && mode != DRIVER_ESTOP) {
         c.estops++;
-        char why[200];
-        snprintf(why, sizeof why, "e-stop from '%s': %s", estop.source, estop.reason);
         set_mode(&mode, DRIVER_ESTOP, t, why);
+      } else if (estop.engaged && protective && mode == DRIVER_ESTOP) {
+        logf_("%s refused: the e-stop is damping (release it first)", why);
+      } else if (estop.engaged && protective && mode != DRIVER_PROTECTIVE) {
+        c.protective_stops++;
+        for (int i = 0; i < n; ++i)
+          hold_target[i] = s.q[i];
+        set_mode(&mode, DRIVER_PROTECTIVE, t, why);
       } else if (!estop.engaged && mode == DRIVER_ESTOP) {
         set_mode(&mode, DRIVER_DAMP, t, "e-stop released: damping until fresh commands come");
+      } else if (!estop.engaged && mode == DRIVER_PROTECTIVE) {
+        hold_since_ns = t;
+        set_mode(&mode, DRIVER_HOLD, t, "protective stop released: holding until fresh commands");
       }
       /* Acknowledge: the request id echoed with the stop as now held. */
       h.estop_state.header.tick = tick;
-      h.estop_state.engaged = mode == DRIVER_ESTOP;
+      h.estop_state.engaged = mode == DRIVER_ESTOP || mode == DRIVER_PROTECTIVE;
+      h.estop_state.kind =
+          mode == DRIVER_PROTECTIVE ? poise_msg_STOP_PROTECTIVE_HOLD : poise_msg_STOP_EMERGENCY_DAMP;
       h.estop_state.request = estop.request;
       snprintf(h.estop_state.source, sizeof h.estop_state.source, "%s", estop.source);
       if (dds_write(h.estop_state_writer, &h.estop_state) < 0)
@@ -651,7 +667,7 @@ int main(int argc, char **argv) {
     }
 
     /* 2. Watchdog. */
-    if (mode != DRIVER_ESTOP && have_command) {
+    if (mode != DRIVER_ESTOP && mode != DRIVER_PROTECTIVE && have_command) {
       const int fresh = t - last_fresh_ns < watchdog_ns;
       if (fresh) {
         set_mode(&mode, DRIVER_CONTROL, t, mode == DRIVER_STARTUP ? "first command" : "control RESUMED");
@@ -682,7 +698,8 @@ int main(int argc, char **argv) {
       switch (mode) {
         case DRIVER_CONTROL: driver_command_torques(&active, &robot, s.q, s.qd, s.tau); break;
         case DRIVER_STARTUP:
-        case DRIVER_HOLD: driver_hold_torques(&robot, hold_target, s.q, s.qd, s.tau); break;
+        case DRIVER_HOLD:
+        case DRIVER_PROTECTIVE: driver_hold_torques(&robot, hold_target, s.q, s.qd, s.tau); break;
         case DRIVER_DAMP:
         case DRIVER_ESTOP: driver_damp_torques(&robot, s.qd, s.tau); break;
       }
@@ -707,7 +724,8 @@ int main(int argc, char **argv) {
   printf("poise-example-c-driver summary: ticks=%llu last_tick=%llu commands=%llu rejected=%llu "
          "non_finite=%llu bad_joint_count=%llu negative_gain=%llu late_commands=%llu "
          "first_command_tick=%llu answered_within_1_tick=%llu answerable=%llu answered_pct=%.2f "
-         "watchdog_events=%llu holds=%llu damps=%llu estops=%llu foreign_commands=%llu "
+         "watchdog_events=%llu holds=%llu damps=%llu estops=%llu protective_stops=%llu "
+         "foreign_commands=%llu "
          "deadline_misses=%llu "
          "skipped_ticks=%llu publish_failures=%llu command_age_ticks=%llu/%llu/%llu/%llu/%llu "
          "max_joint_deviation=%.4f (%s) final_mode=%s\n",
@@ -718,6 +736,7 @@ int main(int argc, char **argv) {
          (unsigned long long)c.answered, (unsigned long long)c.answerable, pct,
          (unsigned long long)c.watchdog_events, (unsigned long long)c.holds,
          (unsigned long long)c.damps, (unsigned long long)c.estops,
+         (unsigned long long)c.protective_stops,
          (unsigned long long)c.foreign_commands, (unsigned long long)c.deadline_misses, (unsigned long long)c.skipped_ticks,
          (unsigned long long)c.publish_failures, (unsigned long long)c.age[0],
          (unsigned long long)c.age[1], (unsigned long long)c.age[2], (unsigned long long)c.age[3],

@@ -11,6 +11,7 @@ const char *driver_mode_name(driver_mode m) {
     case DRIVER_HOLD: return "HOLD";
     case DRIVER_DAMP: return "DAMP";
     case DRIVER_ESTOP: return "ESTOP";
+    case DRIVER_PROTECTIVE: return "PROTECTIVE_STOP";
   }
   return "?";
 }

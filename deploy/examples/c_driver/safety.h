@@ -15,7 +15,9 @@ typedef enum driver_mode {
   DRIVER_CONTROL, /* fresh commands: the command law of joint_command.idl */
   DRIVER_HOLD,    /* watchdog: hold the last targets with the robot.yaml PD gains */
   DRIVER_DAMP,    /* after the hold time: tau = -kd qd with the robot.yaml kd */
-  DRIVER_ESTOP    /* poise/estop engaged: damp, latched until released on the topic */
+  DRIVER_ESTOP,   /* poise/estop engaged (STOP_EMERGENCY_DAMP): damp, latched until released */
+  DRIVER_PROTECTIVE /* poise/estop engaged (STOP_PROTECTIVE_HOLD): hold the posture at the stop,
+                     * latched until released */
 } driver_mode;
 
 const char *driver_mode_name(driver_mode m);

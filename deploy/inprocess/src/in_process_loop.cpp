@@ -193,7 +193,7 @@ InProcessLoop::InProcessLoop(const scenario::Scenario& scenario, const LoopOptio
   // first command. The scenario monitor sees the settled state first.
   const int settle = options_.settle_ticks < 0 ? kDefaultSettleTicks : options_.settle_ticks;
   sim_->read(sensors_, truth_);
-  safety_->start(sensors_.q, clock_ns());
+  safety_->start(sensors_.q, clock_ns(), true);
   for (int i = 0; i < settle; ++i) {
     apply_safety_command(clock_ns());
     sim_->step(sim_command_, sensors_, truth_);
@@ -372,7 +372,7 @@ void InProcessLoop::step() {
   // layer keeps applying what it applied), then the step.
   const std::int64_t now = clock_ns();
   if (!safety_->on_command(*command_msg_, sensors_.tick, now) &&
-      safety_->mode() != safety::Mode::kEStop)
+      !safety_->stopped())
     ++rejected_commands_;
   apply_safety_command(now);
   if (sim_->step(sim_command_, sensors_, truth_) != sim::StepStatus::kOk) ++rejected_commands_;

@@ -42,8 +42,13 @@ void take_states(dds::Subscriber<msg::EStopState>& sub, std::map<std::string, Ro
     robots[std::string(s.robot())].state = s;
 }
 
-bool acknowledged(const RobotSide& r, std::uint64_t request, bool engage) {
-  return r.state.request() == request && r.state.engaged() == engage;
+bool acknowledged(const RobotSide& r, std::uint64_t request, bool engage, msg::StopKind kind) {
+  return r.state.request() == request && r.state.engaged() == engage &&
+         (!engage || r.state.kind() == kind);
+}
+
+const char* describe(msg::StopKind kind) {
+  return kind == msg::STOP_PROTECTIVE_HOLD ? "protective stop (holding)" : "e-stop (damping)";
 }
 
 std::uint64_t fresh_request_id() {
@@ -58,17 +63,25 @@ std::uint64_t fresh_request_id() {
 
 int estop_main(int argc, char** argv) {
   dds::DdsOptions options = dds::dds_options_from_env();
-  bool release = false, hold = false;
+  bool release = false, hold = false, protective = false;
   std::string reason = "poise estop";
   int wait_ms = 5000, discover_ms = 500;
   CLI::App app{
       "Engage the robot's e-stop (poise/estop): its safety layer damps every joint and ignores "
-      "joint commands until released with --release. Succeeds (exit 0) only when every robot "
-      "side (a safety layer publishing poise/estop_state) has acknowledged; otherwise names the "
-      "ones that did not and exits 1."};
+      "joint commands until released with --release (a standing humanoid falls). With "
+      "--protective, a protective stop (category 2) instead: the posture at the stop is held, "
+      "powered, until released (a standing humanoid stays up). Succeeds (exit 0) only when every "
+      "robot side (a safety layer publishing poise/estop_state) has acknowledged; otherwise "
+      "names the ones that did not and exits 1."};
   app.name(argc > 0 ? argv[0] : "poise estop");
-  app.add_flag("--release", release, "release the e-stop (the robot then holds its posture "
-                                      "until a fresh joint command)");
+  auto* release_flag =
+      app.add_flag("--release", release, "release the stop (the robot then holds its posture "
+                                         "until a fresh joint command)");
+  app.add_flag("--protective", protective,
+               "a protective stop (category 2): hold the posture at the stop with power on "
+               "instead of damping. Refused by a robot side whose e-stop is damping (release "
+               "that first)")
+      ->excludes(release_flag);
   app.add_option("--reason", reason, "why (shown in the robot's log and diagnostics)")
       ->capture_default_str()
       ->check([](const std::string& s) {
@@ -88,7 +101,9 @@ int estop_main(int argc, char** argv) {
   dds::add_dds_options(app, options);
   POISE_CLI_PARSE(app, argc, argv);
   const bool engage = !release;
+  const msg::StopKind kind = protective ? msg::STOP_PROTECTIVE_HOLD : msg::STOP_EMERGENCY_DAMP;
   const char* verb = engage ? "ENGAGED" : "RELEASED";
+  const char* what = engage ? describe(kind) : "stop";
   try {
     options.participant_name = "poise/estop";
     dds::Participant participant(options);
@@ -125,6 +140,7 @@ int estop_main(int argc, char** argv) {
     e.source("poise estop");
     e.reason(reason);
     e.request(request);
+    e.kind(kind);
     if (!pub.publish(e)) {
       std::fprintf(stderr, "poise estop: publish failed\n");
       return 1;
@@ -133,16 +149,16 @@ int estop_main(int argc, char** argv) {
     // 3. Every robot side known (including any that appears meanwhile) echoes the request.
     const auto report = [&] {
       for (auto& [name, r] : robots)
-        if (!r.reported && acknowledged(r, request, engage)) {
+        if (!r.reported && acknowledged(r, request, engage, kind)) {
           r.reported = true;
-          std::printf("  %s: %s (robot tick %llu)\n", name.c_str(), verb,
+          std::printf("  %s: %s %s (robot tick %llu)\n", name.c_str(), what, verb,
                       static_cast<unsigned long long>(r.state.header().tick()));
         }
       std::fflush(stdout);
     };
     const auto all_acknowledged = [&] {
       for (const auto& [name, r] : robots)
-        if (!acknowledged(r, request, engage)) return false;
+        if (!acknowledged(r, request, engage, kind)) return false;
       return !robots.empty();
     };
     const auto ack_deadline = Clock::now() + std::chrono::milliseconds(wait_ms);
@@ -155,22 +171,27 @@ int estop_main(int argc, char** argv) {
     report();
     int missing = 0;
     for (const auto& [name, r] : robots)
-      if (!acknowledged(r, request, engage)) {
+      if (!acknowledged(r, request, engage, kind)) {
         ++missing;
-        std::fprintf(stderr,
-                     "poise estop: %s did not acknowledge the %s within %d ms (its state: %s, "
-                     "request %llu)\n",
-                     name.c_str(), engage ? "stop" : "release", wait_ms,
-                     r.state.engaged() ? "engaged" : "released",
-                     static_cast<unsigned long long>(r.state.request()));
+        if (r.state.request() == request && r.state.engaged() && engage)
+          std::fprintf(stderr,
+                       "poise estop: %s answered the %s but holds an %s: release that first\n",
+                       name.c_str(), what, describe(r.state.kind()));
+        else
+          std::fprintf(stderr,
+                       "poise estop: %s did not acknowledge the %s within %d ms (its state: %s, "
+                       "request %llu)\n",
+                       name.c_str(), engage ? what : "release", wait_ms,
+                       r.state.engaged() ? describe(r.state.kind()) : "released",
+                       static_cast<unsigned long long>(r.state.request()));
       }
     if (missing == 0 && !robots.empty())
-      std::printf("e-stop %s (%s) on domain %d: acknowledged by %zu robot side(s)\n", verb,
+      std::printf("%s %s (%s) on domain %d: acknowledged by %zu robot side(s)\n", what, verb,
                   reason.c_str(), options.domain_id, robots.size());
     else if (!hold)
-      std::printf("e-stop NOT %s everywhere on domain %d: %d of %zu robot side(s) did not "
+      std::printf("%s NOT %s everywhere on domain %d: %d of %zu robot side(s) did not "
                   "acknowledge\n",
-                  verb, options.domain_id, missing, robots.size());
+                  what, verb, options.domain_id, missing, robots.size());
     std::fflush(stdout);
     if (hold) {
       std::printf("holding the e-stop on domain %d until Ctrl-C\n", options.domain_id);

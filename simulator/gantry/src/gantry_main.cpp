@@ -139,13 +139,14 @@ class Gantry {
       std::int64_t arrival = 0;
       report_foreign_commands();
       while (box_.take(command_, seen_, &arrival))
-        if (!safety_.on_command(command_, k, arrival) && safety_.mode() != safety::Mode::kEStop) {
+        if (!safety_.on_command(command_, k, arrival) && !safety_.stopped()) {
           ++rejected_;
           node_.error("%s", safety_.last_error());
         }
       while (const msg::EStop* e = estops_.take()) {
-        safety_.on_estop(e->engaged(), e->reason().c_str(), q_, node::now_ns());
-        estops_.acknowledge(*e, safety_.mode() == safety::Mode::kEStop,
+        safety_.on_estop(e->engaged(), safety::to_stop(e->kind()), e->reason().c_str(), q_,
+                         node::now_ns());
+        estops_.acknowledge(*e, safety_.stopped(), safety::held_stop(safety_.mode()),
                             static_cast<std::uint64_t>(k));
       }
       const safety::Command& c = safety_.update(node::now_ns(), q_);
@@ -189,7 +190,10 @@ class Gantry {
                    {"hold_events", s.hold_events},   {"damp_events", s.damp_events},
                    {"estop_events", s.estop_events}, {"ticks_startup", s.ticks_startup},
                    {"ticks_active", s.ticks_active}, {"ticks_hold", s.ticks_hold},
-                   {"ticks_damp", s.ticks_damp},     {"ticks_estop", s.ticks_estop}};
+                   {"ticks_damp", s.ticks_damp},     {"ticks_estop", s.ticks_estop},
+                   {"protective_stop_events", s.protective_stop_events},
+                   {"refused_protective_stops", s.refused_protective_stops},
+                   {"ticks_protective_stop", s.ticks_protective_stop}};
     return j.dump();
   }
 
@@ -197,6 +201,8 @@ class Gantry {
   static safety::Config make_safety(const model::RobotConfig& robot, const model::Model& model,
                                     const Settings& settings) {
     safety::Config c = safety::make_config(model, &robot, model.joint_names, 0.001, 5.0);
+    for (const std::string& w : c.warnings)
+      dds::log(dds::LogLevel::warn, "safety: %s", w.c_str());
     c.watchdog_s = settings.watchdog_ms * 1e-3;
     c.hold_s = settings.hold_s;
     return c;

@@ -273,7 +273,10 @@ class SimNode {
                    {"ignored_during_estop", sc.ignored_estop},
                    {"hold_events", sc.hold_events},
                    {"damp_events", sc.damp_events},
-                   {"estop_events", sc.estop_events}};
+                   {"estop_events", sc.estop_events},
+                   {"protective_stop_events", sc.protective_stop_events},
+                   {"refused_protective_stops", sc.refused_protective_stops},
+                   {"ticks_protective_stop", sc.ticks_protective_stop}};
     j["overruns"] = figures_.overruns;
     j["max_joint_speed"] = {
         {"joint", figures_.fastest_joint >= 0 ? sim_.joint_names()[static_cast<std::size_t>(
@@ -303,6 +306,8 @@ class SimNode {
     }
     safety::Config c =
         safety::make_config(model, robot.get(), sim.joint_names(), sim.dt(), sim.damping_kd());
+    for (const std::string& w : c.warnings)
+      dds::log(dds::LogLevel::warn, "safety: %s", w.c_str());
     c.watchdog_s = settings.watchdog_ms * 1e-3;
     c.hold_s = settings.hold_s;
     return c;
@@ -315,7 +320,7 @@ class SimNode {
   /// first frame the components see measures the feet loaded.
   void settle() {
     sim_.read(sensors_, truth_);
-    safety_.start(sensors_.q, node::now_ns());
+    safety_.start(sensors_.q, node::now_ns(), true);
     for (int i = 0; i < settings_.settle_ticks; ++i) {
       apply_safety(safety_.update(node::now_ns(), sensors_.q));
       sim_.step(applied_, sensors_, truth_);
@@ -327,8 +332,9 @@ class SimNode {
   const safety::Command& safety_command() noexcept {
     report_foreign_commands();
     while (const msg::EStop* e = estops_.take()) {
-      safety_.on_estop(e->engaged(), e->reason().c_str(), sensors_.q, node::now_ns());
-      estops_.acknowledge(*e, safety_.mode() == safety::Mode::kEStop,
+      safety_.on_estop(e->engaged(), safety::to_stop(e->kind()), e->reason().c_str(), sensors_.q,
+                       node::now_ns());
+      estops_.acknowledge(*e, safety_.stopped(), safety::held_stop(safety_.mode()),
                           static_cast<std::uint64_t>(sensors_.tick));
       note_safety_mode();
     }
@@ -482,7 +488,7 @@ class SimNode {
       note_safety_mode();
       return true;
     }
-    if (safety_.mode() != safety::Mode::kEStop) {
+    if (!safety_.stopped()) {
       ++figures_.rejected_commands;
       node_.error("%s", safety_.last_error());
     }

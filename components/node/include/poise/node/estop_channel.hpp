@@ -4,8 +4,8 @@
 //   node::EStopChannel estop(node.participant(), "poise-sim");   // announces: released, request 0
 //   node.watch(estop.subscriber());
 //   while (const msg::EStop* e = estop.take()) {                  // in the loop
-//     safety.on_estop(e->engaged(), e->reason().c_str(), q, now);
-//     estop.acknowledge(*e, safety.mode() == safety::Mode::kEStop, tick);
+//     safety.on_estop(e->engaged(), safety::to_stop(e->kind()), e->reason().c_str(), q, now);
+//     estop.acknowledge(*e, safety.stopped(), safety::held_stop(safety.mode()), tick);
 //   }
 //
 // The state it publishes (reliable, transient-local) names the robot side and echoes the request
@@ -38,8 +38,11 @@ class EStopChannel {
   /// The next e-stop sample, or nullptr when none is waiting.
   const msg::EStop* take() noexcept;
 
-  /// Publishes the state after `stop` was applied: `engaged` as the safety layer now holds it.
-  void acknowledge(const msg::EStop& stop, bool engaged, std::uint64_t tick) noexcept;
+  /// Publishes the state after `stop` was applied: `engaged` and `kind` as the safety layer now
+  /// holds them (a protective request refused during an emergency stop is acknowledged as the
+  /// emergency stop it still holds).
+  void acknowledge(const msg::EStop& stop, bool engaged, msg::StopKind kind,
+                   std::uint64_t tick) noexcept;
 
   dds::Subscriber<msg::EStop>& subscriber() noexcept { return in_; }
   std::uint64_t acknowledged() const noexcept { return acknowledged_; }

@@ -19,12 +19,25 @@
 //            standing. A fresh command resumes ACTIVE.
 //   DAMP     HOLD lasted `hold_s`: tau = -damping_kd * qd. A fresh command resumes ACTIVE
 //            (`resume_from_damp`).
-//   ESTOP    an engaged e-stop (poise/estop): damping, commands ignored, until released; then
-//            HOLD of the posture at the release until a fresh command.
-// Hold gains: the robot configuration's PD gains, bounded per joint for stability of the 1 kHz
-// explicit PD loop on that joint's own inertia (make_config): kp <= 0.2 I / dt^2,
-// kd <= 0.5 I / dt, where I is the joint-space inertia M_ii at the start posture. A wrist of
-// 1e-4 kg m^2 gets kd <= 0.05 N m s/rad (a constant kd of 10 makes it explode at 1 kHz).
+//   ESTOP    an engaged emergency stop (poise/estop, STOP_EMERGENCY_DAMP): damping, commands
+//            ignored, until released; then HOLD of the posture at the release until a fresh
+//            command. A standing humanoid falls.
+//   PROTECTIVE_STOP  an engaged protective stop (STOP_PROTECTIVE_HOLD, machine-safety category
+//            2): the posture at the stop held with the hold gains and the last command's
+//            feed-forward, commands ignored, no time limit; released like ESTOP. A standing
+//            humanoid stays up. An emergency stop takes over from it at once; a protective
+//            request during ESTOP is refused (a damping stop is never eased into a hold).
+// Hold gains (make_config): the robot configuration's PD gains, raised where they are too soft
+// to hold the joint's load against gravity, then bounded for stability of the 1 kHz explicit PD
+// loop on that joint's own inertia.
+//  - A held humanoid is a statue, and a statue on its ankles is an inverted pendulum: gravity's
+//    torque about a joint grows by k = m g h per radian (gravity_stiffness()), and the joint falls
+//    over unless kp > k. kp is raised to 2 k. The project humanoid's ankles need 378 N m/rad
+//    against a configured 150: with those, the held robot tipped over 3 s after its controller
+//    stopped; with 757 it stands for as long as the hold lasts.
+//  - Bound: kp <= 0.2 I / dt^2, kd <= 0.5 I / dt, where I is the joint-space inertia M_ii at the
+//    start posture. A wrist of 1e-4 kg m^2 gets kd <= 0.05 N m s/rad (a constant kd of 10 makes
+//    it explode at 1 kHz).
 // A command is rejected (counted by reason, last_error names the field and joint) when it has
 // another joint_count, a non-finite number, a negative gain, a gain above `max_gain_ratio` times
 // the hold gain, a position target outside the joint limits by more than `q_ref_margin`, a
@@ -40,6 +53,7 @@
 #include <vector>
 
 #include <poise/msg/diagnostics.h>
+#include <poise/msg/estop.h>
 #include <poise/msg/joint_command.h>
 
 #include "poise/model/model.hpp"
@@ -47,7 +61,17 @@
 
 namespace poise::safety {
 
-enum class Mode : std::uint8_t { kStartup, kActive, kHold, kDamp, kEStop };
+enum class Mode : std::uint8_t { kStartup, kActive, kHold, kDamp, kEStop, kProtectiveStop };
+/// What an engaged stop does (poise/estop's StopKind).
+enum class Stop : std::uint8_t { kEmergencyDamp, kProtectiveHold };
+/// The wire's stop kind; an unknown value is the emergency stop (the safe reading).
+inline Stop to_stop(msg::StopKind kind) noexcept {
+  return kind == msg::STOP_PROTECTIVE_HOLD ? Stop::kProtectiveHold : Stop::kEmergencyDamp;
+}
+/// The stop a mode holds, for poise/estop_state.
+inline msg::StopKind held_stop(Mode mode) noexcept {
+  return mode == Mode::kProtectiveStop ? msg::STOP_PROTECTIVE_HOLD : msg::STOP_EMERGENCY_DAMP;
+}
 const char* to_string(Mode mode) noexcept;
 
 /// How a backend reports a mode in its diagnostics (Node::set_condition): HOLD is DEGRADED,
@@ -74,6 +98,10 @@ void evaluate(const Command& command, const Eigen::Ref<const Eigen::VectorXd>& q
 struct Config {
   std::vector<std::string> joint_names;  ///< robot (wire) joint order
   Eigen::VectorXd hold_kp, hold_kd;      ///< PD gains to hold a posture (dim n)
+  /// The robot configuration's kp bounded by inertia, without the gravity floor (dim n, or empty:
+  /// hold_kp): a simulator's settle, the few ticks that set the robot down onto its feet before
+  /// the first sensor frame (start(q0, now, true)), as it was before the floor existed.
+  Eigen::VectorXd settle_kp;
   Eigen::VectorXd damping_kd;            ///< DAMP / ESTOP gains (dim n)
   Eigen::VectorXd effort;                ///< effort limits (dim n; +inf: none)
   Eigen::VectorXd q_min, q_max;          ///< position limits (dim n; +-inf: none)
@@ -85,9 +113,13 @@ struct Config {
   double q_ref_margin = 0.05;            ///< tolerance of q_ref beyond the joint limits [rad]
   double tau_ff_ratio = 2.0;             ///< |tau_ff| above this x effort: rejected
   double max_gain_ratio = 50.0;          ///< kp, kd above this x the hold gains: rejected
+  /// make_config's findings for the operator's log, e.g. a joint whose inertia bound keeps its
+  /// hold gain below twice gravity's stiffness (a held robot may tip over). Not used by the layer.
+  std::vector<std::string> warnings;
 };
 
-/// Hold/damping gains bounded for stability (see above), limits from the model. `joint_names`:
+/// Hold/damping gains raised against gravity and bounded for stability (see above), limits from
+/// the model. `joint_names`:
 /// the robot's wire order (every name a model joint). `robot` may be null: the gains then
 /// default to kp 100, kd 2 before the bound. `damping_kd` is the wanted damping gain (bounded
 /// the same way). `q0` (dim model.nq, or empty: the robot's nominal posture or neutral) is the
@@ -95,6 +127,14 @@ struct Config {
 Config make_config(const model::Model& model, const model::RobotConfig* robot,
                    const std::vector<std::string>& joint_names, double dt, double damping_kd,
                    const Eigen::VectorXd& q0 = Eigen::VectorXd());
+
+/// Per model joint (dim njoints): how fast gravity's torque about the joint axis grows as the
+/// joint's load turns about it at posture q [N m/rad]; positive: the load tips further (an
+/// inverted pendulum over an ankle: m g h). The load of a joint between the base and one of the
+/// robot's feet is everything outside the joint's subtree (the robot stands on that foot);
+/// any other joint's load is its subtree. A held joint is statically stable when kp exceeds it.
+Eigen::VectorXd gravity_stiffness(const model::Model& model, const model::RobotConfig* robot,
+                                  const Eigen::VectorXd& q);
 
 struct Counters {
   std::uint64_t accepted = 0;
@@ -104,8 +144,10 @@ struct Counters {
   std::uint64_t hold_events = 0;       ///< ACTIVE -> HOLD
   std::uint64_t damp_events = 0;       ///< HOLD -> DAMP
   std::uint64_t estop_events = 0;
+  std::uint64_t protective_stop_events = 0;
+  std::uint64_t refused_protective_stops = 0;  ///< asked for during an emergency stop
   std::uint64_t ticks_startup = 0, ticks_active = 0, ticks_hold = 0, ticks_damp = 0,
-                ticks_estop = 0;
+                ticks_estop = 0, ticks_protective_stop = 0;
 };
 
 class SafetyLayer {
@@ -117,17 +159,24 @@ class SafetyLayer {
   int num_joints() const noexcept { return n_; }
   const Config& config() const noexcept { return config_; }
 
-  /// Start-up (STARTUP): holds q0 (dim n) from now until the first accepted command.
-  void start(const Eigen::Ref<const Eigen::VectorXd>& q0, std::int64_t now_ns) noexcept;
+  /// Start-up (STARTUP): holds q0 (dim n) from now until the first accepted command. `settling`:
+  /// with settle_kp (a simulator setting the robot down before its first sensor frame).
+  void start(const Eigen::Ref<const Eigen::VectorXd>& q0, std::int64_t now_ns,
+             bool settling = false) noexcept;
 
   /// A command from poise/joint_command (description joint order). `robot_tick`: the robot's
   /// current tick (< 0: not checked). Returns true when accepted (it then drives the robot).
   bool on_command(const msg::JointCommand& command, std::int64_t robot_tick,
                   std::int64_t now_ns) noexcept;
 
-  /// poise/estop: engaged -> ESTOP at once; released -> HOLD of `q` (the posture now).
-  void on_estop(bool engaged, const char* reason, const Eigen::Ref<const Eigen::VectorXd>& q,
-                std::int64_t now_ns) noexcept;
+  /// poise/estop: engaged -> ESTOP or PROTECTIVE_STOP (by `kind`; `q`, the posture now, is held
+  /// by a protective stop) at once; released -> HOLD of `q` until a fresh command.
+  void on_estop(bool engaged, Stop kind, const char* reason,
+                const Eigen::Ref<const Eigen::VectorXd>& q, std::int64_t now_ns) noexcept;
+  /// True in ESTOP and PROTECTIVE_STOP: a stop is engaged.
+  bool stopped() const noexcept {
+    return mode_ == Mode::kEStop || mode_ == Mode::kProtectiveStop;
+  }
 
   /// Mode transitions due at now_ns, then the command to apply this tick. Counts the tick.
   /// `q`: the joint positions now (held when the last command has no position targets).
