@@ -1,5 +1,6 @@
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <string>
 
@@ -99,11 +100,15 @@ Config make_config(const model::Model& model, const model::RobotConfig* robot,
     c.settle_kp[w] = std::min(kp, kp_max);
     kp = std::max(kp, 2.0 * k_gravity[j]);
     c.hold_kp[w] = std::min(kp, kp_max);
-    if (c.hold_kp[w] < 2.0 * k_gravity[j])
-      c.warnings.push_back("hold gain of " + joint_names[static_cast<std::size_t>(w)] +
-                           " bounded at " + std::to_string(c.hold_kp[w]) +
-                           " N m/rad by its inertia, below twice gravity's stiffness on its load (" +
-                           std::to_string(2.0 * k_gravity[j]) + "): a held robot may tip over");
+    if (c.hold_kp[w] < k_gravity[j]) {
+      char line[256];
+      std::snprintf(line, sizeof line,
+                    "hold gain of %s bounded at %.0f N m/rad by its inertia, below gravity's "
+                    "stiffness on its load (%.0f N m/rad): standing on one foot, the held robot "
+                    "tips over about this joint",
+                    joint_names[static_cast<std::size_t>(w)].c_str(), c.hold_kp[w], k_gravity[j]);
+      c.warnings.emplace_back(line);
+    }
     c.hold_kd[w] = std::min(kd, kd_max);
     c.damping_kd[w] = std::min(damping_kd, kd_max);
     const model::JointLimits& l = model.limits[static_cast<std::size_t>(j)];

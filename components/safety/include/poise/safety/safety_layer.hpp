@@ -113,8 +113,8 @@ struct Config {
   double q_ref_margin = 0.05;            ///< tolerance of q_ref beyond the joint limits [rad]
   double tau_ff_ratio = 2.0;             ///< |tau_ff| above this x effort: rejected
   double max_gain_ratio = 50.0;          ///< kp, kd above this x the hold gains: rejected
-  /// make_config's findings for the operator's log, e.g. a joint whose inertia bound keeps its
-  /// hold gain below twice gravity's stiffness (a held robot may tip over). Not used by the layer.
+  /// make_config's findings for the operator's log: a joint whose inertia bound keeps its hold
+  /// gain below gravity's stiffness on its load (a held robot tips over). Not used by the layer.
   std::vector<std::string> warnings;
 };
 
