@@ -44,11 +44,25 @@ fi
 # time, so one build directory serves both.
 all=ON
 [[ "$mode" == run ]] && all=OFF
+# The test suite includes the in-process loop and the file loaders built a second time under
+# AddressSanitizer + UndefinedBehaviorSanitizer (tests/sanitized/README.md), in their own
+# directory; the main build runs those suites as its own tests.
+sanitized=""
+[[ "$mode" == test ]] && sanitized=${POISE_SANITIZED_BUILD_DIR:-$build-sanitized}
 step "Configuring ($build, Release; tests and benchmarks: $all)"
 cmake -S "$here" -B "$build" -DCMAKE_BUILD_TYPE=Release \
-  -DPOISE_BUILD_TESTS="$all" -DPOISE_BUILD_BENCHMARKS="$all"
+  -DPOISE_BUILD_TESTS="$all" -DPOISE_BUILD_BENCHMARKS="$all" \
+  -DPOISE_SANITIZED_BUILD_DIR="$sanitized"
 step "Building with $jobs jobs"
 cmake --build "$build" -j "$jobs"
+if [[ -n "$sanitized" ]]; then
+  step "Building the sanitized suites ($sanitized: ASan + UBSan, -O1)"
+  cmake -S "$here" -B "$sanitized" -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_FLAGS_RELEASE=-O1 \
+    -DCMAKE_C_FLAGS_RELEASE=-O1 -DPOISE_SANITIZE=ON -DPOISE_BUILD_TESTS=ON \
+    -DPOISE_BUILD_BENCHMARKS=OFF
+  cmake --build "$sanitized" -j "$jobs" \
+    --target poise_sanitized_loop_test poise_model_mutated_files_test
+fi
 
 case "$mode" in
   build) ;;

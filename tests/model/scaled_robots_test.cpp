@@ -26,6 +26,7 @@
 #include "poise/model/model.hpp"
 #include "poise/model/robot_config.hpp"
 #include "support/child_process.hpp"
+#include "support/sixty_five_joints.hpp"
 
 namespace {
 
@@ -197,27 +198,6 @@ TEST(ScaledRobots, SixtyFourJointsStandInProcess) {
 namespace {
 
 // The 64-joint URDF with one more joint (on the left wrist), beside a copy of its robot.yaml.
-fs::path write_sixty_five_joint_robot(const fs::path& dir) {
-  fs::create_directories(dir);
-  std::string urdf = slurp(folder(64) / "poise_humanoid_64.urdf");
-  const std::string extra =
-      "  <joint name=\"extra_joint\" type=\"revolute\"><parent link=\"l_wrist_yaw_link\"/>"
-      "<child link=\"extra_link\"/><axis xyz=\"0 0 1\"/>"
-      "<limit lower=\"-1\" upper=\"1\" effort=\"10\" velocity=\"5\"/></joint>\n"
-      "  <link name=\"extra_link\"><inertial><mass value=\"0.01\"/>"
-      "<inertia ixx=\"1e-6\" iyy=\"1e-6\" izz=\"1e-6\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/>"
-      "</inertial></link>\n</robot>";
-  urdf.replace(urdf.rfind("</robot>"), 8, extra);
-  std::ofstream(dir / "poise_humanoid_64.urdf") << urdf;
-  std::ofstream(dir / "robot.yaml") << slurp(folder(64) / "robot.yaml");
-  std::string scenario =
-      slurp(fs::path(POISE_SOURCE_DIR) / "deploy/scenarios/scaling/standing_64.yaml");
-  const std::string rel = "../../robots/poise_humanoid_64/robot.yaml";
-  scenario.replace(scenario.find(rel), rel.size(), (dir / "robot.yaml").string());
-  std::ofstream(dir / "standing_65.yaml") << scenario;
-  return dir;
-}
-
 struct Ran {
   std::optional<int> code;
   std::string output;
@@ -238,8 +218,9 @@ Ran run_poise(std::vector<std::string> args) {
 // message naming the count and the limit (it used to run in process and write past the joint
 // command's arrays), while the 64-joint robot runs in both modes.
 TEST(ScaledRobots, SixtyFiveJointsAreRefusedByEveryToolSixtyFourRunInBothModes) {
-  const fs::path dir = write_sixty_five_joint_robot(
-      fs::path(::testing::TempDir()) / ("poise_65_" + std::to_string(::getpid())));
+  const fs::path dir = poise::testing::write_sixty_five_joint_robot(
+      fs::path(::testing::TempDir()) / ("poise_65_" + std::to_string(::getpid())),
+      POISE_SOURCE_DIR);
   const std::string urdf = (dir / "poise_humanoid_64.urdf").string();
   const std::string scenario = (dir / "standing_65.yaml").string();
   const std::vector<std::vector<std::string>> refusing = {
