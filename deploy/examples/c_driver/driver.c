@@ -567,14 +567,15 @@ int main(int argc, char **argv) {
       /* One commanding writer: the first whose command comes. Another is refused while the
        * commanding one is alive (sent within 100 ms, or still matched with it); a restarted
        * controller is adopted once the old writer is gone. */
-      {
+      if (owner == 0 || info.publication_handle == owner) {
+        owner = info.publication_handle;
+        owner_seen_ns = t;
+      } else {
+        /* Another writer: how many are matched is read only now, not for every command. */
         dds_subscription_matched_status_t st;
         const int writers =
             dds_get_subscription_matched_status(h.command_reader, &st) == 0 ? (int)st.current_count : 1;
-        if (owner == 0 || info.publication_handle == owner) {
-          owner = info.publication_handle;
-          owner_seen_ns = t;
-        } else if (writers <= 1 || t - owner_seen_ns >= 100000000LL) {
+        if (writers <= 1 || t - owner_seen_ns >= 100000000LL) {
           logf_("poise/joint_command: a new writer %016llx replaces %016llx (a restarted controller)",
                 (unsigned long long)info.publication_handle, (unsigned long long)owner);
           owner = info.publication_handle;

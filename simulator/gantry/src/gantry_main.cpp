@@ -88,7 +88,8 @@ class Gantry {
         commands_(node.participant(),
                   [this](const msg::JointCommand& c, const dds::detail::SampleMeta& m) {
                     // One commanding writer (safety::CommandWriterGate); the loop reports.
-                    if (gate_.check(m.writer_id, commands_.matched(), node::now_ns()) ==
+                    if (gate_.check(
+                            m.writer_id, [this] { return commands_.matched(); }, node::now_ns()) ==
                         safety::CommandWriterGate::Verdict::kForeign) {
                       foreign_.refuse(m.writer_id, gate_.owner());
                       return;

@@ -512,7 +512,8 @@ class SimNode {
   /// another writer while the commanding one is alive is refused and counted; the loop thread
   /// reports it (report_foreign_commands).
   void on_command_from(const msg::JointCommand& c, std::uint64_t writer) noexcept {
-    switch (writer_gate_.check(writer, commands_in_.matched(), node::now_ns())) {
+    switch (writer_gate_.check(
+        writer, [this] { return commands_in_.matched(); }, node::now_ns())) {
       case safety::CommandWriterGate::Verdict::kForeign:
         foreign_.refuse(writer, writer_gate_.owner());
         return;

@@ -29,14 +29,18 @@ class CommandWriterGate {
   explicit CommandWriterGate(std::int64_t handover_ns = 100'000'000) noexcept
       : handover_ns_(handover_ns) {}
 
-  /// A command from `writer` arriving at `now_ns`, with `matched_writers` writers matched.
-  Verdict check(std::uint64_t writer, int matched_writers, std::int64_t now_ns) noexcept {
+  /// A command from `writer` arriving at `now_ns`. `matched_writers()` says how many writers are
+  /// matched; it is asked only for a command of another writer than the commanding one (the
+  /// vendors' status reads take a lock: not for every command at 1 kHz).
+  template <typename MatchedWriters>
+  Verdict check(std::uint64_t writer, MatchedWriters&& matched_writers,
+                std::int64_t now_ns) noexcept {
     if (owner_ == 0 || writer == owner_) {
       owner_ = writer;
       owner_seen_ns_ = now_ns;
       return Verdict::kOwner;
     }
-    if (matched_writers <= 1 || now_ns - owner_seen_ns_ >= handover_ns_) {
+    if (now_ns - owner_seen_ns_ >= handover_ns_ || matched_writers() <= 1) {
       ++handovers_;
       owner_ = writer;
       owner_seen_ns_ = now_ns;
@@ -45,6 +49,11 @@ class CommandWriterGate {
     ++foreign_samples_;
     foreign_ = writer;
     return Verdict::kForeign;
+  }
+
+  /// The same, with the matched writers counted beforehand.
+  Verdict check(std::uint64_t writer, int matched_writers, std::int64_t now_ns) noexcept {
+    return check(writer, [matched_writers] { return matched_writers; }, now_ns);
   }
 
   std::uint64_t owner() const noexcept { return owner_; }
