@@ -32,9 +32,9 @@
 // loop on that joint's own inertia.
 //  - A held humanoid is a statue, and a statue on its ankles is an inverted pendulum: gravity's
 //    torque about a joint grows by k = m g h per radian (gravity_stiffness()), and the joint falls
-//    over unless kp > k. kp is raised to 2 k. The project humanoid's ankles need 378 N m/rad
-//    against a configured 150: with those, the held robot tipped over 3 s after its controller
-//    stopped; with 757 it stands for as long as the hold lasts.
+//    over unless kp > k. kp is raised to 2 k. The project humanoid's ankles carry 378 N m/rad
+//    against a configured 150: at the configured gains the held robot tips over within seconds
+//    (3 s measured), at 757 it stands through the hold (HoldTest, 10 s).
 //  - Bound: kp <= 0.2 I / dt^2, kd <= 0.5 I / dt, where I is the joint-space inertia M_ii at the
 //    start posture. A wrist of 1e-4 kg m^2 gets kd <= 0.05 N m s/rad (a constant kd of 10 makes
 //    it explode at 1 kHz).
@@ -99,8 +99,9 @@ struct Config {
   std::vector<std::string> joint_names;  ///< robot (wire) joint order
   Eigen::VectorXd hold_kp, hold_kd;      ///< PD gains to hold a posture (dim n)
   /// The robot configuration's kp bounded by inertia, without the gravity floor (dim n, or empty:
-  /// hold_kp): a simulator's settle, the few ticks that set the robot down onto its feet before
-  /// the first sensor frame (start(q0, now, true)), as it was before the floor existed.
+  /// hold_kp), for a simulator's settle only: the few ticks that set the robot down onto its
+  /// feet before the first sensor frame (start(q0, now, true)). The robot hangs from nothing
+  /// there, so no statue needs holding, and the settled state stays that of the robot's gains.
   Eigen::VectorXd settle_kp;
   Eigen::VectorXd damping_kd;            ///< DAMP / ESTOP gains (dim n)
   Eigen::VectorXd effort;                ///< effort limits (dim n; +inf: none)
