@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "poise/sim/world.hpp"
 #include "poise/sim/simulator.hpp"
+#include "poise/sim/world.hpp"
 
 namespace {
 
@@ -94,8 +94,8 @@ void run(benchmark::State& state, const std::string& scenario_name) {
 
 // Arguments: {solver iterations, articulated warm starting (1 = the default, 0 = off), ground
 // broadphase box (1 = the default band above the plane, 0 = infinite: every link paired with the
-// ground), solver residual threshold 10^-arg (9 = the default)}; the rows with a 0 are the
-// settings before that change (same run, A/B).
+// ground), solver residual threshold 10^-arg (7 = the default)}; the
+// first row of each case is the default, the others change one setting (same run, A/B).
 void BM_StepStandingDoubleSupport(benchmark::State& st) {
   run(st, "forward_push_double_support");
 }
@@ -109,22 +109,22 @@ void BM_StepMovingPlatforms(benchmark::State& st) {
 }  // namespace
 
 BENCHMARK(BM_StepStandingDoubleSupport)
-    ->Args({50, 1, 1, 9})
     ->Args({50, 1, 1, 7})
-    ->Args({50, 1, 0, 9})
-    ->Args({50, 0, 0, 9})
-    ->Args({20, 1, 1, 9})
+    ->Args({50, 1, 1, 9})
+    ->Args({50, 1, 0, 7})
+    ->Args({50, 0, 1, 7})
+    ->Args({20, 1, 1, 7})
     ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_StepSingleSupport)
-    ->Args({50, 1, 1, 9})
     ->Args({50, 1, 1, 7})
-    ->Args({50, 1, 0, 9})
-    ->Args({50, 0, 0, 9})
+    ->Args({50, 1, 1, 9})
+    ->Args({50, 1, 0, 7})
+    ->Args({50, 0, 1, 7})
     ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_StepMovingPlatforms)
-    ->Args({50, 1, 1, 9})
     ->Args({50, 1, 1, 7})
-    ->Args({50, 1, 0, 9})
-    ->Args({50, 0, 0, 9})
+    ->Args({50, 1, 1, 9})
+    ->Args({50, 1, 0, 7})
+    ->Args({50, 0, 1, 7})
     ->Unit(benchmark::kMicrosecond);
 BENCHMARK_MAIN();

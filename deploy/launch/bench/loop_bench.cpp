@@ -1,5 +1,6 @@
 // poise-bench-loop [SCENARIO] [--duration S] [--skip-distributed] [--verbose]
-// poise-bench-loop --realtime ...   (real time, distributed, against the targets: realtime_bench.cpp)
+// poise-bench-loop --realtime ...   (real time, distributed, against the targets:
+// realtime_bench.cpp)
 //
 // Measures, in one run:
 //  1. the in-process loop: simulator -> estimator -> controller phase A -> contact optimiser ->
@@ -13,13 +14,16 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "poise/contact_node/contact_messages.hpp"
 #include "poise/controller/balance_controller.hpp"
@@ -29,6 +33,7 @@
 #include "poise/node/compute_stats.hpp"
 #include "poise/node/robot_description.hpp"
 #include "poise/node/tick_timer.hpp"
+#include "poise/sim/bullet_profile.hpp"
 #include "poise/sim_node/sim_messages.hpp"
 #include "realtime_bench.hpp"
 
@@ -37,15 +42,61 @@ namespace {
 using namespace poise;
 namespace fs = std::filesystem;
 
+// Where an in-process tick goes, in the order the loop runs it.
+enum Phase : int {
+  kSensorsToState,  // sensor message out and in
+  kEstimator,
+  kStateToController,  // state message out and in
+  kControllerA,        // prepare: momentum, the contact problem
+  kProblemWire,        // problem message out and in
+  kContact,            // the contact optimiser
+  kSolutionWire,       // solution message out and in
+  kControllerB,        // finish: accelerations, inverse dynamics, torques
+  kCommandWire,        // command message out and in
+  kSimStep,            // Simulator::step (split further by its StepTimes)
+  kMonitor,
+  kPhases
+};
+constexpr const char* kPhaseNames[kPhases] = {
+    "sensors msg (out+in)", "estimator",         "state msg (out+in)",    "controller phase A",
+    "problem msg (out+in)", "contact optimiser", "solution msg (out+in)", "controller phase B",
+    "command msg (out+in)", "simulator step",    "scenario monitor"};
+
 struct InProcessResult {
   double realtime_factor = 0.0;
   double us_per_tick = 0.0;
   bool survived = false;
   double com_error_max = 0.0;
+  std::array<double, kPhases> phase_us{};  // mean per tick
+  sim::StepTimes step{};
+  std::vector<sim::BulletProfile::Zone> zones;  // with --profile
+  long ticks = 0;
 };
 
+// Adds the time since the last mark to a phase.
+class PhaseClock {
+ public:
+  explicit PhaseClock(std::array<std::int64_t, kPhases>& ns) : ns_(ns), last_(node::now_ns()) {}
+  void mark(Phase p) {
+    const std::int64_t t = node::now_ns();
+    ns_[static_cast<std::size_t>(p)] += t - last_;
+    last_ = t;
+  }
+
+ private:
+  std::array<std::int64_t, kPhases>& ns_;
+  std::int64_t last_;
+};
+
+// Busy work for --add-work-us (a deliberate slowdown that loop_guard.sh must flag).
+void spin_us(double us) {
+  const std::int64_t until = node::now_ns() + static_cast<std::int64_t>(us * 1e3);
+  while (node::now_ns() < until) {
+  }
+}
+
 InProcessResult run_in_process(const std::string& file, double duration, bool verbose,
-                               int settle_ticks) {
+                               int settle_ticks, bool profile, double add_work_us) {
   const sim::World sc = sim::load_world(file);
   sim::Simulator sim(sc.sim);
   const auto feet = sim_node::foot_order(sim);
@@ -80,26 +131,43 @@ InProcessResult run_in_process(const std::string& file, double duration, bool ve
   auto m_command = std::make_unique<msg::JointCommand>();
 
   const auto steps = static_cast<long>(duration / sim.dt() + 0.5);
+  std::array<std::int64_t, kPhases> phase_ns{};
+  std::unique_ptr<sim::BulletProfile> zones;
+  if (profile) zones = std::make_unique<sim::BulletProfile>();
+  sim.reset_step_times();
   const std::int64_t t0 = node::now_ns();
+  PhaseClock clock(phase_ns);
   for (long i = 0; i < steps; ++i) {
     sim_node::to_msg(sensors, feet, *m_sensors);
     estimator_node::from_msg(*m_sensors, map, frame);
+    clock.mark(kSensorsToState);
     est.update(frame, est_state);
+    clock.mark(kEstimator);
     estimator_node::to_msg(est_state, map, *m_state);
     controller_node::from_msg(*m_state, map, state);
+    clock.mark(kStateToController);
     ctrl.prepare(state, reference, problem);
+    clock.mark(kControllerA);
     contact_node::to_msg(problem, *m_problem);
     m_problem->header(m_state->header());
     contact_node::from_msg(*m_problem, problem_in);
+    clock.mark(kProblemWire);
     optimizer.solve(problem_in, solution);
+    clock.mark(kContact);
     contact_node::to_msg(solution, m_problem->header(), 0.0, contact::Method::kSequential,
                          *m_solution);
     contact_node::from_msg(*m_solution, solution_in);
+    clock.mark(kSolutionWire);
     ctrl.finish(solution_in, command);
+    clock.mark(kControllerB);
     controller_node::to_msg(command, m_state->header(), map, *m_command);
     sim_node::from_msg(*m_command, sim_cmd);
+    clock.mark(kCommandWire);
     sim.step(sim_cmd, sensors, truth);
+    clock.mark(kSimStep);
     monitor.update(truth);
+    clock.mark(kMonitor);
+    if (add_work_us > 0.0) spin_us(add_work_us);
     if (verbose && i < 40)
       std::printf(
           "k=%ld Fz_meas R %.1f L %.1f | contact est %d %d | support %d %d | mode %d | "
@@ -119,12 +187,56 @@ InProcessResult run_in_process(const std::string& file, double duration, bool ve
   }
   const double wall = static_cast<double>(node::now_ns() - t0) * 1e-9;
   InProcessResult r;
+  r.ticks = steps;
+  for (int p = 0; p < kPhases; ++p)
+    r.phase_us[static_cast<std::size_t>(p)] =
+        1e-3 * static_cast<double>(phase_ns[static_cast<std::size_t>(p)]) /
+        static_cast<double>(std::max(1L, steps));
+  r.step = sim.step_times();
+  if (zones) r.zones = zones->zones();
   r.realtime_factor = static_cast<double>(steps) * sim.dt() / wall;
   r.us_per_tick = wall * 1e6 / static_cast<double>(steps);
   const auto m = monitor.result();
   r.survived = m.survived;
   r.com_error_max = m.com_error_max_m;
   return r;
+}
+
+void print_split(const InProcessResult& in) {
+  std::printf("  where an in-process tick goes (mean us per tick):\n");
+  for (int p = 0; p < kPhases; ++p)
+    std::printf("    %-22s %6.1f\n", kPhaseNames[p], in.phase_us[static_cast<std::size_t>(p)]);
+  const double n = static_cast<double>(std::max<std::int64_t>(1, in.step.steps));
+  std::printf(
+      "      of the step: Bullet %.1f, sensor models + ground truth %.1f, commands + "
+      "actuators + pushes + limits %.1f\n",
+      1e-3 * static_cast<double>(in.step.bullet_ns) / n,
+      1e-3 * static_cast<double>(in.step.sensors_ns) / n,
+      1e-3 * static_cast<double>(in.step.other_ns) / n);
+}
+
+void print_zones(const InProcessResult& in) {
+  const double n = static_cast<double>(std::max(1L, in.ticks));
+  std::printf(
+      "  Bullet's profile zones (inclusive mean us per tick, calls per tick; timed in a "
+      "second run):\n");
+  for (const auto& z : in.zones)
+    if (z.total_us / n >= 0.05)
+      std::printf("    %*s%-*s %6.2f us %6.1f calls\n", 2 * z.depth, "", 52 - 2 * z.depth,
+                  z.name.c_str(), z.total_us / n, static_cast<double>(z.calls) / n);
+}
+
+// The nodes' own split of their compute (poise run's result: library, node, DDS write).
+void print_node_split(const nlohmann::json& r) {
+  for (const char* n : {"estimator", "controller", "contact"}) {
+    auto p50 = [&](const char* key) {
+      const auto it = r.find(key);
+      if (it == r.end() || !it->contains(n)) return -1.0;
+      return (*it)[n].value("p50", -1.0);
+    };
+    std::printf("  %-10s p50: library %.1f us, node %.1f us, DDS write %.1f us\n", n,
+                p50("library_us"), p50("overhead_us"), p50("dds_write_us"));
+  }
 }
 
 fs::path self_dir() {
@@ -147,7 +259,8 @@ int main(int argc, char** argv) {
     }
   std::string scenario;
   double duration = 3.0;
-  bool skip_distributed = false, verbose = false;
+  bool skip_distributed = false, verbose = false, profile = false;
+  double add_work_us = 0.0;
   int settle_ticks = 10;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -157,12 +270,20 @@ int main(int argc, char** argv) {
       skip_distributed = true;
     else if (a == "--verbose")
       verbose = true;
+    else if (a == "--profile")
+      profile = true;
+    else if (a == "--add-work-us" && i + 1 < argc)
+      add_work_us = std::atof(argv[++i]);
     else if (a == "--settle-ticks" && i + 1 < argc)
       settle_ticks = std::atoi(argv[++i]);
     else if (a == "--help" || a == "-h") {
       std::printf(
           "usage: poise-bench-loop [SCENARIO] [--duration S] [--skip-distributed] "
-          "[--verbose]\n"
+          "[--profile] [--add-work-us US] [--verbose]\n"
+          "  --profile  also time Bullet's own profile zones in the in-process loop (adds about\n"
+          "             2 us a tick, so the loop's own figure is measured without it first)\n"
+          "  --add-work-us US  busy-wait this long in every in-process tick: a deliberate\n"
+          "             slowdown, to check that loop_guard.sh flags one\n"
           "       poise-bench-loop --realtime [--help] ...  (the real-time targets: see "
           "--realtime --help)\n");
       return 0;
@@ -177,10 +298,13 @@ int main(int argc, char** argv) {
       }
   }
   try {
-    const InProcessResult in = run_in_process(scenario, duration, verbose, settle_ticks);
+    const InProcessResult in =
+        run_in_process(scenario, duration, verbose, settle_ticks, false, add_work_us);
     std::printf("in-process loop : %.2fx real time (%.1f us per tick), %s, com_error_max %.4f m\n",
                 in.realtime_factor, in.us_per_tick, in.survived ? "survived" : "FELL",
                 in.com_error_max);
+    print_split(in);
+    if (profile) print_zones(run_in_process(scenario, duration, false, settle_ticks, true, 0.0));
     if (skip_distributed) return 0;
     const fs::path dir =
         fs::temp_directory_path() / ("poise-bench-loop-" + std::to_string(::getpid()));
@@ -229,6 +353,7 @@ int main(int argc, char** argv) {
         "switches per tick: %.1f voluntary, %.1f involuntary\n",
         cpu_s * 1e6 / ticks, static_cast<double>(after.ru_nvcsw - before.ru_nvcsw) / ticks,
         static_cast<double>(after.ru_nivcsw - before.ru_nivcsw) / ticks);
+    print_node_split(r);
     std::printf("DDS + process overhead: %.1f us per tick; distributed / in-process speed: %.2f\n",
                 (rtf > 0 ? 1e3 / rtf : 0.0) - in.us_per_tick,
                 in.realtime_factor > 0 ? rtf / in.realtime_factor : 0.0);

@@ -7,8 +7,8 @@
 #include <BulletCollision/CollisionShapes/btBoxShape.h>
 #include <BulletCollision/CollisionShapes/btCompoundShape.h>
 #include <BulletCollision/CollisionShapes/btConvexHullShape.h>
-#include <BulletCollision/CollisionShapes/btShapeHull.h>
 #include <BulletCollision/CollisionShapes/btCylinderShape.h>
+#include <BulletCollision/CollisionShapes/btShapeHull.h>
 #include <BulletCollision/CollisionShapes/btSphereShape.h>
 #include <BulletCollision/CollisionShapes/btStaticPlaneShape.h>
 #include <BulletDynamics/Featherstone/btMultiBody.h>
@@ -22,6 +22,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -186,6 +187,12 @@ class RowCountingSolver : public btMultiBodyConstraintSolver {
 
 namespace {
 
+std::int64_t steady_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
 Eigen::Matrix3d exp_so3(const Eigen::Vector3d& w) {
   const double a = w.norm();
   if (a < 1e-12) return Eigen::Matrix3d::Identity();
@@ -310,8 +317,7 @@ class SensorModel {
     s.imu_q_WI = out.q;
   }
 
-  void encoders(bool advance, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
-                SensorFrame& s) {
+  void encoders(bool advance, const Eigen::VectorXd& q, const Eigen::VectorXd& qd, SensorFrame& s) {
     if (enc_.counts_per_rev <= 0.0) {
       s.q = q;
       s.qd = qd;
@@ -460,11 +466,13 @@ struct Simulator::Impl {
     bool enabled = false;
     Eigen::MatrixXd delayed;  // n x delay_ticks
     int head = 0;
-    double alpha = 1.0;       // lag step: 1 = no lag
+    double alpha = 1.0;  // lag step: 1 = no lag
     Eigen::VectorXd y, noise_std, effort;
     detail::PortableNormal noise{0};
     double torque(int i, double u);  // the applied torque of joint i for command u (one tick)
-    void advance() { if (delayed.cols() > 0) head = (head + 1) % static_cast<int>(delayed.cols()); }
+    void advance() {
+      if (delayed.cols() > 0) head = (head + 1) % static_cast<int>(delayed.cols());
+    }
   } actuators;
   void configure_actuators();
   std::vector<Eigen::Isometry3d> X_LK;  // body COM frame K in the URDF body frame L
@@ -482,6 +490,7 @@ struct Simulator::Impl {
   std::unique_ptr<btCollisionDispatcher> dispatcher;
   std::unique_ptr<btDbvtBroadphase> broadphase;
   std::unique_ptr<RowCountingSolver> solver;
+  StepTimes step_times;
   std::unique_ptr<btMultiBodyDynamicsWorld> world;
   std::unique_ptr<btMultiBody> mb;
   std::vector<std::unique_ptr<btCollisionShape>> shapes;
@@ -506,7 +515,7 @@ struct Simulator::Impl {
     int body = 0;
     Eigen::Isometry3d X_KF = Eigen::Isometry3d::Identity();
     std::vector<Eigen::Vector3d> sole_corners_F;  // sole rectangle (or shape box) corners
-    std::vector<ShapeSpec> shapes_F;  // the foot body's collision shapes, X_LS in F
+    std::vector<ShapeSpec> shapes_F;              // the foot body's collision shapes, X_LS in F
   };
   std::vector<Foot> feet;
   std::vector<int> foot_of_body;  // body -> foot index or -1
@@ -681,11 +690,10 @@ void Simulator::Impl::resolve_feet_and_imu() {
   for (const FootConfig& f : cfg.robot.feet)
     if (const detail::FrameSpec* fr = tree.find_frame(f.frame)) {
       auto& shapes = tree.bodies[static_cast<std::size_t>(fr->body)].shapes;
-      shapes.erase(std::remove_if(shapes.begin(), shapes.end(),
-                                  [](const ShapeSpec& sh) {
-                                    return sh.type == ShapeSpec::Type::kConvex;
-                                  }),
-                   shapes.end());
+      shapes.erase(
+          std::remove_if(shapes.begin(), shapes.end(),
+                         [](const ShapeSpec& sh) { return sh.type == ShapeSpec::Type::kConvex; }),
+          shapes.end());
     }
   for (const FootConfig& f : cfg.robot.feet) {
     const detail::FrameSpec* fr = tree.find_frame(f.frame);
@@ -936,7 +944,8 @@ void Simulator::Impl::build_robot() {
           // The mesh's convex hull, reduced by Bullet's hull builder to a few dozen vertices
           // (a support-point query per contact test walks them all).
           btConvexHullShape all;
-          for (const Eigen::Vector3d& p : s.points) all.addPoint(bt(p), false);
+          for (const Eigen::Vector3d& p : s.points)
+            all.addPoint(bt(p), false);
           all.setMargin(0.0);  // the reduction samples support points, margin included
           all.recalcLocalAabb();
           btShapeHull reduced(&all);
@@ -1013,7 +1022,7 @@ void Simulator::Impl::build_world() {
     ground = std::make_unique<btCollisionObject>();
     ground->setCollisionShape(ground_shape.get());
     ground->setFriction(std::isfinite(reality.ground_friction) ? reality.ground_friction
-                                                                : cfg.world.ground.friction);
+                                                               : cfg.world.ground.friction);
     make_compliant(*ground);
     ground->setRestitution(0.0);
     ground->setUserIndex(kGroundIndex);
@@ -1139,17 +1148,19 @@ double Simulator::Impl::lowest_foot_point(int foot, const Eigen::Vector3d& norma
         break;
       case ShapeSpec::Type::kCylinder: {  // size: (radius, length), axis z
         const double az = std::min(1.0, std::abs(n_S.z()));
-        lo = std::min(lo, c - sh.size.x() * std::sqrt(std::max(0.0, 1.0 - az * az)) -
-                              0.5 * sh.size.y() * az);
+        lo = std::min(
+            lo, c - sh.size.x() * std::sqrt(std::max(0.0, 1.0 - az * az)) - 0.5 * sh.size.y() * az);
         break;
       }
       case ShapeSpec::Type::kConvex:  // (not on a foot: removed when the feet are set up)
-        for (const Eigen::Vector3d& p : sh.points) lo = std::min(lo, c + n_S.dot(p));
+        for (const Eigen::Vector3d& p : sh.points)
+          lo = std::min(lo, c + n_S.dot(p));
         break;
     }
   }
   if (f.shapes_F.empty())  // (not reached: a foot without shapes gets the sole box)
-    for (const auto& p : f.sole_corners_F) lo = std::min(lo, normal.dot(X_WF * p));
+    for (const auto& p : f.sole_corners_F)
+      lo = std::min(lo, normal.dot(X_WF * p));
   return lo;
 }
 
@@ -1441,8 +1452,17 @@ void Simulator::read(SensorFrame& sensors, GroundTruth& truth) {
   impl_->fill(sensors, truth, false);
 }
 
+const StepTimes& Simulator::step_times() const {
+  return impl_->step_times;
+}
+
+void Simulator::reset_step_times() {
+  impl_->step_times = StepTimes{};
+}
+
 StepStatus Simulator::step(const JointCommand& cmd, SensorFrame& sensors, GroundTruth& truth) {
   Impl& s = *impl_;
+  const std::int64_t t_begin = steady_ns();
   const int n = s.n;
   StepStatus status = StepStatus::kOk;
   const bool sized = cmd.tau_ff.size() == n && cmd.q_ref.size() == n && cmd.qd_ref.size() == n &&
@@ -1478,8 +1498,7 @@ StepStatus Simulator::step(const JointCommand& cmd, SensorFrame& sensors, Ground
     }
     t = s.actuators.torque(i, std::clamp(t, -s.effort[i], s.effort[i]));
     s.tau[i] = t;
-    const double fr =
-        s.friction[i] * std::clamp(qd / s.friction_velocity[i], -1.0, 1.0);
+    const double fr = s.friction[i] * std::clamp(qd / s.friction_velocity[i], -1.0, 1.0);
     mb.addJointTorque(i, t - s.damping[i] * qd - fr);
   }
   s.actuators.advance();
@@ -1513,10 +1532,18 @@ StepStatus Simulator::step(const JointCommand& cmd, SensorFrame& sensors, Ground
 
   s.update_platforms(static_cast<double>(k) * s.dt);
   s.update_limits();
+  const std::int64_t t_bullet = steady_ns();
   s.world->stepSimulation(s.dt, 0, s.dt);
+  const std::int64_t t_sensors = steady_ns();
   ++s.tick;
   s.update_kinematics();
   s.fill(sensors, truth, true);
+  const std::int64_t t_end = steady_ns();
+  StepTimes& st = s.step_times;
+  ++st.steps;
+  st.bullet_ns += t_sensors - t_bullet;
+  st.sensors_ns += t_end - t_sensors;
+  st.other_ns += (t_bullet - t_begin);
   return status;
 }
 
@@ -1558,15 +1585,15 @@ ImuNoiseConfig industrial_mems_imu() {
   constexpr double kDeg = M_PI / 180.0;
   constexpr double kG = 9.80665;
   ImuNoiseConfig c;
-  c.gyro_noise_density = 0.008 * kDeg;           // 0.008 deg/s/sqrt(Hz) (ADIS16470)
+  c.gyro_noise_density = 0.008 * kDeg;            // 0.008 deg/s/sqrt(Hz) (ADIS16470)
   c.gyro_bias_walk = 8.0 * kDeg / 3600.0 / 10.0;  // 8 deg/h in-run stability reached in 100 s
-  c.gyro_bias = Eigen::Vector3d(0.1, -0.08, 0.05) * kDeg;          // turn-on residual [rad/s]
+  c.gyro_bias = Eigen::Vector3d(0.1, -0.08, 0.05) * kDeg;           // turn-on residual [rad/s]
   c.gyro_scale_error = Eigen::Vector3d(0.001, -0.0008, 0.0005);     // 0.1 %
   c.gyro_misalignment = Eigen::Vector3d(0.05, -0.03, 0.04) * kDeg;  // 0.05 deg
   c.gyro_range = 2000.0 * kDeg;                                     // +-2000 deg/s
   c.accel_noise_density = std::sqrt(2.0) * 0.037 / 60.0;  // VRW 0.037 m/s/sqrt(h), one-sided
-  c.accel_bias_walk = 13e-6 * kG / 10.0;  // 13 ug in-run stability reached in 100 s
-  c.accel_bias = Eigen::Vector3d(2.0, -1.5, 1.0) * 1e-3 * kG;       // 2 mg turn-on residual
+  c.accel_bias_walk = 13e-6 * kG / 10.0;                  // 13 ug in-run stability reached in 100 s
+  c.accel_bias = Eigen::Vector3d(2.0, -1.5, 1.0) * 1e-3 * kG;  // 2 mg turn-on residual
   c.accel_scale_error = Eigen::Vector3d(-0.001, 0.0007, 0.0005);
   c.accel_misalignment = Eigen::Vector3d(-0.04, 0.05, -0.03) * kDeg;
   c.accel_range = 40.0 * kG;  // +-40 g

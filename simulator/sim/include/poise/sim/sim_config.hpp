@@ -187,7 +187,7 @@ struct SolverConfig {
   double contact_cfm = 0.0;     ///< constraint force mixing
   bool friction_anchor = true;  ///< anchor static foot contacts (no slow creep)
   /// Stop iterating once the solver residual is below this (0 = always run all iterations).
-  double residual_threshold = 1e-9;
+  double residual_threshold = 1e-7;
   /// URDF joint friction as exact Coulomb friction (one velocity-motor row per joint in the
   /// contact solver: about doubles the step time of the humanoid) instead of the default smooth
   /// explicit model tau_f = -friction * clamp(qd / joint_friction_velocity, -1, 1).

@@ -90,6 +90,10 @@ class Simulator {
   /// Constraint rows the contact solver built for the last step. For benchmarks and diagnostics.
   SolverRows solver_rows() const;
 
+  /// Wall time of the steps so far, split (StepTimes). Four clock reads a step.
+  const StepTimes& step_times() const;
+  void reset_step_times();
+
   /// Joint positions / base pose setters for tests (configuration time).
   void set_state(const Eigen::Isometry3d& X_WB, const Eigen::VectorXd& q,
                  const Eigen::Vector3d& v_WB = Eigen::Vector3d::Zero(),

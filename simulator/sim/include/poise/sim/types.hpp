@@ -81,7 +81,7 @@ struct GroundTruth {
   /// configuration, minus com_W: zero unless a scenario's `reality:` section changes the
   /// masses [m].
   Eigen::Vector3d model_com_shift_W = Eigen::Vector3d::Zero();
-  std::vector<FootContactTruth> feet;                      ///< one per foot
+  std::vector<FootContactTruth> feet;  ///< one per foot
   /// Per simulated body (order of Simulator::body_names()): 1 when a body that is not a foot
   /// touches the environment this tick.
   std::vector<std::uint8_t> non_foot_contact;
@@ -101,6 +101,17 @@ enum class StepStatus : std::uint8_t {
 };
 
 /// Constraint rows of the contact solver in one step (diagnostics).
+/// Where the steps' wall time went, summed since the simulator was made (or reset_step_times()):
+/// Bullet's stepSimulation (collision detection, constraint solver, integration), the sensor
+/// models with the ground truth (forward kinematics, IMU, encoders, F/T, contact summary), and
+/// the rest (command checks, actuator models, pushes, platforms, joint limits). For benchmarks.
+struct StepTimes {
+  std::int64_t steps = 0;
+  std::int64_t bullet_ns = 0;
+  std::int64_t sensors_ns = 0;
+  std::int64_t other_ns = 0;
+};
+
 struct SolverRows {
   int contact_normal = 0;    ///< one per contact point
   int contact_friction = 0;  ///< two per contact point (two friction directions)
