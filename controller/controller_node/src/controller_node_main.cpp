@@ -7,6 +7,7 @@
 //               poise/balance_reference   BalanceReference  on change (latched, reader keeps up
 //                                                           to 512); default: stand
 //               poise/contact_solution    ContactSolution   one per problem, tick k
+//               poise/estop_state         EStopState        each robot side's stop (latched)
 //   publishes   poise/contact_problem     ContactProblem    one per state, tick k
 //               poise/joint_command       JointCommand      one per state, tick k
 //               poise/diagnostics         Diagnostics       ~10 Hz best-effort (compute time per
@@ -22,6 +23,11 @@
 //               --contact-stale-ticks ticks in a row: NO joint command is sent (the robot's
 //               safety layer holds the posture; the fallback wrenches are for isolated misses
 //               only), health FAULT, until solutions come back.
+//   stops       while a robot side holds a stop (poise/estop_state engaged, either kind) it
+//               applies none of these commands: the references theta*, theta_dot* (eqs 34-35,
+//               integrated open loop from the accelerations) would drift from the held robot to
+//               their clamps and come back as a jump on the release. So every tick restarts them
+//               from the measured state (BalanceController::reset) until the stop is released.
 //   repeats     a state with the tick just handled is answered with the same command again; one
 //               with the tick still waiting for its contact solution sends contact problem k
 //               again (the deadline is not moved): at start-up the optimiser's reader may discover
@@ -58,11 +64,13 @@
 #include <cstdio>
 #include <exception>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 
 #include <poise/msg/contact_problem.h>
 #include <poise/msg/contact_solution.h>
+#include <poise/msg/estop_state.h>
 
 #include "poise/contact_node/contact_messages.hpp"
 #include "poise/controller/balance_controller.hpp"
@@ -197,6 +205,8 @@ int run(int argc, char** argv) {
     msg::Header header;
   } pending;
   bool started = false;  // setup complete: states are handled
+  std::map<std::string, bool> robot_stops;  // robot side -> holds a stop (poise/estop_state)
+  bool robot_stopped = false;               // any robot side holds one (see Contract: stops)
   bool fall_reported = false;  // the fall (FallConfig) has been logged
   // A state that cannot be handled yet (before the start, or while another tick is pending in
   // real time): the newest is kept and handled as soon as possible.
@@ -266,6 +276,7 @@ int run(int argc, char** argv) {
       node.error("balance reference with joint_count %u (robot has %zu): joint targets ignored",
                  due.joint_count, model_to_wire.size());
     controller_node::from_msg(in, model_to_wire, state);
+    if (robot_stopped) ctrl.reset();  // commands not applied: no open-loop references
     const std::int64_t t_lib = node::now_ns();
     ctrl.prepare(state, reference, problem);
     const std::int64_t lib_a = node::now_ns() - t_lib;
@@ -355,6 +366,21 @@ int run(int argc, char** argv) {
         std::lock_guard lock(mutex);
         // A solution of another tick (late, or of a tick already answered) is not used.
         if (pending.active && in.header().tick() == pending.k) complete(&in);
+      });
+  dds::Subscriber<msg::EStopState> estop_states(
+      node.participant(), [&](const msg::EStopState& in) {
+        std::lock_guard lock(mutex);
+        robot_stops[std::string(in.robot().c_str())] = in.engaged();
+        bool any = false;
+        for (const auto& [robot, engaged] : robot_stops)
+          any = any || engaged;
+        if (any == robot_stopped) return;
+        robot_stopped = any;
+        dds::log(dds::LogLevel::info,
+                 any ? "%s holds a stop: its commands are not applied, the integrated references "
+                       "follow the measured state until the release"
+                     : "%s released its stop: control resumes from the measured state",
+                 in.robot().c_str());
       });
   node.watch(states);
   node.watch(solutions);
