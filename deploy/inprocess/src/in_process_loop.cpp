@@ -215,6 +215,10 @@ void InProcessLoop::apply_safety_command(std::int64_t now_ns) {
 
 InProcessLoop::~InProcessLoop() = default;
 
+const std::vector<std::string>& InProcessLoop::safety_warnings() const {
+  return safety_->config().warnings;
+}
+
 double InProcessLoop::time() const {
   return sim_->time();
 }

@@ -152,6 +152,8 @@ int cli_main(int argc, char** argv) {
                 << (opt.state_source == StateSource::kEstimator ? " (" + opt.estimator + ")" : "")
                 << ", contact method " << method
                 << "\n";
+    for (const std::string& w : loop.safety_warnings())
+      std::cerr << "  safety: " << w << "\n";
     if (!quiet && scenario.sim.reality.enabled)
       std::cerr << "  " << sim::describe_reality(loop.result().reality) << "\n";
     const RunResult r = loop.run([&](double t) {

@@ -179,6 +179,9 @@ class InProcessLoop {
   const sim::GroundTruth& truth() const { return truth_; }
   const controller::RobotState& state() const { return state_; }
   const scenario::Scenario& scenario() const { return scenario_; }
+  /// What the robot side's safety configuration warns about (as poise-sim logs at start: e.g. a
+  /// hold gain the inertia bound keeps below gravity's stiffness).
+  const std::vector<std::string>& safety_warnings() const;
 
  private:
   struct EstimatorParts;
