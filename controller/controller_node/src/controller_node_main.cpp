@@ -367,21 +367,31 @@ int run(int argc, char** argv) {
         // A solution of another tick (late, or of a tick already answered) is not used.
         if (pending.active && in.header().tick() == pending.k) complete(&in);
       });
-  dds::Subscriber<msg::EStopState> estop_states(
-      node.participant(), [&](const msg::EStopState& in) {
-        std::lock_guard lock(mutex);
-        robot_stops[std::string(in.robot().c_str())] = in.engaged();
-        bool any = false;
-        for (const auto& [robot, engaged] : robot_stops)
-          any = any || engaged;
-        if (any == robot_stopped) return;
-        robot_stopped = any;
-        dds::log(dds::LogLevel::info,
-                 any ? "%s holds a stop: its commands are not applied, the integrated references "
-                       "follow the measured state until the release"
-                     : "%s released its stop: control resumes from the measured state",
-                 in.robot().c_str());
-      });
+  auto on_estop_state = [&](const msg::EStopState& in) {
+    std::lock_guard lock(mutex);
+    robot_stops[std::string(in.robot().c_str())] = in.engaged();
+    bool any = false;
+    for (const auto& [robot, engaged] : robot_stops)
+      any = any || engaged;
+    if (any == robot_stopped) return;
+    robot_stopped = any;
+    dds::log(dds::LogLevel::info,
+             any ? "%s holds a stop: its commands are not applied, the integrated references "
+                   "follow the measured state until the release"
+                 : "%s released its stop: control resumes from the measured state",
+             in.robot().c_str());
+  };
+  std::unique_ptr<dds::Subscriber<msg::EStopState>> estop_states;
+  try {
+    estop_states =
+        std::make_unique<dds::Subscriber<msg::EStopState>>(node.participant(), on_estop_state);
+  } catch (const std::exception& e) {
+    // Security bundles made before the controller read this topic do not grant it.
+    dds::log(dds::LogLevel::warn,
+             "cannot read poise/estop_state (%s): a held stop is not seen, so the release of a "
+             "protective stop may jump (regenerate the security bundles: poise security init)",
+             e.what());
+  }
   node.watch(states);
   node.watch(solutions);
   node.expect_one_writer(states);

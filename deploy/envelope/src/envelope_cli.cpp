@@ -33,16 +33,17 @@
 #include <thread>
 #include <vector>
 
+#include "envelope_study.hpp"
+#include "poise/cli/parse.hpp"
 #include "poise/contact/contact_optimizer.hpp"
 #include "poise/controller/controller_config.hpp"
 #include "poise/inprocess/in_process_loop.hpp"
 #include "poise/launch/child.hpp"
-#include "poise/plot/balance_plot.hpp"
 #include "poise/scenario/scenario.hpp"
 #include "random_study.hpp"
-#include "poise/cli/parse.hpp"
 
 namespace poise::envelope {
+namespace study {
 
 namespace fs = std::filesystem;
 using Json = nlohmann::json;
@@ -50,58 +51,6 @@ using Json = nlohmann::json;
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-struct Options {
-  std::string what = "all";  // all | pushes | fig11 | platforms
-  std::string mode = "in-process";
-  std::string double_base, single_base;
-  std::vector<std::string> platform_bases;
-  int directions = 8;
-  int single_directions = 4;
-  std::string supports = "double,single";
-  double push_duration = 0.1;
-  double force_step = 25.0, force_tol = 5.0, force_max = 500.0;
-  int probes = 3;
-  double jitter_deg = 0.0;  // > 0: each push force also at direction -+ this; all must survive
-  std::vector<double> grid_forces;  // pushes: these forces only (a grid), no scan or bisection
-  std::vector<double> fig11_forces{40, 60, 80, 100, 120, 160, 200, 250};
-  double duration_max = 1.5, duration_tol = 0.01;
-  double freq_step = 0.1, freq_tol = 0.02, freq_max = 2.0;
-  double periods = 3.0;
-  std::string priority;  // "" = the base scenario's / controller default
-  /// --controller-config: a controller YAML that replaces every run's `controller:` section
-  /// (loaded and validated before the first run; null node: not given).
-  std::string controller_config;
-  YAML::Node controller_node;
-  std::string output_dir = "results/envelope";
-  std::string gnuplot;
-  double run_timeout_s = 600.0;
-  bool ground_truth_state = false;
-  bool quiet = false;
-};
-
-/// What one run gave.
-struct Outcome {
-  bool survived = false;
-  double com_error_max_m = 0.0, foot_slip_max_m = 0.0;
-  double foot_slide_max_m = 0.0;  // the sliding part of the slip (ScenarioMonitor)
-  double foot_displacement_max_m = 0.0, foot_tilt_max_deg = 0.0;  // (ScenarioMonitor)
-  double trunk_pitch_max_deg = 0.0, trunk_roll_max_deg = 0.0;
-  std::string failed;  // the failed criteria, or the error that stopped the run
-};
-
-/// One row of runs.csv.
-struct Row {
-  std::string study, support;
-  double direction_deg = 0.0, force_n = 0.0, duration_s = 0.0, frequency_hz = 0.0;
-  Outcome o;
-};
-
-std::string csv_field(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) out += c == '"' ? std::string("\"\"") : std::string(1, c);
-  return out + "\"";
-}
 
 std::string source_file(const std::string& rel) {
   return (fs::path(POISE_SOURCE_DIR) / rel).string();
@@ -155,7 +104,8 @@ class Runner {
         if (!f) throw std::runtime_error("cannot write " + file.string());
       }
       if (o_.mode == "in-process") {
-        const scenario::Scenario sc = scenario::parse_scenario(e.c_str(), work_, "scenario " + name);
+        const scenario::Scenario sc =
+            scenario::parse_scenario(e.c_str(), work_, "scenario " + name);
         inprocess::LoopOptions lo;
         if (o_.ground_truth_state) lo.state_source = inprocess::StateSource::kGroundTruth;
         inprocess::InProcessLoop loop(sc, lo);
@@ -168,7 +118,8 @@ class Runner {
         out.foot_tilt_max_deg = r.foot_tilt_max_deg;
         out.trunk_pitch_max_deg = r.trunk_pitch_max_deg;
         out.trunk_roll_max_deg = r.trunk_roll_max_deg;
-        for (const auto& f : r.failed) out.failed += (out.failed.empty() ? "" : "; ") + f;
+        for (const auto& f : r.failed)
+          out.failed += (out.failed.empty() ? "" : "; ") + f;
       } else {
         out = run_lockstep(file, name);
       }
@@ -186,14 +137,16 @@ class Runner {
   Outcome run_lockstep(const fs::path& file, const std::string& name) {
     const fs::path json = work_ / (name + ".json");
     const std::string timeout = std::to_string(static_cast<int>(o_.run_timeout_s));
-    std::vector<std::string> args{poise_, "run", file.string(), "-q", "-o", json.string(),
-                                  "--log-dir", (work_ / (name + ".logs")).string(), "--timeout",
-                                  timeout};
+    std::vector<std::string> args{
+        poise_,      "run",         file.string(), "-q",
+        "-o",        json.string(), "--log-dir",   (work_ / (name + ".logs")).string(),
+        "--timeout", timeout};
     if (o_.ground_truth_state) args.push_back("--ground-truth-state");
     // The launcher's child process: logs in NAME.out / NAME.err, its own process group, ended
     // with this process (PR_SET_PDEATHSIG). `poise run --timeout` bounds it.
     launch::Child run(name, args, work_);
-    while (!run.poll()) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    while (!run.poll())
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
     Outcome out;
     std::ifstream in(json);
     if (!in) {
@@ -222,15 +175,6 @@ class Runner {
   fs::path work_;
   std::string poise_;
   int count_ = 0;
-};
-
-/// The boundary of one swept quantity (a force, a frequency).
-struct Boundary {
-  double monotone = 0.0;      ///< largest value with every step below it surviving
-  double boundary = 0.0;      ///< bisected between the last survival and the first failure
-  bool reached_max = false;   ///< survived up to the maximum: the boundary is at least that
-  std::vector<double> non_monotone;  ///< values above the first failure that survived
-  std::vector<double> failed_below;  ///< (bisection) failures below the boundary found
 };
 
 /// Steps up from `step` until the first failure, bisects, probes above. `survives(x)` runs one.
@@ -288,23 +232,11 @@ Boundary grid(const std::vector<double>& forces, const std::function<bool(double
   return b;
 }
 
-std::string fmt(double v, int prec = 1) {
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.*f", prec, v);
-  return buf;
-}
-
 /// One letter for a run's verdict in the grid table: e, f, s, t, c (failure_kind), x other;
 /// S is a survival.
 char failure_letter(const std::string& failed) {
   const std::string k = failure_kind(failed);
   return k == "slow recovery" ? 'c' : k == "other" ? 'x' : k[0];
-}
-
-std::string list(const std::vector<double>& v, int prec = 0) {
-  std::string s;
-  for (double x : v) s += (s.empty() ? "" : ", ") + fmt(x, prec);
-  return s.empty() ? "-" : s;
 }
 
 YAML::Node load_base(const std::string& path) {
@@ -328,22 +260,30 @@ YAML::Node first_push(YAML::Node& root, const std::string& base) {
   return pushes[0];
 }
 
-}  // namespace
+/// One `poise envelope`: its options, its runs and the studies' results.
+struct Envelope : Results {
+  Envelope(const Options& opts, std::chrono::steady_clock::time_point start, const fs::path& work)
+      : o(opts), t0(start), runner(o, fs::absolute(work)) {}
 
-int envelope_main(int argc, char** argv) {
-  // The random study and the merge of its shards have options of their own (random_study.cpp).
-  if (argc > 1 && std::string(argv[1]) == "random") return random_main(argc - 1, argv + 1);
-  if (argc > 1 && std::string(argv[1]) == "merge") return merge_main(argc - 1, argv + 1);
-  Options o;
-  o.double_base = source_file("deploy/scenarios/forward_push_double_support.yaml");
-  o.single_base = source_file("deploy/scenarios/lateral_push_single_support.yaml");
-  o.platform_bases = {source_file("deploy/scenarios/platforms_in_phase.yaml"),
-                      source_file("deploy/scenarios/platforms_out_of_phase.yaml"),
-                      source_file("deploy/scenarios/platforms_out_of_phase_20cm.yaml")};
-  CLI::App app{
-      "Balance envelope: push forces survived in N directions (double and single support), the "
-      "paper's Fig. 11 (longest push survived per force) and the highest platform frequency, by "
-      "running scenarios (deploy/envelope/README.md)."};
+  const Options& o;
+  std::chrono::steady_clock::time_point t0;
+  Runner runner;
+
+  /// Keeps a finished run and says it (unless --quiet).
+  void progress(const Row& r) {
+    rows.push_back(r);
+    if (o.quiet) return;
+    const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    std::fprintf(stderr,
+                 "[%4d, %6.0f s] %-9s %-6s dir %5.1f deg  F %6.1f N  T %.3f s  f %.3f Hz: %s%s%s\n",
+                 runner.count(), el, r.study.c_str(), r.support.c_str(), r.direction_deg, r.force_n,
+                 r.duration_s, r.frequency_hz, r.o.survived ? "survived" : "FAILED",
+                 r.o.failed.empty() ? "" : " on ", r.o.failed.c_str());
+  }
+};
+
+/// `poise envelope`'s options of the study, the base scenarios and the push scan.
+void add_study_options(CLI::App& app, Options& o) {
   app.add_option("study", o.what,
                  "all, pushes, fig11 or platforms; `random` (pushes drawn at random) and "
                  "`merge` (its shards) take options of their own: poise envelope random --help")
@@ -354,7 +294,8 @@ int envelope_main(int argc, char** argv) {
                  "run` over loopback DDS)")
       ->check(CLI::IsMember({"in-process", "lockstep"}))
       ->capture_default_str();
-  app.add_option("--double", o.double_base, "base scenario of the double-support pushes and Fig. 11")
+  app.add_option("--double", o.double_base,
+                 "base scenario of the double-support pushes and Fig. 11")
       ->check(CLI::ExistingFile);
   app.add_option("--single", o.single_base, "base scenario of the single-support pushes")
       ->check(CLI::ExistingFile);
@@ -385,6 +326,10 @@ int envelope_main(int argc, char** argv) {
                  "steps above the first failure tried for non-monotone survival")
       ->check(CLI::Range(0, 20))
       ->capture_default_str();
+}
+
+/// `poise envelope`'s options of the push grid, Fig. 11 and the platform sweep.
+void add_sweep_options(CLI::App& app, Options& o) {
   app.add_option("--jitter-deg", o.jitter_deg,
                  "pushes: run each force also at the direction -+ this angle and count it "
                  "survived only if all three runs survive (the verdict near a boundary can flip "
@@ -420,6 +365,10 @@ int envelope_main(int argc, char** argv) {
                  "full support periods each platform run lasts after the ramp")
       ->check(CLI::Range(0.5, 100.0))
       ->capture_default_str();
+}
+
+/// `poise envelope`'s options of every run (controller, state) and of the outputs.
+void add_run_options(CLI::App& app, Options& o) {
   app.add_option("--priority", o.priority,
                  "contact optimiser priority for every run (default: the base scenario's "
                  "controller section, else lexicographic)")
@@ -440,407 +389,218 @@ int envelope_main(int argc, char** argv) {
                "the controller gets the simulator's ground truth instead of the estimator's state "
                "(separates the controller's limits from the estimator's)");
   app.add_flag("-q,--quiet", o.quiet, "no progress lines");
+}
+
+/// Parses the studies' command line into `o`. Returns the exit status when the command line
+/// ends the verb (0 after --help, 2 for a usage error), else -1.
+int parse_options(int argc, char** argv, Options& o) {
+  o.double_base = source_file("deploy/scenarios/forward_push_double_support.yaml");
+  o.single_base = source_file("deploy/scenarios/lateral_push_single_support.yaml");
+  o.platform_bases = {source_file("deploy/scenarios/platforms_in_phase.yaml"),
+                      source_file("deploy/scenarios/platforms_out_of_phase.yaml"),
+                      source_file("deploy/scenarios/platforms_out_of_phase_20cm.yaml")};
+  CLI::App app{
+      "Balance envelope: push forces survived in N directions (double and single support), the "
+      "paper's Fig. 11 (longest push survived per force) and the highest platform frequency, by "
+      "running scenarios (deploy/envelope/README.md)."};
+  add_study_options(app, o);
+  add_sweep_options(app, o);
+  add_run_options(app, o);
   POISE_CLI_PARSE(app, argc, argv);
   // The grid's forces ascending, each once (a force given twice would be run twice and its
   // runs counted twice).
   std::sort(o.grid_forces.begin(), o.grid_forces.end());
-  o.grid_forces.erase(std::unique(o.grid_forces.begin(), o.grid_forces.end()),
-                      o.grid_forces.end());
+  o.grid_forces.erase(std::unique(o.grid_forces.begin(), o.grid_forces.end()), o.grid_forces.end());
+  return -1;
+}
 
+/// --controller-config: refused before the first run, naming the key (poise::controller's own
+/// parser); kept as a node for every run's scenario.
+void read_controller_config(Options& o) {
+  if (o.controller_config.empty()) return;
+  (void)controller::load_controller_config(o.controller_config);
+  o.controller_node = YAML::LoadFile(o.controller_config);
+  if (o.controller_node && !o.controller_node.IsNull() && !o.controller_node.IsMap())
+    throw std::runtime_error("--controller-config " + o.controller_config +
+                             ": not a YAML mapping of controller keys");
+}
+
+/// Pushes: the boundary of one direction `deg` in one support (a scan and a bisection, or the
+/// grid's forces).
+DirResult push_direction(Envelope& e, const std::string& support, const std::string& base_path,
+                         const YAML::Node& base, double deg) {
+  const Options& o = e.o;
+  std::map<double, std::string> failed_at;  // force -> kinds of its failed runs
+  std::map<double, std::string> cells;      // force -> one letter per run (grid table)
+  auto survives_at = [&](double force, double angle_deg) {
+    YAML::Node sc = YAML::Clone(base);
+    YAML::Node push = first_push(sc, base_path);
+    const double a = angle_deg * kPi / 180.0;
+    push["force"] = std::vector<double>{force * std::cos(a), force * std::sin(a), 0.0};
+    push["duration"] = o.push_duration;
+    char name[96];
+    std::snprintf(name, sizeof(name), "push_%s_%05.1fdeg_%06.1fN", support.c_str(), angle_deg,
+                  force);
+    Row r{"push", support, angle_deg, force, o.push_duration, 0.0, e.runner.run(sc, name)};
+    e.progress(r);
+    if (!r.o.survived) {
+      std::string& k = failed_at[force];
+      const std::string kind = failure_kind(r.o.failed);
+      if (k.find(kind) == std::string::npos) k += (k.empty() ? "" : ", ") + kind;
+    }
+    cells[force] += r.o.survived ? 'S' : failure_letter(r.o.failed);
+    return r.o.survived;
+  };
+  auto survives = [&](double force) {
+    if (!(o.jitter_deg > 0.0)) return survives_at(force, deg);
+    int n_survived = 0;
+    for (const double j : {0.0, -o.jitter_deg, o.jitter_deg})
+      n_survived += survives_at(force, deg + j) ? 1 : 0;
+    if (n_survived != 0 && n_survived != 3) ++e.jitter_split;
+    return n_survived == 3;
+  };
+  const Boundary b = o.grid_forces.empty()
+                         ? sweep(o.force_step, o.force_tol, o.force_max, o.probes, survives)
+                         : grid(o.grid_forces, survives);
+  std::string first;
+  if (!failed_at.empty())
+    first = fmt(failed_at.begin()->first, 1) + " N: " + failed_at.begin()->second;
+  return {support, deg, b, first, cells};
+}
+
+/// Pushes: every direction of each support asked for.
+void run_pushes(Envelope& e) {
+  for (const std::string support : {"double", "single"}) {
+    if (e.o.supports.find(support) == std::string::npos) continue;
+    const std::string base_path = support == "double" ? e.o.double_base : e.o.single_base;
+    const YAML::Node base = load_base(base_path);
+    const int n = support == "double" ? e.o.directions : e.o.single_directions;
+    for (int k = 0; k < n; ++k)
+      e.dirs.push_back(push_direction(e, support, base_path, base, 360.0 * k / n));
+  }
+}
+
+/// Fig. 11: the longest push survived at `force`.
+Fig11Point fig11_point(Envelope& e, const YAML::Node& base, double force) {
+  const Options& o = e.o;
+  double start = 1.0, base_duration = 4.0;
+  {
+    YAML::Node sc = YAML::Clone(base);
+    start = first_push(sc, o.double_base)["start"].as<double>();
+    base_duration = sc["duration"].as<double>();
+  }
+  auto survives = [&](double d) {
+    YAML::Node sc = YAML::Clone(base);
+    YAML::Node push = first_push(sc, o.double_base);
+    push["force"] = std::vector<double>{force, 0.0, 0.0};
+    push["duration"] = d;
+    sc["duration"] = std::max(base_duration, start + d + 3.0);
+    char name[96];
+    std::snprintf(name, sizeof(name), "fig11_%06.1fN_%.4fs", force, d);
+    Row r{"fig11", "double", 0.0, force, d, 0.0, e.runner.run(sc, name)};
+    e.progress(r);
+    return r.o.survived;
+  };
+  // Durations bisected in [0, duration_max] (a push of ~0 s is survived).
+  double lo = 0.0, hi = o.duration_max;
+  bool reached = false;
+  if (survives(hi)) {
+    lo = hi;
+    reached = true;
+  } else {
+    while (hi - lo > o.duration_tol) {
+      const double mid = 0.5 * (lo + hi);
+      (survives(mid) ? lo : hi) = mid;
+    }
+  }
+  return {force, lo, reached};
+}
+
+void run_fig11(Envelope& e) {
+  const YAML::Node base = load_base(e.o.double_base);
+  for (double force : e.o.fig11_forces)
+    e.fig11.push_back(fig11_point(e, base, force));
+}
+
+/// Platforms: the highest frequency survived of the base scenario `path`.
+FreqResult platform_sweep(Envelope& e, const std::string& path) {
+  const Options& o = e.o;
+  const YAML::Node base = load_base(path);
+  const std::string stem = fs::path(path).stem().string();
+  double amplitude = 0.0, motion_end = 0.0;
+  {
+    const YAML::Node ps = base["world"]["platforms"];
+    if (!ps || !ps.IsSequence() || ps.size() == 0)
+      throw std::runtime_error("base scenario " + path + " has no world.platforms");
+    for (const auto& p : ps) {
+      if (p["translation"] && p["translation"]["amplitude"])
+        amplitude = std::max(amplitude, std::abs(p["translation"]["amplitude"].as<double>()));
+      const double ms = p["motion_start"] ? p["motion_start"].as<double>() : 0.0;
+      const double mr = p["motion_ramp"] ? p["motion_ramp"].as<double>() : 0.0;
+      motion_end = std::max(motion_end, ms + mr);
+    }
+  }
+  auto survives = [&](double f) {
+    YAML::Node sc = YAML::Clone(base);
+    for (auto p : sc["world"]["platforms"])
+      for (const char* m : {"translation", "rotation"})
+        if (p[m] && p[m]["frequency"] && p[m]["frequency"].as<double>() > 0.0)
+          p[m]["frequency"] = f;
+    sc["duration"] = motion_end + o.periods / f;
+    char name[96];
+    std::snprintf(name, sizeof(name), "platforms_%s_%.4fHz", stem.c_str(), f);
+    Row r{"platforms", stem, 0.0, 0.0, sc["duration"].as<double>(), f, e.runner.run(sc, name)};
+    e.progress(r);
+    return r.o.survived;
+  };
+  return {stem, amplitude, sweep(o.freq_step, o.freq_tol, o.freq_max, o.probes, survives)};
+}
+
+void run_platforms(Envelope& e) {
+  for (const std::string& path : e.o.platform_bases)
+    e.freqs.push_back(platform_sweep(e, path));
+}
+
+/// The studies asked for, their outputs in the output directory and the summary on stdout.
+/// Returns the exit status: 0, or 1 when the pictures could not be drawn.
+int run_studies(Options& o, std::chrono::steady_clock::time_point t0) {
+  read_controller_config(o);
+  const fs::path out_dir = o.output_dir;
+  const fs::path work = out_dir / "runs";
+  fs::create_directories(work);
+  Envelope e(o, t0, work);
+  const bool all = o.what == "all";
+  if (all || o.what == "pushes") run_pushes(e);
+  if (all || o.what == "fig11") run_fig11(e);
+  if (all || o.what == "platforms") run_platforms(e);
+  write_runs_csv(o, e);
+  write_envelope_csv(o, e);
+  draw_pictures(o, e);
+  write_summary(o, e, e.runner.count(), t0);
+  std::ifstream summary(out_dir / "envelope.md");
+  std::cout << summary.rdbuf();
+  std::printf("poise envelope: %d runs; %s, %s, %s%s\n", e.runner.count(),
+              (out_dir / "envelope.md").c_str(), (out_dir / "envelope.csv").c_str(),
+              (out_dir / "runs.csv").c_str(), e.pictures.empty() ? "" : ", pictures");
+  if (!e.plot_note.empty()) {
+    std::fprintf(stderr, "poise envelope: %s\n", e.plot_note.c_str());
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace
+}  // namespace study
+
+int envelope_main(int argc, char** argv) {
+  // The random study and the merge of its shards have options of their own (random_study.cpp).
+  if (argc > 1 && std::string(argv[1]) == "random") return random_main(argc - 1, argv + 1);
+  if (argc > 1 && std::string(argv[1]) == "merge") return merge_main(argc - 1, argv + 1);
+  study::Options o;
+  if (const int code = study::parse_options(argc, argv, o); code >= 0) return code;
   const auto t0 = std::chrono::steady_clock::now();
   try {
-    if (!o.controller_config.empty()) {
-      // Refused before the first run, naming the key (poise::controller's own parser).
-      (void)controller::load_controller_config(o.controller_config);
-      o.controller_node = YAML::LoadFile(o.controller_config);
-      if (o.controller_node && !o.controller_node.IsNull() && !o.controller_node.IsMap())
-        throw std::runtime_error("--controller-config " + o.controller_config +
-                                 ": not a YAML mapping of controller keys");
-    }
-    const fs::path out_dir = o.output_dir;
-    const fs::path work = out_dir / "runs";
-    fs::create_directories(work);
-    Runner runner(o, fs::absolute(work));
-    std::vector<Row> rows;
-    auto progress = [&](const Row& r) {
-      rows.push_back(r);
-      if (o.quiet) return;
-      const double el =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      std::fprintf(stderr, "[%4d, %6.0f s] %-9s %-6s dir %5.1f deg  F %6.1f N  T %.3f s  f %.3f Hz: %s%s%s\n",
-                   runner.count(), el, r.study.c_str(), r.support.c_str(), r.direction_deg,
-                   r.force_n, r.duration_s, r.frequency_hz, r.o.survived ? "survived" : "FAILED",
-                   r.o.failed.empty() ? "" : " on ", r.o.failed.c_str());
-    };
-    const bool all = o.what == "all";
-
-    // ---- pushes
-    struct DirResult {
-      std::string support;
-      double direction_deg;
-      Boundary b;
-      /// The smallest force that failed (just above the boundary) and how its runs failed.
-      std::string first_failure;
-      /// Per force run: one letter per run (failure_letter; S survived), in run order.
-      std::map<double, std::string> cells;
-    };
-    std::vector<DirResult> dirs;
-    int jitter_split = 0;  // --jitter-deg: forces whose three runs did not agree
-    if (all || o.what == "pushes") {
-      for (const std::string support : {"double", "single"}) {
-        if (o.supports.find(support) == std::string::npos) continue;
-        const std::string base_path = support == "double" ? o.double_base : o.single_base;
-        const YAML::Node base = load_base(base_path);
-        const int n = support == "double" ? o.directions : o.single_directions;
-        for (int k = 0; k < n; ++k) {
-          const double deg = 360.0 * k / n;
-          std::map<double, std::string> failed_at;  // force -> kinds of its failed runs
-          std::map<double, std::string> cells;      // force -> one letter per run (grid table)
-          auto survives_at = [&](double force, double angle_deg) {
-            YAML::Node sc = YAML::Clone(base);
-            YAML::Node push = first_push(sc, base_path);
-            const double a = angle_deg * kPi / 180.0;
-            push["force"] = std::vector<double>{force * std::cos(a), force * std::sin(a), 0.0};
-            push["duration"] = o.push_duration;
-            char name[96];
-            std::snprintf(name, sizeof(name), "push_%s_%05.1fdeg_%06.1fN", support.c_str(),
-                          angle_deg, force);
-            Row r{"push", support, angle_deg, force, o.push_duration, 0.0, runner.run(sc, name)};
-            progress(r);
-            if (!r.o.survived) {
-              std::string& k = failed_at[force];
-              const std::string kind = failure_kind(r.o.failed);
-              if (k.find(kind) == std::string::npos) k += (k.empty() ? "" : ", ") + kind;
-            }
-            cells[force] += r.o.survived ? 'S' : failure_letter(r.o.failed);
-            return r.o.survived;
-          };
-          auto survives = [&](double force) {
-            if (!(o.jitter_deg > 0.0)) return survives_at(force, deg);
-            int n_survived = 0;
-            for (const double j : {0.0, -o.jitter_deg, o.jitter_deg})
-              n_survived += survives_at(force, deg + j) ? 1 : 0;
-            if (n_survived != 0 && n_survived != 3) ++jitter_split;
-            return n_survived == 3;
-          };
-          const Boundary b = o.grid_forces.empty()
-                                 ? sweep(o.force_step, o.force_tol, o.force_max, o.probes, survives)
-                                 : grid(o.grid_forces, survives);
-          std::string first;
-          if (!failed_at.empty())
-            first = fmt(failed_at.begin()->first, 1) + " N: " + failed_at.begin()->second;
-          dirs.push_back({support, deg, b, first, cells});
-        }
-      }
-    }
-
-    // ---- Fig. 11
-    struct Fig11Point {
-      double force, duration;
-      bool reached_max;
-    };
-    std::vector<Fig11Point> fig11;
-    if (all || o.what == "fig11") {
-      const YAML::Node base = load_base(o.double_base);
-      for (double force : o.fig11_forces) {
-        double start = 1.0, base_duration = 4.0;
-        {
-          YAML::Node sc = YAML::Clone(base);
-          start = first_push(sc, o.double_base)["start"].as<double>();
-          base_duration = sc["duration"].as<double>();
-        }
-        auto survives = [&](double d) {
-          YAML::Node sc = YAML::Clone(base);
-          YAML::Node push = first_push(sc, o.double_base);
-          push["force"] = std::vector<double>{force, 0.0, 0.0};
-          push["duration"] = d;
-          sc["duration"] = std::max(base_duration, start + d + 3.0);
-          char name[96];
-          std::snprintf(name, sizeof(name), "fig11_%06.1fN_%.4fs", force, d);
-          Row r{"fig11", "double", 0.0, force, d, 0.0, runner.run(sc, name)};
-          progress(r);
-          return r.o.survived;
-        };
-        // Durations bisected in [0, duration_max] (a push of ~0 s is survived).
-        double lo = 0.0, hi = o.duration_max;
-        bool reached = false;
-        if (survives(hi)) {
-          lo = hi;
-          reached = true;
-        } else {
-          while (hi - lo > o.duration_tol) {
-            const double mid = 0.5 * (lo + hi);
-            (survives(mid) ? lo : hi) = mid;
-          }
-        }
-        fig11.push_back({force, lo, reached});
-      }
-    }
-
-    // ---- platform frequency
-    struct FreqResult {
-      std::string scenario;
-      double amplitude;
-      Boundary b;
-    };
-    std::vector<FreqResult> freqs;
-    if (all || o.what == "platforms") {
-      for (const std::string& path : o.platform_bases) {
-        const YAML::Node base = load_base(path);
-        const std::string stem = fs::path(path).stem().string();
-        double amplitude = 0.0, motion_end = 0.0;
-        {
-          const YAML::Node ps = base["world"]["platforms"];
-          if (!ps || !ps.IsSequence() || ps.size() == 0)
-            throw std::runtime_error("base scenario " + path + " has no world.platforms");
-          for (const auto& p : ps) {
-            if (p["translation"] && p["translation"]["amplitude"])
-              amplitude = std::max(amplitude, std::abs(p["translation"]["amplitude"].as<double>()));
-            const double ms = p["motion_start"] ? p["motion_start"].as<double>() : 0.0;
-            const double mr = p["motion_ramp"] ? p["motion_ramp"].as<double>() : 0.0;
-            motion_end = std::max(motion_end, ms + mr);
-          }
-        }
-        auto survives = [&](double f) {
-          YAML::Node sc = YAML::Clone(base);
-          for (auto p : sc["world"]["platforms"])
-            for (const char* m : {"translation", "rotation"})
-              if (p[m] && p[m]["frequency"] && p[m]["frequency"].as<double>() > 0.0)
-                p[m]["frequency"] = f;
-          sc["duration"] = motion_end + o.periods / f;
-          char name[96];
-          std::snprintf(name, sizeof(name), "platforms_%s_%.4fHz", stem.c_str(), f);
-          Row r{"platforms", stem, 0.0, 0.0, sc["duration"].as<double>(), f, runner.run(sc, name)};
-          progress(r);
-          return r.o.survived;
-        };
-        freqs.push_back(
-            {stem, amplitude, sweep(o.freq_step, o.freq_tol, o.freq_max, o.probes, survives)});
-      }
-    }
-
-    // ---- outputs
-    {
-      std::ofstream f(out_dir / "runs.csv");
-      f << "study,support,direction_deg,force_N,duration_s,frequency_Hz,survived,com_error_max_m,"
-           "foot_slip_max_m,foot_slide_max_m,foot_displacement_max_m,foot_tilt_max_deg,"
-           "trunk_pitch_max_deg,trunk_roll_max_deg,failed\n";
-      for (const Row& r : rows)
-        f << r.study << ',' << r.support << ',' << r.direction_deg << ',' << r.force_n << ','
-          << r.duration_s << ',' << r.frequency_hz << ',' << (r.o.survived ? 1 : 0) << ','
-          << r.o.com_error_max_m << ',' << r.o.foot_slip_max_m << ',' << r.o.foot_slide_max_m
-          << ',' << r.o.foot_displacement_max_m << ',' << r.o.foot_tilt_max_deg
-          << ',' << r.o.trunk_pitch_max_deg
-          << ',' << r.o.trunk_roll_max_deg << ',' << csv_field(r.o.failed) << '\n';
-    }
-    {
-      std::ofstream f(out_dir / "envelope.csv");
-      f << "study,support_or_scenario,direction_deg_or_force_N,monotone,boundary,reached_max,"
-           "non_monotone,first_failure\n";
-      for (const auto& d : dirs)
-        f << "push," << d.support << ',' << d.direction_deg << ',' << d.b.monotone << ','
-          << d.b.boundary << ',' << (d.b.reached_max ? 1 : 0) << ','
-          << csv_field(list(d.b.non_monotone, 1)) << ',' << csv_field(d.first_failure) << '\n';
-      for (const auto& p : fig11)
-        f << "fig11,double," << p.force << ',' << p.duration << ',' << p.duration << ','
-          << (p.reached_max ? 1 : 0) << ",\"-\",\"\"\n";
-      for (const auto& q : freqs)
-        f << "platforms," << q.scenario << ",0," << q.b.monotone << ',' << q.b.boundary << ','
-          << (q.b.reached_max ? 1 : 0) << ',' << csv_field(list(q.b.non_monotone, 3)) << ",\"\"\n";
-    }
-    // Plot data and gnuplot script.
-    std::vector<std::string> pictures;
-    std::string plot_note;
-    if (!dirs.empty() || !fig11.empty()) {
-      const std::string gp = plot::find_gnuplot(o.gnuplot);
-      if (gp.empty()) {
-        plot_note = "gnuplot not found (Debian: apt-get install gnuplot-nox): no pictures drawn";
-      } else {
-        const fs::path data = fs::absolute(work / "plot");
-        fs::create_directories(data);
-        for (const std::string support : {"double", "single"}) {
-          std::ofstream f(data / (support + ".dat"));
-          const DirResult* first = nullptr;
-          for (const auto& d : dirs)
-            if (d.support == support) {
-              if (!first) first = &d;
-              f << d.direction_deg << ' ' << d.b.boundary << ' ' << d.b.monotone << '\n';
-            }
-          if (first)  // close the polygon
-            f << first->direction_deg + 360.0 << ' ' << first->b.boundary << ' '
-              << first->b.monotone << '\n';
-        }
-        {
-          std::ofstream f(data / "fig11.dat");
-          for (const auto& p : fig11) f << p.force << ' ' << p.duration << ' ' << p.force * p.duration << '\n';
-        }
-        for (const std::string term : {"png", "svg"}) {
-          const fs::path script = data / ("envelope_" + term + ".gp");
-          std::ofstream s(script);
-          const std::string termline =
-              term == "png" ? "set terminal pngcairo noenhanced size 900,800 font 'sans,11' background 'white'\n"
-                            : "set terminal svg noenhanced size 900,800 dynamic font 'sans,11' background 'white'\n";
-          if (!dirs.empty()) {
-            const fs::path pic = fs::absolute(out_dir / ("push_envelope." + term));
-            s << termline << "set output '" << pic.string() << "'\n"
-              << "set polar\nset angles degrees\nset size square\nset grid polar 45\n"
-              << "unset border\nunset xtics\nunset ytics\nset key outside bottom center horizontal\n"
-              << "set title 'Largest push survived (" << fmt(o.push_duration, 2)
-              << " s) by direction, N; 0 deg = forward, 90 deg = left'\n"
-              << "set rtics axis scale 0.5 nomirror\n"
-              << "plot '" << (data / "double.dat").string()
-              << "' using 1:2 with linespoints lw 2 pt 7 title 'double support: boundary', '"
-              << (data / "double.dat").string()
-              << "' using 1:3 with lines dt 2 title 'double: monotone up to', '"
-              << (data / "single.dat").string()
-              << "' using 1:2 with linespoints lw 2 pt 5 title 'single support: boundary'\n"
-              << "unset polar\nunset output\n";
-            pictures.push_back(pic.string());
-          }
-          if (!fig11.empty()) {
-            const fs::path pic = fs::absolute(out_dir / ("fig11." + term));
-            s << termline << "set output '" << pic.string() << "'\n"
-              << "reset\nset multiplot layout 1,2 title 'Forward push, double support (paper Fig. "
-                 "11)'\nset grid\nset xlabel 'force [N]'\nset ylabel 'maximum impulse [N s]'\n"
-              << "plot '" << (data / "fig11.dat").string()
-              << "' using 1:3 with linespoints lw 2 pt 7 notitle\n"
-              << "set ylabel 'maximum duration [s]'\nplot '" << (data / "fig11.dat").string()
-              << "' using 1:2 with linespoints lw 2 pt 7 notitle\nunset multiplot\nunset output\n";
-            pictures.push_back(pic.string());
-          }
-          s.close();
-          const int rc = plot::run_gnuplot(gp, script.string(), (data / ("gnuplot_" + term + ".log")).string());
-          if (rc != 0)
-            plot_note += "gnuplot failed (exit " + std::to_string(rc) + ", " +
-                         (data / ("gnuplot_" + term + ".log")).string() + "); ";
-        }
-      }
-    }
-    // Summary.
-    {
-      std::ofstream md(out_dir / "envelope.md");
-      md << "# Balance envelope\n\nMeasured by `poise envelope` (" << o.mode << ", "
-         << runner.count() << " runs, "
-         << fmt(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 0)
-         << " s). Every run: runs.csv. Priority: "
-         << (o.priority.empty() ? "the base scenarios' (default lexicographic)" : o.priority)
-         << ". Controller: "
-         << (o.controller_config.empty() ? std::string("the base scenarios' sections")
-                                         : "`" + o.controller_config + "`")
-         << ". State: " << (o.ground_truth_state ? "ground truth (debug)" : "the estimator's")
-         << ".\n\n";
-      if (!dirs.empty()) {
-        md << "## Pushes of " << fmt(o.push_duration, 2)
-           << " s by direction\n\n"
-           << (o.grid_forces.empty()
-                   ? "Scan in steps of " + fmt(o.force_step, 1) + " N, bisection to " +
-                         fmt(o.force_tol, 1) + " N, " + std::to_string(o.probes) +
-                         " probes above the first failure"
-                   : "A grid: every direction at " + list(o.grid_forces, 1) +
-                         " N, no search")
-           << (o.jitter_deg > 0.0
-                   ? ", each force run at the direction and at -+" + fmt(o.jitter_deg, 2) +
-                         " deg, survived only if all three survived (the three disagreed at " +
-                         std::to_string(jitter_split) + " forces)"
-                   : std::string())
-           << ". *Monotone*: every step up to it survived. "
-           << (o.grid_forces.empty() ? "*Boundary*: the bisected edge. "
-                                     : "*Boundary*: the largest force survived. ")
-           << "*Non-monotone*: forces above the first failure "
-              "that survived. *Failure above it*: the smallest force that failed and how, the "
-              "most severe per run (fall: CoM error over its maximum, the base too low or a "
-              "non-foot contact; slip: a foot's sole centre moved too far; slow recovery: the CoM "
-              "not back in time).\n\n"
-           << "| support | direction (deg, 0 = forward, 90 = left) | monotone (N) | boundary (N) "
-              "| non-monotone (N) | failure above it | paper |\n|---|---|---|---|---|---|---|\n";
-        for (const auto& d : dirs) {
-          std::string paper = "-";
-          if (d.support == "double" && std::abs(d.direction_deg) < 1e-9) paper = "120 N survived (Fig. 8)";
-          if (d.support == "single" && std::abs(d.direction_deg - 90.0) < 1e-9)
-            paper = "100 N survived (Fig. 9, leftward)";
-          md << "| " << d.support << " | " << fmt(d.direction_deg, 1) << " | "
-             << (d.b.reached_max ? ">= " : "") << fmt(d.b.monotone, 0) << " | "
-             << (d.b.reached_max ? ">= " : "") << fmt(d.b.boundary, 1) << " | "
-             << list(d.b.non_monotone, 0) << " | "
-             << (d.first_failure.empty() ? "-" : d.first_failure) << " | " << paper << " |\n";
-        }
-        md << "\n";
-        if (!o.grid_forces.empty()) {
-          const std::vector<double>& forces = o.grid_forces;
-          int runs = 0, survived = 0;
-          md << "Every run (" << (o.jitter_deg > 0.0 ? "at -" + fmt(o.jitter_deg, 2) +
-                                                           " deg, the direction, +" +
-                                                           fmt(o.jitter_deg, 2) + " deg; "
-                                                     : std::string())
-             << "S survived, f fell, s slipped, t tilted, c slow recovery, e error, x another "
-                "criterion):\n\n"
-             << "| support | direction (deg) |";
-          for (double f : forces) md << ' ' << fmt(f, 1) << " N |";
-          md << "\n|---|---|";
-          for (std::size_t i = 0; i < forces.size(); ++i) md << "---|";
-          md << "\n";
-          for (const auto& d : dirs) {
-            md << "| " << d.support << " | " << fmt(d.direction_deg, 1) << " |";
-            for (double f : forces) {
-              const auto it = d.cells.find(f);
-              if (it == d.cells.end()) {
-                md << " - |";
-                continue;
-              }
-              // Recorded in run order (survives: 0, -J, +J), shown -J, 0, +J.
-              const std::string& c = it->second;
-              md << ' ' << (c.size() == 3 ? std::string{c[1], c[0], c[2]} : c) << " |";
-              runs += static_cast<int>(c.size());
-              survived += static_cast<int>(std::count(c.begin(), c.end(), 'S'));
-            }
-            md << "\n";
-          }
-          md << "\n" << survived << " of " << runs << " runs survived.\n\n";
-        }
-      }
-      if (!fig11.empty()) {
-        md << "## Fig. 11: forward push, double support\n\nLongest push survived per force "
-              "(bisection to "
-           << fmt(o.duration_tol, 3)
-           << " s) and its impulse. Paper: the maximum impulse drops quickly and is roughly "
-              "constant above 80 N; the maximum duration drops even faster.\n\n"
-           << "| force (N) | max duration (s) | max impulse (N s) |\n|---|---|---|\n";
-        for (const auto& p : fig11)
-          md << "| " << fmt(p.force, 0) << " | " << (p.reached_max ? ">= " : "")
-             << fmt(p.duration, 3) << " | " << (p.reached_max ? ">= " : "")
-             << fmt(p.force * p.duration, 1) << " |\n";
-        md << "\n";
-      }
-      if (!freqs.empty()) {
-        md << "## Moving supports: highest frequency\n\nEach run lasts the ramp plus "
-           << fmt(o.periods, 1) << " full periods. Paper (Sec. 4.2): in phase, 1 m amplitude: "
-              "~0.12 Hz; out of phase, 0.4 m: ~1 Hz.\n\n"
-           << "| scenario | amplitude (m) | monotone (Hz) | boundary (Hz) | non-monotone (Hz) "
-              "|\n|---|---|---|---|---|\n";
-        for (const auto& q : freqs)
-          md << "| " << q.scenario << " | " << fmt(q.amplitude, 2) << " | "
-             << (q.b.reached_max ? ">= " : "") << fmt(q.b.monotone, 3) << " | "
-             << (q.b.reached_max ? ">= " : "") << fmt(q.b.boundary, 3) << " | "
-             << list(q.b.non_monotone, 3) << " |\n";
-        md << "\n";
-      }
-      if (!pictures.empty()) {
-        md << "Pictures:";
-        for (const auto& p : pictures) md << " `" << fs::path(p).filename().string() << "`";
-        md << "\n";
-      }
-      if (!plot_note.empty()) md << "\nNote: " << plot_note << "\n";
-    }
-    std::ifstream summary(out_dir / "envelope.md");
-    std::cout << summary.rdbuf();
-    std::printf("poise envelope: %d runs; %s, %s, %s%s\n", runner.count(),
-                (out_dir / "envelope.md").c_str(), (out_dir / "envelope.csv").c_str(),
-                (out_dir / "runs.csv").c_str(), pictures.empty() ? "" : ", pictures");
-    if (!plot_note.empty()) {
-      std::fprintf(stderr, "poise envelope: %s\n", plot_note.c_str());
-      return 1;
-    }
-    return 0;
+    return study::run_studies(o, t0);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "poise envelope: %s\n", e.what());
     return 2;

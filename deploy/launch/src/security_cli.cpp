@@ -52,7 +52,8 @@ std::map<std::string, Grant> grants() {
       {"controller",
        {{"poise/contact_problem", "poise/joint_command", "poise/diagnostics"},
         {"poise/robot_description", "poise/state", "poise/contact_solution",
-         "poise/balance_reference"}}},
+         "poise/balance_reference",
+         "poise/estop_state"}}},  // a held stop: the references follow the robot
       {"contact",
        {{"poise/contact_solution", "poise/diagnostics"},
         {"poise/robot_description", "poise/contact_problem"}}},
