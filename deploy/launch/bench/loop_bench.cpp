@@ -245,6 +245,118 @@ fs::path self_dir() {
   return ec ? fs::path(".") : exe.parent_path();
 }
 
+struct BenchArgs {
+  std::string scenario;
+  double duration = 3.0;
+  bool skip_distributed = false, verbose = false, profile = false;
+  double add_work_us = 0.0;
+  int settle_ticks = 10;
+};
+
+void print_usage() {
+  std::printf(
+      "usage: poise-bench-loop [SCENARIO] [--duration S] [--skip-distributed] "
+      "[--profile] [--add-work-us US] [--verbose]\n"
+      "  --profile  also time Bullet's own profile zones in the in-process loop (adds about\n"
+      "             2 us a tick, so the loop's own figure is measured without it first)\n"
+      "  --add-work-us US  busy-wait this long in every in-process tick: a deliberate\n"
+      "             slowdown, to check that loop_guard.sh flags one\n"
+      "       poise-bench-loop --realtime [--help] ...  (the real-time targets: see "
+      "--realtime --help)\n");
+}
+
+// False after --help (printed).
+bool parse_args(int argc, char** argv, BenchArgs& b) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--duration" && i + 1 < argc)
+      b.duration = std::atof(argv[++i]);
+    else if (a == "--skip-distributed")
+      b.skip_distributed = true;
+    else if (a == "--verbose")
+      b.verbose = true;
+    else if (a == "--profile")
+      b.profile = true;
+    else if (a == "--add-work-us" && i + 1 < argc)
+      b.add_work_us = std::atof(argv[++i]);
+    else if (a == "--settle-ticks" && i + 1 < argc)
+      b.settle_ticks = std::atoi(argv[++i]);
+    else if (a == "--help" || a == "-h") {
+      print_usage();
+      return false;
+    } else
+      b.scenario = a;
+  }
+  if (b.scenario.empty()) {
+    for (fs::path d = self_dir(); !d.empty() && d != d.root_path(); d = d.parent_path())
+      if (fs::exists(d / "tests/nodes/standing_short.yaml")) {
+        b.scenario = (d / "tests/nodes/standing_short.yaml").string();
+        break;
+      }
+  }
+  return true;
+}
+
+// The distributed run's figures (its result JSON) and the CPU of its processes.
+void print_distributed(const nlohmann::json& r, const rusage& before, const rusage& after,
+                       const InProcessResult& in) {
+  const double rtf = r.value("realtime_factor", 0.0);
+  const auto& lat = r["tick_latency_us"];
+  std::printf(
+      "distributed loop: %.2fx real time (%.1f us per tick), %s, 4 processes, Cyclone "
+      "DDS loopback, lockstep\n",
+      rtf, rtf > 0 ? 1e3 / rtf : 0.0, r.value("survived", false) ? "survived" : "FELL");
+  std::printf(
+      "tick latency (sensors k published -> command k received): p50 %.0f us, p99 %.0f "
+      "us, max %.0f us, mean %.0f us over %d ticks\n",
+      lat.value("p50", 0.0), lat.value("p99", 0.0), lat.value("max", 0.0), lat.value("mean", 0.0),
+      lat.value("count", 0));
+  for (const char* n : {"sim", "estimator", "controller", "contact"}) {
+    const auto& c = r["compute_us"][n];
+    if (c.is_object())
+      std::printf("  %-10s compute per tick: p50 %.0f us, p99 %.0f us, max %.0f us\n", n,
+                  c.value("p50", 0.0), c.value("p99", 0.0), c.value("max", 0.0));
+  }
+  const double ticks = std::max(1.0, lat.value("count", 0.0));
+  auto seconds = [](const timeval& t) { return static_cast<double>(t.tv_sec) + t.tv_usec * 1e-6; };
+  const double cpu_s = seconds(after.ru_utime) - seconds(before.ru_utime) +
+                       seconds(after.ru_stime) - seconds(before.ru_stime);
+  std::printf(
+      "distributed CPU (5 processes, start-up and exit included): %.0f us per tick; context "
+      "switches per tick: %.1f voluntary, %.1f involuntary\n",
+      cpu_s * 1e6 / ticks, static_cast<double>(after.ru_nvcsw - before.ru_nvcsw) / ticks,
+      static_cast<double>(after.ru_nivcsw - before.ru_nivcsw) / ticks);
+  print_node_split(r);
+  std::printf("DDS + process overhead: %.1f us per tick; distributed / in-process speed: %.2f\n",
+              (rtf > 0 ? 1e3 / rtf : 0.0) - in.us_per_tick,
+              in.realtime_factor > 0 ? rtf / in.realtime_factor : 0.0);
+}
+
+// `poise-launch SCENARIO` in lockstep on Cyclone; 0, or 1 when it wrote no result.
+int run_distributed(const BenchArgs& b, const InProcessResult& in) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("poise-bench-loop-" + std::to_string(::getpid()));
+  const std::string cmd = (self_dir() / "poise-launch").string() + " " + b.scenario +
+                          " --quiet --dds cyclone --duration " + std::to_string(b.duration) +
+                          " --output " + (dir / "r.json").string() + " --log-dir " +
+                          (dir / "logs").string();
+  std::fflush(stdout);
+  // CPU time and context switches of every process of the run (the launcher waits for its
+  // children, so they count): less sensitive to other load on the machine than the wall time.
+  rusage before{}, after{};
+  getrusage(RUSAGE_CHILDREN, &before);
+  const int code = std::system(cmd.c_str());
+  getrusage(RUSAGE_CHILDREN, &after);
+  std::ifstream f(dir / "r.json");
+  if (!f) {
+    std::fprintf(stderr, "distributed run failed (exit %d): see %s\n", code, dir.c_str());
+    return 1;
+  }
+  print_distributed(nlohmann::json::parse(f), before, after, in);
+  fs::remove_all(dir);
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -257,108 +369,19 @@ int main(int argc, char** argv) {
         return 2;
       }
     }
-  std::string scenario;
-  double duration = 3.0;
-  bool skip_distributed = false, verbose = false, profile = false;
-  double add_work_us = 0.0;
-  int settle_ticks = 10;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--duration" && i + 1 < argc)
-      duration = std::atof(argv[++i]);
-    else if (a == "--skip-distributed")
-      skip_distributed = true;
-    else if (a == "--verbose")
-      verbose = true;
-    else if (a == "--profile")
-      profile = true;
-    else if (a == "--add-work-us" && i + 1 < argc)
-      add_work_us = std::atof(argv[++i]);
-    else if (a == "--settle-ticks" && i + 1 < argc)
-      settle_ticks = std::atoi(argv[++i]);
-    else if (a == "--help" || a == "-h") {
-      std::printf(
-          "usage: poise-bench-loop [SCENARIO] [--duration S] [--skip-distributed] "
-          "[--profile] [--add-work-us US] [--verbose]\n"
-          "  --profile  also time Bullet's own profile zones in the in-process loop (adds about\n"
-          "             2 us a tick, so the loop's own figure is measured without it first)\n"
-          "  --add-work-us US  busy-wait this long in every in-process tick: a deliberate\n"
-          "             slowdown, to check that loop_guard.sh flags one\n"
-          "       poise-bench-loop --realtime [--help] ...  (the real-time targets: see "
-          "--realtime --help)\n");
-      return 0;
-    } else
-      scenario = a;
-  }
-  if (scenario.empty()) {
-    for (fs::path d = self_dir(); !d.empty() && d != d.root_path(); d = d.parent_path())
-      if (fs::exists(d / "tests/nodes/standing_short.yaml")) {
-        scenario = (d / "tests/nodes/standing_short.yaml").string();
-        break;
-      }
-  }
+  BenchArgs b;
+  if (!parse_args(argc, argv, b)) return 0;
   try {
     const InProcessResult in =
-        run_in_process(scenario, duration, verbose, settle_ticks, false, add_work_us);
+        run_in_process(b.scenario, b.duration, b.verbose, b.settle_ticks, false, b.add_work_us);
     std::printf("in-process loop : %.2fx real time (%.1f us per tick), %s, com_error_max %.4f m\n",
                 in.realtime_factor, in.us_per_tick, in.survived ? "survived" : "FELL",
                 in.com_error_max);
     print_split(in);
-    if (profile) print_zones(run_in_process(scenario, duration, false, settle_ticks, true, 0.0));
-    if (skip_distributed) return 0;
-    const fs::path dir =
-        fs::temp_directory_path() / ("poise-bench-loop-" + std::to_string(::getpid()));
-    const std::string cmd = (self_dir() / "poise-launch").string() + " " + scenario +
-                            " --quiet --dds cyclone --duration " + std::to_string(duration) +
-                            " --output " + (dir / "r.json").string() + " --log-dir " +
-                            (dir / "logs").string();
-    std::fflush(stdout);
-    // CPU time and context switches of every process of the run (the launcher waits for its
-    // children, so they count): less sensitive to other load on the machine than the wall time.
-    rusage before{}, after{};
-    getrusage(RUSAGE_CHILDREN, &before);
-    const int code = std::system(cmd.c_str());
-    getrusage(RUSAGE_CHILDREN, &after);
-    std::ifstream f(dir / "r.json");
-    if (!f) {
-      std::fprintf(stderr, "distributed run failed (exit %d): see %s\n", code, dir.c_str());
-      return 1;
-    }
-    const auto r = nlohmann::json::parse(f);
-    const double rtf = r.value("realtime_factor", 0.0);
-    const auto& lat = r["tick_latency_us"];
-    std::printf(
-        "distributed loop: %.2fx real time (%.1f us per tick), %s, 4 processes, Cyclone "
-        "DDS loopback, lockstep\n",
-        rtf, rtf > 0 ? 1e3 / rtf : 0.0, r.value("survived", false) ? "survived" : "FELL");
-    std::printf(
-        "tick latency (sensors k published -> command k received): p50 %.0f us, p99 %.0f "
-        "us, max %.0f us, mean %.0f us over %d ticks\n",
-        lat.value("p50", 0.0), lat.value("p99", 0.0), lat.value("max", 0.0), lat.value("mean", 0.0),
-        lat.value("count", 0));
-    for (const char* n : {"sim", "estimator", "controller", "contact"}) {
-      const auto& c = r["compute_us"][n];
-      if (c.is_object())
-        std::printf("  %-10s compute per tick: p50 %.0f us, p99 %.0f us, max %.0f us\n", n,
-                    c.value("p50", 0.0), c.value("p99", 0.0), c.value("max", 0.0));
-    }
-    const double ticks = std::max(1.0, lat.value("count", 0.0));
-    auto seconds = [](const timeval& t) {
-      return static_cast<double>(t.tv_sec) + t.tv_usec * 1e-6;
-    };
-    const double cpu_s = seconds(after.ru_utime) - seconds(before.ru_utime) +
-                         seconds(after.ru_stime) - seconds(before.ru_stime);
-    std::printf(
-        "distributed CPU (5 processes, start-up and exit included): %.0f us per tick; context "
-        "switches per tick: %.1f voluntary, %.1f involuntary\n",
-        cpu_s * 1e6 / ticks, static_cast<double>(after.ru_nvcsw - before.ru_nvcsw) / ticks,
-        static_cast<double>(after.ru_nivcsw - before.ru_nivcsw) / ticks);
-    print_node_split(r);
-    std::printf("DDS + process overhead: %.1f us per tick; distributed / in-process speed: %.2f\n",
-                (rtf > 0 ? 1e3 / rtf : 0.0) - in.us_per_tick,
-                in.realtime_factor > 0 ? rtf / in.realtime_factor : 0.0);
-    fs::remove_all(dir);
-    return 0;
+    if (b.profile)
+      print_zones(run_in_process(b.scenario, b.duration, false, b.settle_ticks, true, 0.0));
+    if (b.skip_distributed) return 0;
+    return run_distributed(b, in);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "poise-bench-loop: %s\n", e.what());
     return 2;
