@@ -28,6 +28,10 @@
 //               integrated open loop from the accelerations) would drift from the held robot to
 //               their clamps and come back as a jump on the release. So every tick restarts them
 //               from the measured state (BalanceController::reset) until the stop is released.
+//               Kept per robot side by name: a robot side restarted under its name clears its
+//               stop with the state it announces at start; one that dies holding a stop and
+//               never returns leaves the references following the measured state (control
+//               goes on, without the integrated references) until this controller restarts.
 //   repeats     a state with the tick just handled is answered with the same command again; one
 //               with the tick still waiting for its contact solution sends contact problem k
 //               again (the deadline is not moved): at start-up the optimiser's reader may discover

@@ -258,7 +258,7 @@ void print_usage() {
       "usage: poise-bench-loop [SCENARIO] [--duration S] [--skip-distributed] "
       "[--profile] [--add-work-us US] [--verbose]\n"
       "  --profile  also time Bullet's own profile zones in the in-process loop (adds about\n"
-      "             2 us a tick, so the loop's own figure is measured without it first)\n"
+      "             5 us a tick, so the loop's own figure is measured without it first)\n"
       "  --add-work-us US  busy-wait this long in every in-process tick: a deliberate\n"
       "             slowdown, to check that loop_guard.sh flags one\n"
       "       poise-bench-loop --realtime [--help] ...  (the real-time targets: see "
