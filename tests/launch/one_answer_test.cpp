@@ -23,6 +23,7 @@
 #include <fstream>
 #include <iterator>
 #include <map>
+#include <set>
 #include <utility>
 #include <string>
 #include <vector>
@@ -336,17 +337,67 @@ TEST(OneAnswer, StepInPlaceReferenceCyclone) {
   check_case({"step_in_place", 4.6, false, "cyclone", 0.05});
 }
 
-// `poise run --in-process` (the command line, not only the library) writes the verdict of the
-// distributed run, number for number.
+/// Every message of a recording by (topic, header tick): its CDR bytes. Every Poise type begins
+/// with its Header, whose tick (uint64, little-endian CDR) follows the 4-byte encapsulation.
+std::map<std::pair<std::string, std::uint64_t>, std::vector<std::uint8_t>> messages_of(
+    const fs::path& mcap) {
+  std::map<std::pair<std::string, std::uint64_t>, std::vector<std::uint8_t>> out;
+  std::map<std::uint16_t, std::string> topic;
+  poise::record::ScanHandlers h;
+  h.on_channel = [&](const poise::record::ChannelRecord& c) { topic[c.id] = c.topic; };
+  h.on_message = [&](const poise::record::MessageView& m) {
+    std::uint64_t tick = 0;
+    if (m.data.size() >= 12)
+      for (int b = 7; b >= 0; --b) tick = (tick << 8) | m.data[4 + static_cast<std::size_t>(b)];
+    out[{topic[m.channel_id], tick}].assign(m.data.begin(), m.data.end());
+    return true;
+  };
+  const poise::record::ScanResult r = poise::record::scan(mcap.string(), h);
+  EXPECT_TRUE(r.ok()) << mcap << ": " << r.error;
+  return out;
+}
+
+/// Two serialised samples of a topic decode to equal samples (operator==: the padding between
+/// fields is not part of a sample, and vendors fill it differently).
+bool same_sample(const std::string& topic, const std::vector<std::uint8_t>& a,
+                 const std::vector<std::uint8_t>& b) {
+  const poise::dds::TopicDescription* t = poise::dds::find_topic(topic);
+  if (t == nullptr) return false;
+  void* sa = t->type->create();
+  void* sb = t->type->create();
+  char why[200];
+  const bool same = t->type->deserialize(a.data(), a.size(), sa, why, sizeof why) &&
+                    t->type->deserialize(b.data(), b.size(), sb, why, sizeof why) &&
+                    t->type->equal(sa, sb);
+  t->type->destroy(sa);
+  t->type->destroy(sb);
+  return same;
+}
+
+std::set<std::string> keys_of(const Json& j) {
+  std::set<std::string> k;
+  for (auto it = j.begin(); it != j.end(); ++it) k.insert(it.key());
+  return k;
+}
+
+// `poise run --in-process` (the command line, not only the library) takes the distributed run's
+// options and writes its verdict, number for number, in a result file with the same fields; with
+// --record, its recording holds the distributed run's messages, sample for sample (the contact
+// solution's measured solve time aside).
 TEST(OneAnswer, InProcessCommandLineForwardPush) {
   const fs::path dir = work_dir("cli_in_process");
   const DistributedRun dist = run_distributed("forward_push_double_support", 2.0, false, "cyclone");
   ASSERT_TRUE(dist.result.is_object()) << dist.log;
   ChildProcess p({bin("poise"), "run", scenario_path("forward_push_double_support").string(),
-                  "--in-process", "--duration", "2.0", "-q", "-o", (dir / "run.json").string()},
+                  "--in-process", "--duration", "2.0", "-q", "-o", (dir / "run.json").string(),
+                  "--record", (dir / "run.mcap").string(), "--log-dir", (dir / "logs").string(),
+                  "--domain", "7", "--dds", "fastdds"},
                  {}, false, true);
   const auto code = p.wait_for(120s);
   ASSERT_TRUE(code.has_value()) << p.output();
+  EXPECT_EQ(*code, 0) << p.output();
+  EXPECT_NE(p.output().find("no DDS: --dds --domain has no effect"), std::string::npos)
+      << p.output();
   std::ifstream in(dir / "run.json");
   const Json inp = Json::parse(in, nullptr, false);
   ASSERT_TRUE(inp.is_object()) << p.output();
@@ -356,6 +407,26 @@ TEST(OneAnswer, InProcessCommandLineForwardPush) {
     EXPECT_EQ(inp.value(k, -1.0), dist.result.value(k, -2.0)) << k;
   EXPECT_EQ(inp.value("survived", false), dist.result.value("survived", true));
   EXPECT_GT(inp.value("com_error_max_m", 0.0), 0.0);
+  EXPECT_EQ(keys_of(inp), keys_of(dist.result));
+  for (const char* k : {"ticks", "hold_ticks", "damping_ticks", "qp_failures", "contact_fallbacks"})
+    EXPECT_EQ(inp.value(k, -1), dist.result.value(k, -2)) << k;
+  EXPECT_EQ(inp["max_joint_speed"], dist.result["max_joint_speed"]);
+  EXPECT_EQ(inp["safety"]["accepted"], dist.result["safety"]["accepted"]);
+
+  const auto in_msgs = messages_of(dir / "run.mcap");
+  const auto dist_msgs = messages_of(fs::path(dist.result.value("recording", std::string())));
+  std::map<std::string, int> compared, differing;
+  for (const auto& [key, bytes] : in_msgs) {
+    const auto it = dist_msgs.find(key);
+    if (it == dist_msgs.end() || key.first == "poise/contact_solution") continue;
+    ++compared[key.first];
+    if (!same_sample(key.first, bytes, it->second)) ++differing[key.first];
+  }
+  for (const char* t : {"poise/sensors", "poise/ground_truth", "poise/state",
+                        "poise/contact_problem", "poise/joint_command"}) {
+    EXPECT_EQ(compared[t], 2000) << t;
+    EXPECT_EQ(differing[t], 0) << t;
+  }
 }
 
 }  // namespace
@@ -379,4 +450,51 @@ TEST(OneAnswer, ForwardPushWithATypicalRealityCyclone) {
   EXPECT_NEAR(r["ground"]["friction"].get<double>(), inp.result.reality.ground_friction, 1e-12);
   EXPECT_GT(std::abs(inp.result.reality.mass - inp.result.reality.mass_nominal), 1e-3)
       << "the drawn robot differs from its model";
+}
+
+namespace {
+
+Json run_in_process_cli(const std::string& name, std::vector<std::string> extra, int& code,
+                        std::string& output) {
+  const fs::path dir = work_dir(name);
+  std::vector<std::string> args{bin("poise"), "run", scenario_path("standing").string(),
+                                "--in-process", "-q", "-o", (dir / "run.json").string(),
+                                "--log-dir", (dir / "logs").string()};
+  args.insert(args.end(), extra.begin(), extra.end());
+  ChildProcess p(args, {}, false, true);
+  const auto c = p.wait_for(60s);
+  output = p.output();
+  code = c.value_or(-1);
+  std::ifstream in(dir / "run.json");
+  return Json::parse(in, nullptr, false);
+}
+
+}  // namespace
+
+// --realtime in process: the ticks are paced on the wall clock (the loop alone runs several
+// times faster than real time); a run past its --timeout stops, fails with the reason and still
+// writes its result.
+TEST(InProcessRun, RealtimePacesTheTicksAndATimeoutEndsTheRun) {
+  int code = 0;
+  std::string out;
+  const Json rt = run_in_process_cli("cli_realtime", {"--realtime", "--duration", "0.5"}, code, out);
+  ASSERT_TRUE(rt.is_object()) << out;
+  EXPECT_EQ(code, 0) << out;
+  EXPECT_EQ(rt["mode"], "realtime");
+  EXPECT_EQ(rt["in_process"], true);
+  EXPECT_GE(rt.value("wall_time_s", 0.0), 0.45) << "0.5 s paced at 1 kHz";
+
+  const Json lock = run_in_process_cli("cli_lockstep", {"--duration", "0.5"}, code, out);
+  ASSERT_TRUE(lock.is_object()) << out;
+  EXPECT_EQ(lock["mode"], "lockstep");
+  EXPECT_LT(lock.value("wall_time_s", 1.0), rt.value("wall_time_s", 0.0));
+
+  const Json late = run_in_process_cli("cli_timeout", {"--duration", "30", "--timeout", "0.3"},
+                                       code, out);
+  ASSERT_TRUE(late.is_object()) << out;
+  EXPECT_EQ(code, 2) << out;
+  EXPECT_EQ(late["survived"], false);
+  EXPECT_EQ(late["completed"], false);
+  EXPECT_NE(late.value("failure", std::string()).find("timeout"), std::string::npos) << late.dump(2);
+  EXPECT_LT(late.value("sim_time_s", 30.0), 29.0);
 }

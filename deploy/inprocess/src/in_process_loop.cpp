@@ -1,6 +1,7 @@
 #include "poise/inprocess/in_process_loop.hpp"
 
 #include <algorithm>
+#include <numeric>
 #include <cstdio>
 #include <cmath>
 #include <limits>
@@ -153,8 +154,8 @@ InProcessLoop::InProcessLoop(const scenario::Scenario& scenario, const LoopOptio
     // The robot side of poise-sim: its safety layer, configured as poise-sim configures it.
     safety::Config sc =
         safety::make_config(model_, &robot_, sim_->joint_names(), sim_->dt(), sim_->damping_kd());
-    sc.watchdog_s = 5e-3;  // poise-sim --watchdog-ms default
-    sc.hold_s = 5.0;       // poise-sim --hold-s default
+    sc.watchdog_s = options_.watchdog_ms * 1e-3;  // poise-sim --watchdog-ms
+    sc.hold_s = options_.hold_s;                   // poise-sim --hold-s
     safety_ = std::make_unique<safety::SafetyLayer>(std::move(sc));
   }
 
@@ -202,7 +203,8 @@ InProcessLoop::InProcessLoop(const scenario::Scenario& scenario, const LoopOptio
   monitor_.update(truth_);
   first_tick_ = sim_->tick();
   steps_ = static_cast<std::int64_t>(std::llround(duration_ / sim_->dt()));
-  latency_us_.reserve(static_cast<std::size_t>(steps_) + 16);
+  for (auto* v : {&latency_us_, &estimator_us_, &contact_us_})
+    v->reserve(static_cast<std::size_t>(steps_) + 16);
 }
 
 std::int64_t InProcessLoop::clock_ns() const {
@@ -212,6 +214,28 @@ std::int64_t InProcessLoop::clock_ns() const {
 void InProcessLoop::apply_safety_command(std::int64_t now_ns) {
   sim_node::to_sim(safety_->update(now_ns, sensors_.q), sim_command_);
 }
+
+namespace {
+
+/// Count, mean and order statistics of per-tick times (the percentile: the smallest value with
+/// at least that share of the ticks at or below it).
+LatencyStats latency_stats(std::vector<double> v) {
+  LatencyStats s;
+  if (v.empty()) return s;
+  std::sort(v.begin(), v.end());
+  const auto pct = [&](double p) {
+    const auto idx = static_cast<std::size_t>(std::ceil(p * static_cast<double>(v.size()))) - 1;
+    return v[std::min(idx, v.size() - 1)];
+  };
+  s.count = v.size();
+  s.mean_us = std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
+  s.p50_us = pct(0.5);
+  s.p99_us = pct(0.99);
+  s.max_us = v.back();
+  return s;
+}
+
+}  // namespace
 
 InProcessLoop::~InProcessLoop() = default;
 
@@ -305,6 +329,7 @@ void InProcessLoop::play_reference() {
   // queue and to the estimator's (both subscribe to poise/balance_reference).
   reference_player_->on_state(*state_msg_, [this](const msg::BalanceReference& r) {
     reference_applier_->queue().put(r);
+    if (reference_tap_) reference_tap_(r);
     com_shift_.put(r.header().tick(), r.has_com_target(),
                    Eigen::Vector3d(r.com_W()[0], r.com_W()[1], r.com_W()[2]));
 #if POISE_INPROCESS_HAVE_ESTIMATOR
@@ -323,10 +348,12 @@ void InProcessLoop::control() {
   contact_node::to_msg(problem_, *problem_msg_);
   problem_msg_->header(state_msg_->header());
   // poise-contact: decode, check, solve, answer (never a non-finite answer).
+  const auto t_contact = std::chrono::steady_clock::now();
   const char* bad = reflect::validate(*problem_msg_)
                         ? contact_node::from_msg(*problem_msg_, solver_problem_)
                         : "invalid contact problem";
   if (bad) {
+    ++invalid_messages_;
     contact::set_safe_solution(contact::ContactStatus::kInvalidInput, solution_);
   } else {
     solver_problem_.weights.priority = priority_;
@@ -335,10 +362,14 @@ void InProcessLoop::control() {
   }
   contact_node::to_msg(solution_, problem_msg_->header(), 0.0, optimizer_.method(), *solution_msg_);
   if (!reflect::validate(*solution_msg_)) {
+    ++invalid_messages_;
     contact::set_safe_solution(contact::ContactStatus::kSolverFailure, solution_);
     contact_node::to_msg(solution_, problem_msg_->header(), 0.0, optimizer_.method(),
                          *solution_msg_);
   }
+  contact_tick_us_ = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() -
+                                                               t_contact)
+                         .count();
   // poise-controller, phase B: the solution decoded, the joint command of this tick sent.
   contact_node::from_msg(*solution_msg_, answer_);
   controller_->finish(answer_, command_);
@@ -348,7 +379,9 @@ void InProcessLoop::control() {
 void InProcessLoop::step() {
   if (aborted_) return;
   const auto t0 = std::chrono::steady_clock::now();
-  if (!read_state()) {
+  last_tick_ = sensors_.tick;
+  last_controlled_ = read_state();
+  if (!last_controlled_) {
     // No state, so no command: poise-sim waits for it until its timeout, then applies what the
     // safety layer says at that moment, or gives up after too many such ticks in a row.
     ++command_timeouts_;
@@ -359,17 +392,22 @@ void InProcessLoop::step() {
     }
     apply_safety_command(clock_ns());
     if (sim_->step(sim_command_, sensors_, truth_) != sim::StepStatus::kOk) ++rejected_commands_;
-    update_monitor();
+    after_step();
     wall_ += std::chrono::steady_clock::now() - t0;
     return;
   }
+  const auto t_state = std::chrono::steady_clock::now();
   consecutive_timeouts_ = 0;
   apply_references();
   control();
   play_reference();
   const auto t1 = std::chrono::steady_clock::now();
   const double us = std::chrono::duration<double, std::micro>(t1 - t0).count();
-  if (latency_us_.size() < latency_us_.capacity()) latency_us_.push_back(us);
+  if (latency_us_.size() < latency_us_.capacity()) {
+    latency_us_.push_back(us);
+    estimator_us_.push_back(std::chrono::duration<double, std::micro>(t_state - t0).count());
+    contact_us_.push_back(contact_tick_us_);
+  }
   if (us > 1e6 * sim_->dt()) ++deadline_misses_;
 
   // poise-sim: the command through the robot's safety layer (a rejected one is counted and the
@@ -380,8 +418,36 @@ void InProcessLoop::step() {
     ++rejected_commands_;
   apply_safety_command(now);
   if (sim_->step(sim_command_, sensors_, truth_) != sim::StepStatus::kOk) ++rejected_commands_;
-  update_monitor();
+  after_step();
   wall_ += std::chrono::steady_clock::now() - t0;
+}
+
+// poise-sim after a step: the monitor, and the fastest joint of the run.
+void InProcessLoop::after_step() {
+  update_monitor();
+  for (Eigen::Index j = 0; j < sensors_.qd.size(); ++j)
+    if (std::abs(sensors_.qd[j]) > max_joint_speed_) {
+      max_joint_speed_ = std::abs(sensors_.qd[j]);
+      fastest_joint_ = static_cast<int>(j);
+    }
+}
+
+bool InProcessLoop::done() const {
+  return aborted_ || sim_->tick() >= first_tick_ + steps_;
+}
+
+InProcessLoop::TickMessages InProcessLoop::last_messages() const {
+  TickMessages m;
+  m.tick = last_tick_;
+  m.controlled = last_controlled_;
+  m.sensors = sensors_msg_.get();
+  if (last_controlled_) {
+    m.state = state_msg_.get();
+    m.problem = problem_msg_.get();
+    m.solution = solution_msg_.get();
+    m.command = command_msg_.get();
+  }
+  return m;
 }
 
 // poise-sim after a step: the references' CoM target shift due at the tick stepped, then the
@@ -395,8 +461,7 @@ void InProcessLoop::update_monitor() {
 RunResult InProcessLoop::run(const std::function<void(double)>& progress) {
   const double dt = sim_->dt();
   double next_report = 1.0;
-  const std::int64_t steps = first_tick_ + steps_;
-  while (!aborted_ && sim_->tick() < steps) {
+  while (!done()) {
     step();
     if (progress && time() >= next_report - 0.5 * dt) {
       progress(time());
@@ -443,15 +508,13 @@ RunResult InProcessLoop::result() const {
     r.survived = false;
     r.failed.push_back("run aborted before its end");
   }
-  std::vector<double> lat = latency_us_;
-  if (!lat.empty()) {
-    std::sort(lat.begin(), lat.end());
-    auto pct = [&](double p) {
-      const auto idx = static_cast<std::size_t>(std::ceil(p * static_cast<double>(lat.size()))) - 1;
-      return lat[std::min(idx, lat.size() - 1)];
-    };
-    r.tick_latency_us = {pct(0.5), pct(0.99), lat.back()};
-  }
+  r.tick_latency_us = latency_stats(latency_us_);
+  r.estimator_us = latency_stats(estimator_us_);
+  r.contact_us = latency_stats(contact_us_);
+  std::vector<double> controller_us(latency_us_.size());
+  for (std::size_t i = 0; i < latency_us_.size(); ++i)
+    controller_us[i] = latency_us_[i] - estimator_us_[i] - contact_us_[i];
+  r.controller_us = latency_stats(std::move(controller_us));
   r.deadline_misses = deadline_misses_;
   const double wall = std::chrono::duration<double>(wall_).count();
   r.sim_time_s = static_cast<double>(sim_->tick() - first_tick_) * sim_->dt();
@@ -462,7 +525,29 @@ RunResult InProcessLoop::result() const {
   r.qp_failures = controller_->diagnostics().qp_failures;
   r.rejected_commands = rejected_commands_;
   r.reality = sim_->reality();
+  r.invalid_messages = invalid_messages_;
+  r.wall_time_s = wall;
+  add_robot_side(r);
   return r;
+}
+
+// As poise-sim's summary and `poise run`'s verdict: the safety layer's figures, and damping ticks
+// over the scenario's tolerance fail the run.
+void InProcessLoop::add_robot_side(RunResult& r) const {
+  r.safety = safety_->counters();
+  r.safety_mode = safety::to_string(safety_->mode());
+  r.hold_ticks = r.safety.ticks_hold;
+  r.damping_ticks = r.safety.ticks_damp + r.safety.ticks_estop;
+  r.estop_ticks = r.safety.ticks_estop;
+  r.max_joint_speed = max_joint_speed_;
+  if (fastest_joint_ >= 0)
+    r.fastest_joint = sim_->joint_names()[static_cast<std::size_t>(fastest_joint_)];
+  const long long tolerance = scenario_.success.max_damping_ticks;
+  if (static_cast<long long>(r.damping_ticks) > tolerance) {
+    r.failed.push_back(std::to_string(r.damping_ticks) + " damping ticks > " +
+                       std::to_string(tolerance));
+    r.survived = false;
+  }
 }
 
 }  // namespace poise::inprocess

@@ -1,196 +1,230 @@
-// `poise run`: run a scenario. `--in-process` composes the libraries in this process (no DDS);
-// the DDS-distributed mode (the default) is poise::launch::run_distributed (deploy/launch).
-#include <CLI/CLI.hpp>
-#include <nlohmann/json.hpp>
+// `poise run`: run a scenario. One command line for both modes (poise/launch/run_settings.hpp):
+// the DDS-distributed run (the default) is poise::launch::run_distributed (deploy/launch);
+// `--in-process` composes the libraries in this process (no DDS), here.
+#include <signal.h>
+#include <time.h>
+#include <unistd.h>
 
-#include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <memory>
+#include <optional>
 #include <string>
-#include <string_view>
 
 #include "poise/inprocess/in_process_loop.hpp"
-#include "poise/launch/launch.hpp"
+#include "poise/inprocess/loop_recording.hpp"
+#include "poise/inprocess/run_result_json.hpp"
+#include "poise/launch/deployment.hpp"
+#include "poise/launch/log_dir.hpp"
+#include "poise/launch/run_settings.hpp"
+#include "poise/node/realtime.hpp"
 #include "poise/sim/reality_json.hpp"
-#include "poise/cli/parse.hpp"
 
 namespace poise::inprocess {
+namespace {
 
-nlohmann::json to_json(const RunResult& r) {
-  nlohmann::json j;
-  j["scenario"] = r.scenario;
-  j["survived"] = r.survived;
-  j["com_error_max_m"] = r.com_error_max_m;
-  j["com_error_final_m"] = r.com_error_final_m;
-  j["foot_slip_max_m"] = r.foot_slip_max_m;
-  j["foot_slide_max_m"] = r.foot_slide_max_m;
-  j["foot_displacement_max_m"] = r.foot_displacement_max_m;
-  j["foot_tilt_max_deg"] = r.foot_tilt_max_deg;
-  j["non_foot_contacts"] = r.non_foot_contacts;
-  j["tick_latency_us"] = {{"p50", r.tick_latency_us.p50_us},
-                          {"p99", r.tick_latency_us.p99_us},
-                          {"max", r.tick_latency_us.max_us}};
-  j["deadline_misses"] = r.deadline_misses;
-  j["realtime_factor"] = r.realtime_factor;
-  j["state_source"] = to_string(r.state_source);
-  j["mode"] = "in_process";
-  j["sim_time_s"] = r.sim_time_s;
-  j["ticks"] = r.ticks;
-  j["min_base_height_m"] = r.min_base_height_m;
-  j["recovery_time_s"] = std::isfinite(r.recovery_time_s) ? nlohmann::json(r.recovery_time_s)
-                                                          : nlohmann::json(nullptr);
-  j["trunk_pitch_max_deg"] = r.trunk_pitch_max_deg;
-  j["trunk_roll_max_deg"] = r.trunk_roll_max_deg;
-  j["failed_criteria"] = r.failed;
-  j["controller_fall"] = r.controller_fall.empty()
-                             ? nlohmann::json(nullptr)
-                             : nlohmann::json{{"time_s", r.controller_fall_time_s},
-                                              {"reason", r.controller_fall}};
-  if (!r.failed.empty()) {
-    std::string why;
-    for (const auto& f : r.failed) why += (why.empty() ? "" : "; ") + f;
-    j["failure"] = why;
+namespace fs = std::filesystem;
+
+std::atomic<bool> g_interrupted{false};
+extern "C" void on_in_process_interrupt(int) {
+  g_interrupted.store(true);
+}
+
+/// The files of the run: the log directory held (as the distributed run holds it, so that side
+/// by side runs of one scenario take <scenario>.2.json and so on), the result and the recording.
+struct RunFiles {
+  std::optional<launch::LogDirLock> logs;
+  fs::path output, recording;
+};
+
+RunFiles claim_files(const launch::RunSettings& s, const std::string& name) {
+  RunFiles f;
+  std::string suffix;
+  f.logs.emplace(launch::claim_log_dir(s.log_dir, "results", name, &suffix));
+  f.output = s.output.empty() ? fs::path("results") / (name + suffix + ".json") : fs::path(s.output);
+  if (f.output.has_parent_path()) fs::create_directories(f.output.parent_path());
+  fs::remove(f.output);  // a result from an earlier run must never stand for this one
+  if (s.record_given)
+    f.recording = s.record.empty() ? fs::path("results") / (name + suffix + ".mcap") : fs::path(s.record);
+  return f;
+}
+
+LoopOptions loop_options(const launch::RunSettings& s, const scenario::Scenario& scenario) {
+  LoopOptions opt;
+  opt.state_source = s.ground_truth_state ? StateSource::kGroundTruth : StateSource::kEstimator;
+  if (opt.state_source == StateSource::kEstimator && !estimator_available()) {
+    std::cerr << "poise run: WARNING: the estimator library is not built; using the ground-truth "
+                 "state (debug)\n";
+    opt.state_source = StateSource::kGroundTruth;
   }
-  j["completed"] = r.completed;
-  j["command_timeouts"] = r.command_timeouts;
-  j["contact_fallbacks"] = r.contact_fallbacks;
-  j["qp_failures"] = r.qp_failures;
-  j["rejected_commands"] = r.rejected_commands;
-  j["reality"] = sim::reality_to_json(r.reality);
+  if (!s.method.empty()) opt.contact_method = *contact::parse_method(s.method);
+  opt.controller_config_file = s.controller_config;
+  opt.duration = s.duration > 0.0 ? s.duration : 0.0;
+  opt.settle_ticks = s.settle_ticks;
+  opt.estimator = s.estimator.empty() ? scenario.estimator.type : s.estimator;
+  opt.command_timeout_ms = s.command_timeout_ms;
+  if (s.watchdog_ms > 0.0) opt.watchdog_ms = s.watchdog_ms;
+  if (s.hold_s >= 0.0) opt.hold_s = s.hold_s;
+  return opt;
+}
+
+/// --rt-priority, --cpus, --lock-memory for this process (the one thread that runs the loop).
+nlohmann::json apply_realtime(const launch::RunSettings& s) {
+  nlohmann::json j = nlohmann::json::object();
+  if (!(s.rt_priority > 0 || s.lock_memory || !s.cpus.empty())) return j;
+  const node::RealtimeReport r = node::apply_process_realtime(
+      {.priority = s.rt_priority, .cpus = s.cpus, .lock_memory = s.lock_memory});
+  for (const std::string& line : r.refused) std::fprintf(stderr, "  real time: %s\n", line.c_str());
+  j["poise"] = {{"priority", s.rt_priority},
+                {"cpus", s.cpus},
+                {"lock_memory", s.lock_memory},
+                {"applied", r.applied},
+                {"refused", r.refused}};
   return j;
 }
 
-namespace {
+void print_start(const launch::RunSettings& s, const InProcessLoop& loop, const LoopOptions& opt,
+                 const std::string& method) {
+  if (const std::string unused = launch::dds_only_options(s); !unused.empty())
+    std::cerr << "poise run: note: in process there is no DDS: " << unused << " has no effect\n";
+  if (!s.quiet)
+    std::cerr << "poise run: " << loop.scenario().name << " in process, " << loop.duration()
+              << " s, " << (s.realtime ? "real time" : "lockstep") << ", state from "
+              << to_string(opt.state_source)
+              << (opt.state_source == StateSource::kEstimator ? " (" + opt.estimator + ")" : "")
+              << ", contact method " << method << "\n";
+  for (const std::string& w : loop.safety_warnings()) std::cerr << "  safety: " << w << "\n";
+  if (!s.quiet && loop.scenario().sim.reality.enabled)
+    std::cerr << "  " << sim::describe_reality(loop.result().reality) << "\n";
+}
 
-/// A path, or a scenario name looked up in deploy/scenarios/ of the source tree.
-std::filesystem::path resolve_scenario(const std::string& arg) {
-  std::filesystem::path p(arg);
-  if (std::filesystem::exists(p)) return p;
-  for (const std::string& cand : {arg, arg + ".yaml"}) {
-    const std::filesystem::path q =
-        std::filesystem::path(POISE_SOURCE_DIR) / "deploy/scenarios" / cand;
-    if (std::filesystem::exists(q)) return q;
+/// The wall-clock pacing of --realtime: tick k ends no earlier than start + (k + 1) dt.
+class Pacer {
+ public:
+  Pacer(bool on, double dt) : on_(on), dt_ns_(static_cast<std::int64_t>(dt * 1e9)) {
+    clock_gettime(CLOCK_MONOTONIC, &start_);
   }
-  return p;  // let the loader report the missing file
+  /// Sleeps until the end of tick `k` (counted from 0). Returns false when that end had passed.
+  bool wait_end_of(std::int64_t k) {
+    if (!on_) return true;
+    const std::int64_t due = start_.tv_sec * 1000000000LL + start_.tv_nsec + (k + 1) * dt_ns_;
+    timespec now{};
+    clock_gettime(CLOCK_MONOTONIC, &now);
+    if (now.tv_sec * 1000000000LL + now.tv_nsec > due) return false;
+    const timespec until{static_cast<time_t>(due / 1000000000LL), static_cast<long>(due % 1000000000LL)};
+    clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &until, nullptr);
+    return true;
+  }
+
+ private:
+  bool on_;
+  std::int64_t dt_ns_;
+  timespec start_{};
+};
+
+/// Steps the loop to its end (recording each tick, pacing it with --realtime, a progress line a
+/// simulated second) unless interrupted or past the wall-clock bound. Returns "" or why it
+/// stopped early; `overruns`: real-time ticks that ended after their deadline.
+std::string step_to_end(const launch::RunSettings& s, InProcessLoop& loop, LoopRecording* rec,
+                        std::uint64_t& overruns) {
+  const double bound_s = s.timeout_s > 0 ? s.timeout_s
+                                         : (s.realtime ? 60.0 + loop.duration()
+                                                       : 60.0 + 30.0 * loop.duration());
+  const auto t_start = std::chrono::steady_clock::now();
+  Pacer pacer(s.realtime, loop.simulator().dt());
+  double next_report = 1.0;
+  for (std::int64_t k = 0; !loop.done(); ++k) {
+    if (rec) rec->before_step();
+    loop.step();
+    if (rec) rec->after_step();
+    if (!pacer.wait_end_of(k)) ++overruns;
+    if (!s.quiet && loop.time() >= next_report - 0.5 * loop.simulator().dt()) {
+      const RunResult p = loop.result();
+      std::fprintf(stderr, "  t = %5.1f s  CoM error %.4f m (max %.4f)  tick p50 %.1f us\n",
+                   loop.time(), p.com_error_final_m, p.com_error_max_m, p.tick_latency_us.p50_us);
+      next_report += 1.0;
+    }
+    if (g_interrupted.load()) return "interrupted";
+    if (std::chrono::steady_clock::now() - t_start > std::chrono::duration<double>(bound_s))
+      return "timeout: the run took more than " + std::to_string(bound_s) + " s";
+  }
+  return "";
+}
+
+void print_verdict(const RunResult& r) {
+  std::string why;
+  for (const auto& f : r.failed) why += (why.empty() ? " on " : "; ") + f;
+  std::printf(
+      "%s: %s%s  (CoM error max %.4f m, final %.4f m; foot slip %.4f m, tilt %.1f deg; "
+      "non-foot contacts %d; trunk pitch/roll max %.1f/%.1f deg; tick p50 %.1f us p99 %.1f us; "
+      "%llu deadline misses; x%.2f real time; state %s)\n",
+      r.scenario.c_str(), r.survived ? "SURVIVED" : "FAILED", why.c_str(), r.com_error_max_m,
+      r.com_error_final_m, r.foot_slip_max_m, r.foot_tilt_max_deg, r.non_foot_contacts,
+      r.trunk_pitch_max_deg, r.trunk_roll_max_deg, r.tick_latency_us.p50_us,
+      r.tick_latency_us.p99_us, static_cast<unsigned long long>(r.deadline_misses),
+      r.realtime_factor, to_string(r.state_source));
+}
+
+/// `poise run --in-process`, parsed. Returns the exit status: 0 survived, 1 failed the
+/// scenario's criteria, 2 could not run (or the recording failed), 130 interrupted.
+int run_in_process(launch::RunSettings& s) {
+  s.scenario = launch::resolve_scenario(s.scenario);
+  const scenario::Scenario scenario = scenario::load_scenario(s.scenario);
+  const RunFiles files = claim_files(s, scenario.name);
+  const LoopOptions opt = loop_options(s, scenario);
+  const nlohmann::json realtime = apply_realtime(s);
+  InProcessLoop loop(scenario, opt);
+  RunFacts facts;
+  facts.method = contact::to_string(contact_method_of(scenario, opt));
+  facts.estimator = opt.estimator;
+  facts.realtime = s.realtime;
+  facts.realtime_settings = realtime;
+  print_start(s, loop, opt, facts.method);
+  std::unique_ptr<LoopRecording> rec;
+  if (!files.recording.empty()) rec = std::make_unique<LoopRecording>(files.recording, loop);
+  ::signal(SIGINT, on_in_process_interrupt);
+  ::signal(SIGTERM, on_in_process_interrupt);
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::string stopped = step_to_end(s, loop, rec.get(), facts.overruns);
+  RunResult r = loop.result();
+  // The run's wall time, paced ticks and recording included (the loop's own counts its ticks).
+  r.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  r.realtime_factor = r.wall_time_s > 0.0 ? r.sim_time_s / r.wall_time_s : 0.0;
+  if (!stopped.empty()) {
+    r.survived = false;
+    r.completed = false;
+    r.failed.push_back(stopped);
+  }
+  if (rec) {
+    facts.recording = rec->file().string();
+    facts.recording_error = rec->close();
+    if (!s.quiet && facts.recording_error.empty())
+      std::printf("  recorded: %llu messages to %s\n",
+                  static_cast<unsigned long long>(rec->messages()), facts.recording.c_str());
+  }
+  print_verdict(r);
+  write_result_file(files.output, to_json(r, loop, facts));
+  if (!facts.recording_error.empty()) {
+    std::fprintf(stderr, "poise run: the recording failed: %s\n", facts.recording_error.c_str());
+    return 2;
+  }
+  if (stopped == "interrupted") return 130;
+  if (!stopped.empty()) return 2;
+  return r.survived ? 0 : 1;
 }
 
 }  // namespace
 
 int cli_main(int argc, char** argv) {
-  // Default mode: every component in its own process over DDS (deploy/launch).
-  const auto has = [&](std::string_view flag) {
-    return std::any_of(argv + 1, argv + argc, [&](const char* a) { return flag == a; });
-  };
-  if (!has("--in-process")) {
-    const int rc = launch::run_distributed(argc, argv);
-    if (has("--help") || has("-h")) {
-      std::cout << "\nWith --in-process, all components run in this process without DDS "
-                   "(the baseline for the DDS overhead): see `poise run --in-process --help`.\n";
-    }
-    return rc;
-  }
-  CLI::App app{"Run a scenario (paper Sec. 4 experiments in deploy/scenarios/)", "poise run"};
-  std::string scenario_arg, output, method, controller_config;
-  bool in_process = false, ground_truth = false, quiet = false;
-  double duration = 0.0;
-  app.add_option("scenario", scenario_arg, "Scenario YAML file, or a name in deploy/scenarios/")
-      ->required();
-  app.add_flag("--in-process", in_process,
-               "Compose simulator, estimator, controller and contact optimiser in this process "
-               "(no DDS)");
-  app.add_flag("--ground-truth-state", ground_truth,
-               "DEBUG: feed the controller the simulator's ground truth instead of the estimator");
-  app.add_option("--output,-o", output,
-                 "JSON result file, the distributed run's fields (default: none; the verdict is "
-                 "printed)");
-  app.add_option("--contact-method", method,
-                 "Contact optimiser: sequential (paper) or qp (default: the scenario's "
-                 "contact.method, else sequential)")
-      ->check(CLI::IsMember({"sequential", "qp"}));
-  app.add_option("--controller-config", controller_config,
-                 "Controller YAML (default: built-in paper values, "
-                 "controller/momentum/config/balance_controller.yaml)");
-  app.add_option("--duration", duration, "Simulated time [s] (default: the scenario's)")
-      ->check(CLI::Range(0.0, 1e6));
-  std::string estimator_kind;
-  app.add_option("--estimator", estimator_kind,
-                 "Estimator that makes the state: invariant-ekf or leg-odometry (default: the "
-                 "scenario's estimator.type, else invariant-ekf)")
-      ->check(CLI::IsMember({"invariant-ekf", "leg-odometry"}));
-  int settle_ticks = -1;
-  app.add_option("--settle-ticks", settle_ticks,
-                 "start-up: simulator steps with the joints held by the safety layer before the "
-                 "first control tick (default: poise-sim's, 10, as `poise run` distributed)")
-      ->check(CLI::Range(0, 10000));
-  app.add_flag("--quiet,-q", quiet, "No progress lines");
+  launch::RunSettings s;
+  if (const int code = launch::parse_run_settings(argc, argv, s); code >= 0) return code;
+  if (!s.in_process) return launch::run_distributed(s);
   try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return poise::cli::usage_exit(app, e);
-  }
-  try {
-    const scenario::Scenario scenario = scenario::load_scenario(resolve_scenario(scenario_arg));
-    LoopOptions opt;
-    opt.state_source = ground_truth ? StateSource::kGroundTruth : StateSource::kEstimator;
-    if (opt.state_source == StateSource::kEstimator && !estimator_available()) {
-      std::cerr << "poise run: WARNING: the estimator library is not built; using the ground-truth "
-                   "state (debug)\n";
-      opt.state_source = StateSource::kGroundTruth;
-    }
-    if (!method.empty()) opt.contact_method = *contact::parse_method(method);
-    method = contact::to_string(contact_method_of(scenario, opt));
-    opt.controller_config_file = controller_config;
-    opt.duration = duration;
-    opt.settle_ticks = settle_ticks;
-    opt.estimator = estimator_kind.empty() ? scenario.estimator.type : estimator_kind;
-    InProcessLoop loop(scenario, opt);
-    if (!quiet)
-      std::cerr << "poise run: " << scenario.name << " in process, " << loop.duration()
-                << " s, state from " << to_string(opt.state_source)
-                << (opt.state_source == StateSource::kEstimator ? " (" + opt.estimator + ")" : "")
-                << ", contact method " << method
-                << "\n";
-    for (const std::string& w : loop.safety_warnings())
-      std::cerr << "  safety: " << w << "\n";
-    if (!quiet && scenario.sim.reality.enabled)
-      std::cerr << "  " << sim::describe_reality(loop.result().reality) << "\n";
-    const RunResult r = loop.run([&](double t) {
-      if (quiet) return;
-      const auto p = loop.result();
-      std::fprintf(stderr, "  t = %5.1f s  CoM error %.4f m (max %.4f)  tick p50 %.1f us\n", t,
-                   p.com_error_final_m, p.com_error_max_m, p.tick_latency_us.p50_us);
-    });
-    std::string why;
-    for (const auto& f : r.failed) why += (why.empty() ? " on " : "; ") + f;
-    std::printf(
-        "%s: %s%s  (CoM error max %.4f m, final %.4f m; foot slip %.4f m, tilt %.1f deg; "
-        "non-foot contacts %d; "
-        "trunk pitch/roll max %.1f/%.1f deg; tick p50 %.1f us p99 %.1f us; %llu deadline misses; "
-        "x%.2f real time; state %s)\n",
-        r.scenario.c_str(), r.survived ? "SURVIVED" : "FAILED", why.c_str(), r.com_error_max_m,
-        r.com_error_final_m, r.foot_slip_max_m, r.foot_tilt_max_deg, r.non_foot_contacts,
-        r.trunk_pitch_max_deg, r.trunk_roll_max_deg, r.tick_latency_us.p50_us,
-        r.tick_latency_us.p99_us,
-        static_cast<unsigned long long>(r.deadline_misses), r.realtime_factor,
-        to_string(r.state_source));
-    if (!output.empty()) {
-      std::ofstream out(output);
-      if (!out) {
-        std::cerr << "poise run: cannot write " << output << "\n";
-        return 2;
-      }
-      nlohmann::json j = to_json(r);
-      j["contact_method"] = method;
-      j["contact_priority"] = contact::to_string(loop.controller().config().contact.priority);
-      j["contact_torsion_limit"] =
-          contact::to_string(loop.controller().config().contact.torsion_limit);
-      j["estimator_supports"] = scenario.estimator.supports;
-      j["estimator"] = opt.estimator;
-      out << j.dump(2) << "\n";
-    }
-    return r.survived ? 0 : 1;
+    return run_in_process(s);
   } catch (const std::exception& e) {
     std::cerr << "poise run: " << e.what() << "\n";
     return 2;

@@ -24,6 +24,7 @@
 #include "poise/launch/deployment.hpp"
 #include "poise/launch/launch.hpp"
 #include "poise/launch/log_dir.hpp"
+#include "poise/launch/run_settings.hpp"
 #include "poise/launch/supervisor.hpp"
 #include "poise/model/robot_config.hpp"
 #include "poise/node/realtime.hpp"
@@ -119,6 +120,9 @@ const std::vector<std::pair<std::string, int>>& stack_writers() {
 void add_scenario_options(CLI::App& app, Settings& s) {
   app.add_option("scenario", s.scenario, "scenario YAML file, or a name in deploy/scenarios/")
       ->required();
+  app.add_flag("--in-process", s.in_process,
+               "every component in this process, no DDS (the footer says what each option does "
+               "then)");
   auto* lock =
       app.add_flag("--lockstep", s.lockstep, "simulator steps k+1 only after command k (default)");
   app.add_flag("--realtime", s.realtime, "simulator ticks at 1 kHz on the wall clock")
@@ -231,9 +235,18 @@ const CLI::Option* add_record_and_realtime_options(CLI::App& app, Settings& s) {
 int parse_settings(int argc, char** argv, Settings& s) {
   CLI::App app{
       "Run a scenario with every component in its own process over DDS (loopback): "
-      "poise-sim, poise-estimator, poise-contact, poise-controller. `poise run --in-process` "
-      "composes them in one process instead (no DDS)."};
+      "poise-sim, poise-estimator, poise-contact, poise-controller. With --in-process, the same "
+      "libraries in this one process instead (no DDS), the same trajectory bit for bit."};
   app.name(argc > 0 ? argv[0] : "poise run");
+  app.footer(
+      "In process (--in-process): one thread steps the simulator, the estimator, the controller "
+      "and the contact optimiser in turn, as the distributed lockstep run does. It takes every "
+      "option above and writes the same result file with the same fields (those of DDS null). "
+      "--realtime paces the ticks at 1 kHz on the wall clock; --record writes every tick's "
+      "messages to the MCAP file as the nodes would publish them (no poise/diagnostics); "
+      "--rt-priority, --cpus and --lock-memory apply to this process; --dds*, --domain, "
+      "--security, --passive and --contact-deadline-us have no effect (a note says so). "
+      "deploy/inprocess/README.md.");
   add_scenario_options(app, s);
   add_component_options(app, s);
   const CLI::Option* record_opt = add_record_and_realtime_options(app, s);
@@ -723,9 +736,40 @@ int run_scenario(Settings& s) {
 }  // namespace
 }  // namespace distributed
 
+int parse_run_settings(int argc, char** argv, RunSettings& s) {
+  return distributed::parse_settings(argc, argv, s);
+}
+
+std::string dds_only_options(const RunSettings& s) {
+  std::string out;
+  const auto add = [&](bool given, const char* name) {
+    if (given) out += (out.empty() ? "" : " ") + std::string(name);
+  };
+  add(!s.dds_all.empty(), "--dds");
+  add(!s.dds_sim.empty(), "--dds-sim");
+  add(!s.dds_estimator.empty(), "--dds-estimator");
+  add(!s.dds_contact.empty(), "--dds-contact");
+  add(!s.dds_controller.empty(), "--dds-controller");
+  add(s.domain >= 0, "--domain");
+  add(!s.security.empty(), "--security");
+  add(s.record_passive, "--passive");
+  add(s.contact_deadline_us >= 0.0, "--contact-deadline-us");
+  return out;
+}
+
 int run_distributed(int argc, char** argv) {
-  distributed::Settings s;
-  if (const int code = distributed::parse_settings(argc, argv, s); code >= 0) return code;
+  RunSettings s;
+  if (const int code = parse_run_settings(argc, argv, s); code >= 0) return code;
+  return run_distributed(s);
+}
+
+int run_distributed(RunSettings& s) {
+  if (s.in_process) {
+    std::fprintf(stderr,
+                 "poise run: --in-process: this launcher runs the distributed stack only; use "
+                 "`poise run --in-process`\n");
+    return 2;
+  }
   try {
     return distributed::run_scenario(s);
   } catch (const std::exception& e) {

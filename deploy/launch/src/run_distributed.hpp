@@ -10,40 +10,15 @@
 #include "poise/controller/controller_config.hpp"
 #include "poise/launch/child.hpp"
 #include "poise/launch/log_dir.hpp"
+#include "poise/launch/run_settings.hpp"
 #include "poise/launch/supervisor.hpp"
 #include "poise/scenario/scenario.hpp"
 #include "poise/sim/sim_config.hpp"
 
 namespace poise::launch::distributed {
 
-/// `poise run`'s options.
-struct Settings {
-  std::string scenario;
-  bool lockstep = false;  ///< --lockstep: the default, said explicitly (excludes --realtime)
-  bool realtime = false;
-  std::string dds_all, dds_sim, dds_estimator, dds_contact, dds_controller;
-  int domain = -1;
-  std::string output, log_dir;
-  double duration = -1.0;
-  bool ground_truth_state = false;
-  std::string method;             ///< "" = the scenario's contact.method, else sequential
-  std::string estimator;          ///< "" = the scenario's estimator.type, else invariant-ekf
-  std::string controller_config;  ///< "" = the scenario's controller: section, else defaults
-  double contact_deadline_us = -1.0;
-  int command_timeout_ms = sim::kDefaultCommandTimeoutMs;
-  int settle_ticks = -1;      ///< simulator start-up hold steps (-1: the simulator's default)
-  double watchdog_ms = -1.0;  ///< safety layer watchdog (-1: default)
-  double hold_s = -1.0;       ///< safety layer hold before damping (-1: default)
-  double timeout_s = -1.0;
-  bool quiet = false;
-  bool record_given = false;  ///< `--record` was given (with a file or alone)
-  std::string record;  ///< MCAP file of `--record` ("" with the flag alone: the default path)
-  bool record_passive = false;  ///< `--record --passive`: `poise record --passive` (packet capture)
-  std::string security;         ///< DDS Security directory (poise security init), "" = none
-  int rt_priority = 0;       ///< SCHED_FIFO base priority of the processes (0: normal scheduling)
-  bool lock_memory = false;  ///< every process locks its memory (mlockall)
-  std::string cpus;          ///< CPU affinity of every process ("": any CPU)
-};
+/// `poise run`'s options (run_settings.hpp: one command line for both modes).
+using Settings = RunSettings;
 
 /// What a run decided before it starts a process: the scenario, the vendors, the domain, its
 /// files and every component's command line.

@@ -91,6 +91,12 @@ Json result_from_summaries(const Plan& p, const Summaries& j) {
                         "max_joint_speed",
                         "reality"})
     r[k] = j.sim.value(k, Json());
+  // The controller's and the simulator's counts, under the in-process result's names.
+  r["ticks"] = num(j.ctrl, "controller_ticks");
+  r["contact_fallbacks"] = num(j.ctrl, "late_solutions");
+  r["qp_failures"] = num(j.ctrl, "qp_failures");
+  r["rejected_commands"] = num(j.sim, "rejected_commands");
+  r["in_process"] = false;
   const std::uint64_t misses_sim = diag(j.sim, "deadline_misses");
   const std::uint64_t misses_ctrl = diag(j.ctrl, "deadline_misses");
   r["deadline_misses"] = misses_sim + misses_ctrl;

@@ -51,12 +51,10 @@
 #include "poise/contact/contact_optimizer.hpp"
 #include "poise/controller/balance_controller.hpp"
 #include "poise/reference/player.hpp"
+#include "poise/safety/safety_layer.hpp"
 #include "poise/scenario/scenario.hpp"
 #include "poise/sim/simulator.hpp"
 
-namespace poise::safety {
-class SafetyLayer;
-}
 namespace poise::controller_node {
 class ReferenceApplier;
 }
@@ -100,9 +98,17 @@ struct LoopOptions {
   /// such ticks in a row the run is aborted (poise-sim --max-consecutive-timeouts).
   double command_timeout_ms = 2000.0;
   int max_consecutive_timeouts = 3;
+  /// The robot side's safety layer (poise-sim --watchdog-ms, --hold-s): HOLD after this long
+  /// without a command, DAMP after holding this long. In lockstep a command is applied as it
+  /// arrives, so only ticks without a command (above) ever reach them.
+  double watchdog_ms = 5.0;
+  double hold_s = 5.0;
 };
 
+/// Per-tick times of a run [us]: order statistics over every tick.
 struct LatencyStats {
+  std::uint64_t count = 0;
+  double mean_us = 0.0;
   double p50_us = 0.0;
   double p99_us = 0.0;
   double max_us = 0.0;
@@ -139,6 +145,19 @@ struct RunResult {
   std::uint64_t qp_failures = 0;        ///< eq (33) not solved as posed
   std::uint64_t rejected_commands = 0;  ///< commands the simulator refused
   sim::RealityDraw reality;             ///< how the simulated robot differed from its model
+  /// Compute time of each library's part of the tick, message conversions included: the
+  /// estimator (sensors -> state), the contact optimiser (problem -> solution) and the controller
+  /// (the rest of the tick).
+  LatencyStats estimator_us, controller_us, contact_us;
+  std::uint64_t invalid_messages = 0;  ///< contact problems or solutions that failed validation
+  /// The robot side (as poise-sim's summary): ticks its safety layer spent in HOLD, in DAMP or
+  /// E-STOP (damping), in E-STOP; its counters and final mode.
+  std::uint64_t hold_ticks = 0, damping_ticks = 0, estop_ticks = 0;
+  safety::Counters safety;
+  std::string safety_mode;
+  double max_joint_speed = 0.0;  ///< largest |qd| of any joint over the run [rad/s | m/s]
+  std::string fastest_joint;     ///< whose
+  double wall_time_s = 0.0;      ///< wall time of the ticks (start-up excluded)
 };
 
 /// The contact method a loop with these options runs: LoopOptions::contact_method if set, else
@@ -157,6 +176,26 @@ class InProcessLoop {
 
   /// One control tick and one simulator step.
   void step();
+  /// True once the run's duration is stepped (or the run was aborted).
+  bool done() const;
+  /// The topics' messages of the last control tick, as the nodes publish them: sensors, state,
+  /// contact problem, contact solution and joint command of tick `tick`. `controlled` is false
+  /// for a tick without a state (the estimator refused its frame: no state, no command).
+  struct TickMessages {
+    std::int64_t tick = -1;
+    bool controlled = false;
+    const msg::Sensors* sensors = nullptr;
+    const msg::State* state = nullptr;
+    const msg::ContactProblem* problem = nullptr;
+    const msg::ContactSolution* solution = nullptr;
+    const msg::JointCommand* command = nullptr;
+  };
+  TickMessages last_messages() const;
+  /// Called with every balance reference the scenario's reference player sends (as
+  /// poise-reference publishes them on poise/balance_reference); empty: none.
+  void on_reference(std::function<void(const msg::BalanceReference&)> f) {
+    reference_tap_ = std::move(f);
+  }
   /// Steps until the run's duration; `progress` (may be empty) is called about once per
   /// simulated second with the current time. Returns result().
   RunResult run(const std::function<void(double)>& progress = {});
@@ -189,6 +228,8 @@ class InProcessLoop {
   bool read_state();
   void apply_references();
   void update_monitor();
+  void after_step();
+  void add_robot_side(RunResult& r) const;
   void play_reference();
   void control();
   void apply_safety_command(std::int64_t now_ns);
@@ -248,7 +289,14 @@ class InProcessLoop {
   controller::BalanceReference reference_;
   controller::JointCommand command_;
 
-  std::vector<double> latency_us_;
+  std::vector<double> latency_us_, estimator_us_, contact_us_;
+  double contact_tick_us_ = 0.0;  // the contact optimiser's part of the tick being stepped
+  std::int64_t last_tick_ = -1;   // the tick of the last control tick's messages
+  bool last_controlled_ = false;
+  std::uint64_t invalid_messages_ = 0;
+  double max_joint_speed_ = 0.0;
+  int fastest_joint_ = -1;  // sim joint
+  std::function<void(const msg::BalanceReference&)> reference_tap_;
   std::uint64_t deadline_misses_ = 0;
   std::uint64_t rejected_commands_ = 0;
   std::chrono::steady_clock::duration wall_{};
