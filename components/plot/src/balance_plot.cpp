@@ -319,53 +319,49 @@ int run_gnuplot(const std::string& gnuplot, const std::string& script,
   return 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
 }
 
-PlotResult plot_balance(const PlotOptions& o) {
-  PlotResult result;
-  std::FILE* log = o.log ? o.log : stderr;
-  auto fail = [&](int code, std::string why) {
-    result.exit_code = code;
-    result.error = std::move(why);
-    return result;
-  };
+namespace {
 
-  const std::string gnuplot = find_gnuplot(o.gnuplot);
-  if (gnuplot.empty()) {
-    return fail(2, (o.gnuplot.empty() ? std::string("gnuplot is not on PATH")
-                                      : "gnuplot '" + o.gnuplot + "' not found") +
-                       ": install it (Debian: apt-get install gnuplot-nox, as "
-                       "deploy/bootstrap.sh does) or name it with --gnuplot");
+/// Where the sheet goes (out_dir) and where its data and script are made (work: a temporary
+/// directory removed at the end, or DIR/<stem>_plot_data/ with --keep-data).
+struct PlotDirs {
+  fs::path file, out_dir, work;
+  std::string stem;
+  bool keep = false;
+  PlotDirs() = default;
+  PlotDirs(const PlotDirs&) = delete;
+  PlotDirs& operator=(const PlotDirs&) = delete;
+  ~PlotDirs() {
+    std::error_code e;
+    if (!keep && !work.empty()) fs::remove_all(work, e);
   }
+};
+
+/// Makes the output and work directories. Returns "" or why it could not.
+std::string make_dirs(const PlotOptions& o, PlotDirs& d) {
   std::error_code ec;
-  if (!fs::exists(o.file, ec)) return fail(2, o.file + ": no such file");
-  const fs::path file(o.file);
-  const std::string stem = file.stem().string();
-  const fs::path out_dir = o.output_dir.empty()
-                               ? (file.has_parent_path() ? file.parent_path() : fs::path("."))
-                               : fs::path(o.output_dir);
-  fs::create_directories(out_dir, ec);
-  if (ec) return fail(2, "cannot create " + out_dir.string() + ": " + ec.message());
-
-  // Work directory: the CSV, the script and gnuplot's messages.
-  fs::path work;
+  d.file = fs::path(o.file);
+  d.stem = d.file.stem().string();
+  d.out_dir = o.output_dir.empty()
+                  ? (d.file.has_parent_path() ? d.file.parent_path() : fs::path("."))
+                  : fs::path(o.output_dir);
+  fs::create_directories(d.out_dir, ec);
+  if (ec) return "cannot create " + d.out_dir.string() + ": " + ec.message();
+  d.keep = o.keep_data;
   if (o.keep_data) {
-    work = out_dir / (stem + "_plot_data");
-    fs::create_directories(work, ec);
-    if (ec) return fail(2, "cannot create " + work.string() + ": " + ec.message());
-  } else {
-    std::string pattern = (fs::temp_directory_path(ec) / "poise-plot-XXXXXX").string();
-    if (!::mkdtemp(pattern.data())) return fail(2, "cannot create a temporary directory");
-    work = pattern;
+    d.work = d.out_dir / (d.stem + "_plot_data");
+    fs::create_directories(d.work, ec);
+    if (ec) return "cannot create " + d.work.string() + ": " + ec.message();
+    return "";
   }
-  struct Cleanup {
-    fs::path dir;
-    bool keep;
-    ~Cleanup() {
-      std::error_code e;
-      if (!keep) fs::remove_all(dir, e);
-    }
-  } cleanup{work, o.keep_data};
+  std::string pattern = (fs::temp_directory_path(ec) / "poise-plot-XXXXXX").string();
+  if (!::mkdtemp(pattern.data())) return "cannot create a temporary directory";
+  d.work = pattern;
+  return "";
+}
 
-  Gathered g;
+/// Exports the sheet's topics to CSV in `work`, gathering what the CSV cannot give into `g`.
+ExportReport export_sheet_topics(const PlotOptions& o, const fs::path& work, std::FILE* log,
+                                 Gathered& g) {
   ExportOptions ex;
   ex.output_dir = work.string();
   ex.topics = {std::string(kState),    std::string(kTruth),       std::string(kProblem),
@@ -374,43 +370,42 @@ PlotResult plot_balance(const PlotOptions& o) {
   ex.progress = log;
   ex.on_sample = [&](const std::string&, std::string_view type, const void* sample,
                      const record::MessageView& m) { g.on_sample(type, sample, m); };
-  const ExportReport report = export_csv(o.file, ex);
-  if (!report.scan.is_mcap) return fail(2, o.file + ": not an MCAP file (" + report.error + ")");
-  if (!report.error.empty()) return fail(2, report.error);
-  int code = print_export_problems("plot", o.file, report);
+  ExportReport report = export_csv(o.file, ex);
   std::sort(g.state_log_to_stamp.begin(), g.state_log_to_stamp.end());
-  result.missing_topics = report.absent_topics;
-  if (!g.has_time()) {
-    return fail(2, o.file + ": none of " + std::string(kState) + ", " + std::string(kTruth) + ", " +
-                       std::string(kProblem) + ", " + std::string(kSolution) +
-                       " has a sample: nothing to plot");
-  }
-  for (const auto& t : report.absent_topics) {
-    if (t != kDisturbance)
-      std::fprintf(log, "poise plot: %s is not in the recording: its lines are left out\n",
-                   t.c_str());
-  }
+  return report;
+}
 
-  // Time axis: robot time in seconds (from 0 when the stamps look like a wall clock).
+/// The time axis: robot time in seconds (from 0 when the stamps look like a wall clock).
+struct TimeAxis {
+  double t0 = 0, lo = 0, hi = 0;
+  std::string label;
+};
+
+TimeAxis time_axis(const Gathered& g) {
+  TimeAxis a;
   const bool epoch_like = g.min_stamp > 100'000LL * 1'000'000'000LL;  // > ~1 day
-  const double t0 = epoch_like ? static_cast<double>(g.min_stamp) * 1e-9 : 0.0;
-  double t_lo = static_cast<double>(g.min_stamp) * 1e-9 - t0;
-  double t_hi = static_cast<double>(g.max_stamp) * 1e-9 - t0;
-  if (t_hi - t_lo < 1e-3) {
-    t_lo -= 0.5;
-    t_hi += 0.5;
+  a.t0 = epoch_like ? static_cast<double>(g.min_stamp) * 1e-9 : 0.0;
+  a.lo = static_cast<double>(g.min_stamp) * 1e-9 - a.t0;
+  a.hi = static_cast<double>(g.max_stamp) * 1e-9 - a.t0;
+  if (a.hi - a.lo < 1e-3) {
+    a.lo -= 0.5;
+    a.hi += 0.5;
   }
-  const std::string time_label = epoch_like
-                                     ? "robot time since the first sample [s] (header.stamp_ns)"
-                                     : "robot time [s] (header.stamp_ns)";
+  a.label = epoch_like ? "robot time since the first sample [s] (header.stamp_ns)"
+                       : "robot time [s] (header.stamp_ns)";
+  return a;
+}
 
-  // Push intervals: as the simulator applied them (ground truth; includes a scenario's own pushes)
-  // when the recording shows any, else as requested on poise/disturbance (a robot has no truth).
-  std::vector<std::string> push_notes;
+/// Push intervals: as the simulator applied them (ground truth; includes a scenario's own pushes)
+/// when the recording shows any, else as requested on poise/disturbance (a robot has no truth),
+/// then those of the command line. `notes`: pushes that cannot be placed.
+std::vector<PushInterval> find_pushes(const PlotOptions& o, const Gathered& g,
+                                      std::vector<std::string>& notes) {
+  std::vector<PushInterval> pushes;
   for (const auto& [start, end] : g.truth_pushes)
-    result.pushes.push_back(PushInterval{static_cast<double>(start) * 1e-9,
-                                         static_cast<double>(end - start) * 1e-9,
-                                         std::string(kTruth) + " push_force_W"});
+    pushes.push_back(PushInterval{static_cast<double>(start) * 1e-9,
+                                  static_cast<double>(end - start) * 1e-9,
+                                  std::string(kTruth) + " push_force_W"});
   for (const auto& d : g.disturbances) {
     if (!d.push || !g.truth_pushes.empty()) continue;
     PushInterval p{d.start_s, d.duration_s, std::string(kDisturbance)};
@@ -418,85 +413,85 @@ PlotResult plot_balance(const PlotOptions& o) {
       p.start_s = g.robot_time_at(d.log_time);
       p.source += " (sent 'at once': start = robot time when it was logged)";
       if (std::isnan(p.start_s)) {
-        push_notes.push_back("a push sent 'at once' cannot be placed (no poise/state)");
+        notes.push_back("a push sent 'at once' cannot be placed (no poise/state)");
         continue;
       }
     }
-    result.pushes.push_back(p);
+    pushes.push_back(p);
   }
   for (const auto& p : o.extra_pushes)
-    result.pushes.push_back(p);
-  if (result.pushes.empty()) {
-    std::fprintf(log,
-                 "poise plot: no push in the recording (no push force in poise/ground_truth, no "
-                 "poise/disturbance of kind PUSH): no push band. Give one with --push "
-                 "START,DURATION (robot time, s).\n");
-  }
+    pushes.push_back(p);
+  return pushes;
+}
 
+const char* const kAxisColour[3] = {kRed, kGreen, kBlue};
+const char* const kAxisName[3] = {"x", "y", "z"};
+const char* const kFootColour[2] = {kRight, kLeft};
+const char* const kFootName[2] = {"right", "left"};
+
+/// Panels (a) and (b): the CoM, estimated and true.
+void add_com_panels(const ExportReport& report, bool pushes, std::vector<Panel>& panels) {
   const TopicExport* state = report.find(kState);
   const TopicExport* truth = report.find(kTruth);
+  Panel a("(a) CoM x, y (estimate solid, ground truth dashed)", "CoM [m]");
+  a.line(state, kState, "com_W[0]", "x", kRed, 1);
+  a.line(state, kState, "com_W[1]", "y", kGreen, 1);
+  a.line(truth, kTruth, "com_W[0]", "x truth", kRed, 2);
+  a.line(truth, kTruth, "com_W[1]", "y truth", kGreen, 2);
+  if (pushes)
+    a.key_entry(std::string("keyentry with boxes fc rgb ") + gp_string(kPushColour) +
+                " fs transparent solid 0.35 noborder title \"push\"");
+  panels.push_back(std::move(a));
+  Panel b("(b) CoM z (estimate solid, ground truth dashed)", "CoM z [m]");
+  b.line(state, kState, "com_W[2]", "z", kBlue, 1);
+  b.line(truth, kTruth, "com_W[2]", "z truth", kBlue, 2);
+  panels.push_back(std::move(b));
+}
+
+/// Panels (c) and (d): the momentum rates of eqs. (10)-(11), desired and admissible.
+void add_momentum_panels(const ExportReport& report, std::vector<Panel>& panels) {
   const TopicExport* problem = report.find(kProblem);
   const TopicExport* solution = report.find(kSolution);
+  const auto rate_panel = [&](const char* title, const char* unit, const char* what) {
+    Panel p(title, unit);
+    for (int i = 0; i < 3; ++i)
+      p.line(problem, kProblem, std::string(what) + "_desired_W[" + std::to_string(i) + "]",
+             std::string(kAxisName[i]) + " desired", kAxisColour[i], 1, 1.2);
+    for (int i = 0; i < 3; ++i)
+      p.line(solution, kSolution, std::string(what) + "_admissible_W[" + std::to_string(i) + "]",
+             std::string(kAxisName[i]) + " admissible", kAxisColour[i], 2, 2.0);
+    panels.push_back(std::move(p));
+  };
+  rate_panel("(c) Linear momentum rate: desired (solid) vs admissible (dashed)", "dl/dt [N]",
+             "l_dot");
+  rate_panel("(d) Angular momentum rate: desired (solid) vs admissible (dashed)", "dk/dt [N m]",
+             "k_dot");
+}
 
-  // Panels.
-  std::vector<Panel> panels;
-  {
-    Panel a("(a) CoM x, y (estimate solid, ground truth dashed)", "CoM [m]");
-    a.line(state, kState, "com_W[0]", "x", kRed, 1);
-    a.line(state, kState, "com_W[1]", "y", kGreen, 1);
-    a.line(truth, kTruth, "com_W[0]", "x truth", kRed, 2);
-    a.line(truth, kTruth, "com_W[1]", "y truth", kGreen, 2);
-    if (!result.pushes.empty())
-      a.key_entry(std::string("keyentry with boxes fc rgb ") + gp_string(kPushColour) +
-                  " fs transparent solid 0.35 noborder title \"push\"");
-    panels.push_back(std::move(a));
-    Panel b("(b) CoM z (estimate solid, ground truth dashed)", "CoM z [m]");
-    b.line(state, kState, "com_W[2]", "z", kBlue, 1);
-    b.line(truth, kTruth, "com_W[2]", "z truth", kBlue, 2);
-    panels.push_back(std::move(b));
-  }
-  const char* axis_colour[3] = {kRed, kGreen, kBlue};
-  const char* axis_name[3] = {"x", "y", "z"};
-  {
-    Panel c("(c) Linear momentum rate: desired (solid) vs admissible (dashed)", "dl/dt [N]");
-    for (int i = 0; i < 3; ++i)
-      c.line(problem, kProblem, "l_dot_desired_W[" + std::to_string(i) + "]",
-             std::string(axis_name[i]) + " desired", axis_colour[i], 1, 1.2);
-    for (int i = 0; i < 3; ++i)
-      c.line(solution, kSolution, "l_dot_admissible_W[" + std::to_string(i) + "]",
-             std::string(axis_name[i]) + " admissible", axis_colour[i], 2, 2.0);
-    panels.push_back(std::move(c));
-    Panel d("(d) Angular momentum rate: desired (solid) vs admissible (dashed)", "dk/dt [N m]");
-    for (int i = 0; i < 3; ++i)
-      d.line(problem, kProblem, "k_dot_desired_W[" + std::to_string(i) + "]",
-             std::string(axis_name[i]) + " desired", axis_colour[i], 1, 1.2);
-    for (int i = 0; i < 3; ++i)
-      d.line(solution, kSolution, "k_dot_admissible_W[" + std::to_string(i) + "]",
-             std::string(axis_name[i]) + " admissible", axis_colour[i], 2, 2.0);
-    panels.push_back(std::move(d));
-  }
-  const char* foot_colour[2] = {kRight, kLeft};
-  const char* foot_name[2] = {"right", "left"};
-  {
-    Panel e("(e) Vertical ground reaction force (solution solid, ground truth dashed)",
-            "GRF z [N]");
-    for (int i = 0; i < 2; ++i)
-      e.line(solution, kSolution, "feet[" + std::to_string(i) + "].wrench_at_ankle_W.force[2]",
-             foot_name[i], foot_colour[i], 1);
-    for (int i = 0; i < 2; ++i)
-      e.line(truth, kTruth, "feet[" + std::to_string(i) + "].wrench_W.force[2]",
-             std::string(foot_name[i]) + " truth", foot_colour[i], 2);
-    panels.push_back(std::move(e));
-  }
+/// Panel (e): the vertical ground reaction forces, solved and true.
+void add_force_panel(const ExportReport& report, std::vector<Panel>& panels) {
+  Panel e("(e) Vertical ground reaction force (solution solid, ground truth dashed)", "GRF z [N]");
+  for (int i = 0; i < 2; ++i)
+    e.line(report.find(kSolution), kSolution,
+           "feet[" + std::to_string(i) + "].wrench_at_ankle_W.force[2]", kFootName[i],
+           kFootColour[i], 1);
+  for (int i = 0; i < 2; ++i)
+    e.line(report.find(kTruth), kTruth, "feet[" + std::to_string(i) + "].wrench_W.force[2]",
+           std::string(kFootName[i]) + " truth", kFootColour[i], 2);
+  panels.push_back(std::move(e));
+}
+
+/// Panels (f) and (g): the admissible CoPs in the foot frames, with the safe regions.
+void add_cop_panels(const ExportReport& report, const Gathered& g, std::vector<Panel>& panels) {
   for (int axis = 0; axis < 2; ++axis) {
     const char* xy = axis == 0 ? "x" : "y";
     Panel p(std::string(axis == 0 ? "(f)" : "(g)") + " Admissible CoP " + xy +
                 " in the foot frame, safe region dotted",
             std::string("CoP ") + xy + " [m]");
     for (int i = 0; i < 2; ++i)
-      p.line(solution, kSolution,
-             "feet[" + std::to_string(i) + "].cop_F[" + std::to_string(axis) + "]", foot_name[i],
-             foot_colour[i], 1);
+      p.line(report.find(kSolution), kSolution,
+             "feet[" + std::to_string(i) + "].cop_F[" + std::to_string(axis) + "]", kFootName[i],
+             kFootColour[i], 1);
     const auto lo = [&](const SafeRegion& r) { return axis == 0 ? r.x_lo : r.y_lo; };
     const auto hi = [&](const SafeRegion& r) { return axis == 0 ? r.x_hi : r.y_hi; };
     const SafeRegion& r = g.feet[0];
@@ -507,44 +502,48 @@ PlotResult plot_balance(const PlotOptions& o) {
     } else {
       for (int i = 0; i < 2; ++i) {
         if (!g.feet[i].known) continue;
-        p.level(lo(g.feet[i]), std::string("safe region ") + foot_name[i], foot_colour[i]);
-        p.level(hi(g.feet[i]), "", foot_colour[i]);
+        p.level(lo(g.feet[i]), std::string("safe region ") + kFootName[i], kFootColour[i]);
+        p.level(hi(g.feet[i]), "", kFootColour[i]);
       }
     }
-    if (!r.known && !l.known)
-      p.note("safe region unknown (no robot_description or contact_problem)");
+    if (!r.known && !l.known) p.note("safe region unknown (no robot_description or contact_problem)");
     panels.push_back(std::move(p));
   }
+}
 
-  // The info panel's lines.
-  std::vector<std::string> info;
-  info.push_back("Recording: " + file.filename().string() +
-                 (report.scan.complete ? "" : "  (INCOMPLETE: cut short)"));
-  {
-    std::string have;
-    for (const auto& t : report.topics)
-      have += (have.empty() ? "" : ", ") + t.topic + " (" + std::to_string(t.rows) + ")";
-    info.push_back("Topics (messages): " + have);
-  }
-  if (!report.absent_topics.empty()) {
-    std::string miss;
-    for (const auto& t : report.absent_topics)
-      miss += (miss.empty() ? "" : ", ") + t;
-    info.push_back("Missing: " + miss);
-  }
-  if (result.pushes.empty()) {
+std::string joined(const std::vector<std::string>& items) {
+  std::string out;
+  for (const auto& t : items) out += (out.empty() ? "" : ", ") + t;
+  return out;
+}
+
+/// The push lines of the info panel.
+void add_push_info(const std::vector<PushInterval>& pushes, const std::vector<std::string>& notes,
+                   double t0, std::vector<std::string>& info) {
+  if (pushes.empty())
     info.push_back(
-        "Push: none recorded (ground truth, poise/disturbance); --push START,DURATION "
-        "adds one");
-  }
-  for (const auto& p : result.pushes) {
+        "Push: none recorded (ground truth, poise/disturbance); --push START,DURATION adds one");
+  for (const auto& p : pushes) {
     char buf[256];
     std::snprintf(buf, sizeof(buf), "Push: %.3f s to %.3f s robot time (%.3f s), from %s",
                   p.start_s - t0, p.start_s + p.duration_s - t0, p.duration_s, p.source.c_str());
     info.push_back(buf);
   }
-  for (const auto& n : push_notes)
-    info.push_back("Note: " + n);
+  for (const auto& n : notes) info.push_back("Note: " + n);
+}
+
+/// Panel (h): what the sheet was drawn from.
+std::vector<std::string> info_lines(const fs::path& file, const ExportReport& report,
+                                    const Gathered& g, const std::vector<PushInterval>& pushes,
+                                    const std::vector<std::string>& notes, const TimeAxis& time) {
+  std::vector<std::string> info;
+  info.push_back("Recording: " + file.filename().string() +
+                 (report.scan.complete ? "" : "  (INCOMPLETE: cut short)"));
+  std::vector<std::string> have;
+  for (const auto& t : report.topics) have.push_back(t.topic + " (" + std::to_string(t.rows) + ")");
+  info.push_back("Topics (messages): " + joined(have));
+  if (!report.absent_topics.empty()) info.push_back("Missing: " + joined(report.absent_topics));
+  add_push_info(pushes, notes, time.t0, info);
   if (!g.region_source.empty()) {
     char buf[256];
     std::snprintf(buf, sizeof(buf),
@@ -554,30 +553,30 @@ PlotResult plot_balance(const PlotOptions& o) {
                   g.feet[0].y_hi, g.feet[1].x_lo, g.feet[1].x_hi, g.feet[1].y_lo, g.feet[1].y_hi);
     info.push_back(buf);
   }
-  info.push_back("Time axis: " + time_label + "; shaded: push");
+  info.push_back("Time axis: " + time.label + "; shaded: push");
   info.push_back("Desired: contact_problem; admissible, GRF, CoP: contact_solution");
+  return info;
+}
 
-  // The script: the same sheet on two terminals.
-  const std::string title = o.title.empty() ? file.filename().string() : o.title;
-  result.png = (out_dir / (stem + "_balance.png")).string();
-  result.svg = (out_dir / (stem + "_balance.svg")).string();
+/// The gnuplot commands of the sheet (the same on both terminals).
+std::string sheet_script(const std::string& title, const TimeAxis& time,
+                         const std::vector<PushInterval>& pushes, const std::vector<Panel>& panels,
+                         const std::vector<std::string>& info) {
   std::ostringstream sheet;
   sheet << "set datafile separator comma\nset datafile columnheaders\n"
-        << "T0 = " << number(t0) << "\n"
-        << "set xrange [" << number(t_lo) << ":" << number(t_hi) << "]\n"
-        << "set xlabel " << gp_string(time_label) << "\n"
+        << "T0 = " << number(time.t0) << "\n"
+        << "set xrange [" << number(time.lo) << ":" << number(time.hi) << "]\n"
+        << "set xlabel " << gp_string(time.label) << "\n"
         << "set grid\nset key top right font \",9\" samplen 2.5 spacing 0.9 opaque box\n"
         << "set border 3\nset tics nomirror\nset samples 2\n";
   int object = 1;
-  for (const auto& p : result.pushes) {
-    sheet << "set object " << object++ << " rect from first " << number(p.start_s - t0)
-          << ", graph 0 to first " << number(p.start_s + p.duration_s - t0)
+  for (const auto& p : pushes)
+    sheet << "set object " << object++ << " rect from first " << number(p.start_s - time.t0)
+          << ", graph 0 to first " << number(p.start_s + p.duration_s - time.t0)
           << ", graph 1 behind fc rgb " << gp_string(kPushColour)
           << " fs transparent solid 0.35 noborder\n";
-  }
   sheet << "set multiplot layout 4,2 title " << gp_string(title) << " font \",14\"\n";
-  for (const auto& p : panels)
-    sheet << p.script();
+  for (const auto& p : panels) sheet << p.script();
   // (h): the info panel.
   sheet << "unset object\nunset grid\nunset border\nunset tics\nunset xlabel\nunset ylabel\n"
         << "unset key\nset title \"(h) Drawn from\"\n";
@@ -586,38 +585,104 @@ PlotResult plot_balance(const PlotOptions& o) {
     const auto wrapped = wrap(text, 90);
     lines.insert(lines.end(), wrapped.begin(), wrapped.end());
   }
-  for (std::size_t i = 0; i < lines.size(); ++i) {
+  for (std::size_t i = 0; i < lines.size(); ++i)
     sheet << "set label " << 100 + i << " " << gp_string(lines[i]) << " at graph 0, graph "
           << number(0.97 - 0.07 * static_cast<double>(i)) << " left font \",10\"\n";
-  }
   sheet << "plot [0:1][0:1] -1 notitle\nunset multiplot\nreset\n";
+  return sheet.str();
+}
 
-  const std::string script_path = (work / (stem + "_balance.gp")).string();
+/// Writes the script (PNG, then SVG) and runs gnuplot on it. Returns "" or what failed.
+std::string draw(const PlotOptions& o, const PlotDirs& d, const std::string& gnuplot,
+                 const std::string& sheet, const PlotResult& result, std::FILE* log) {
+  const std::string script_path = (d.work / (d.stem + "_balance.gp")).string();
   {
     std::ofstream s(script_path);
     s << "# poise plot " << o.file << ": the paper's Fig. 8/9 panels (components/plot)\n";
     s << "set terminal pngcairo noenhanced size 1600,1800 font \"sans,10\" background \"white\"\n"
       << "set output " << gp_file(result.png) << "\n"
-      << sheet.str() << "set output\n";
+      << sheet << "set output\n";
     s << "set terminal svg noenhanced size 1600,1800 dynamic font \"sans,10\" background "
          "\"white\"\n"
       << "set output " << gp_file(result.svg) << "\n"
-      << sheet.str() << "set output\n";
-    if (!s) return fail(2, "cannot write " + script_path);
+      << sheet << "set output\n";
+    if (!s) return "cannot write " + script_path;
   }
-  const std::string gp_log = (work / "gnuplot.log").string();
+  const std::string gp_log = (d.work / "gnuplot.log").string();
   const int gp = run_gnuplot(gnuplot, script_path, gp_log);
   const std::string messages = read_text(gp_log);
   if (gp != 0) {
     std::fprintf(log, "%s", messages.c_str());
-    return fail(2,
-                "gnuplot (" + gnuplot + ") failed with status " + std::to_string(gp) +
-                    (o.keep_data ? "; script: " + script_path : "; --keep-data keeps the script"));
+    return "gnuplot (" + gnuplot + ") failed with status " + std::to_string(gp) +
+           (o.keep_data ? "; script: " + script_path : "; --keep-data keeps the script");
   }
-  for (const auto& path : {result.png, result.svg}) {
-    if (fs::file_size(path, ec) == 0 || ec) return fail(2, "gnuplot wrote no " + path);
-  }
+  std::error_code ec;
+  for (const auto& path : {result.png, result.svg})
+    if (fs::file_size(path, ec) == 0 || ec) return "gnuplot wrote no " + path;
   if (!messages.empty()) std::fprintf(log, "poise plot: gnuplot says:\n%s", messages.c_str());
+  return "";
+}
+
+/// "" when the recording has something to plot (says on `log` which topics are left out), else
+/// why not.
+std::string check_plottable(const PlotOptions& o, const ExportReport& report, const Gathered& g,
+                            std::FILE* log) {
+  if (!g.has_time())
+    return o.file + ": none of " + std::string(kState) + ", " + std::string(kTruth) + ", " +
+           std::string(kProblem) + ", " + std::string(kSolution) + " has a sample: nothing to plot";
+  for (const auto& t : report.absent_topics)
+    if (t != kDisturbance)
+      std::fprintf(log, "poise plot: %s is not in the recording: its lines are left out\n",
+                   t.c_str());
+  return "";
+}
+
+}  // namespace
+
+PlotResult plot_balance(const PlotOptions& o) {
+  PlotResult result;
+  std::FILE* log = o.log ? o.log : stderr;
+  auto fail = [&](std::string why) {
+    result.exit_code = 2;
+    result.error = std::move(why);
+    return result;
+  };
+  const std::string gnuplot = find_gnuplot(o.gnuplot);
+  if (gnuplot.empty())
+    return fail((o.gnuplot.empty() ? std::string("gnuplot is not on PATH")
+                                   : "gnuplot '" + o.gnuplot + "' not found") +
+                ": install it (Debian: apt-get install gnuplot-nox, as deploy/bootstrap.sh does) "
+                "or name it with --gnuplot");
+  std::error_code ec;
+  if (!fs::exists(o.file, ec)) return fail(o.file + ": no such file");
+  PlotDirs dirs;
+  if (std::string why = make_dirs(o, dirs); !why.empty()) return fail(why);
+  Gathered g;
+  const ExportReport report = export_sheet_topics(o, dirs.work, log, g);
+  if (!report.scan.is_mcap) return fail(o.file + ": not an MCAP file (" + report.error + ")");
+  if (!report.error.empty()) return fail(report.error);
+  const int code = print_export_problems("plot", o.file, report);
+  result.missing_topics = report.absent_topics;
+  if (std::string why = check_plottable(o, report, g, log); !why.empty()) return fail(why);
+  std::vector<std::string> notes;
+  result.pushes = find_pushes(o, g, notes);
+  if (result.pushes.empty())
+    std::fprintf(log,
+                 "poise plot: no push in the recording (no push force in poise/ground_truth, no "
+                 "poise/disturbance of kind PUSH): no push band. Give one with --push "
+                 "START,DURATION (robot time, s).\n");
+  std::vector<Panel> panels;
+  add_com_panels(report, !result.pushes.empty(), panels);
+  add_momentum_panels(report, panels);
+  add_force_panel(report, panels);
+  add_cop_panels(report, g, panels);
+  const TimeAxis time = time_axis(g);
+  const std::string sheet =
+      sheet_script(o.title.empty() ? dirs.file.filename().string() : o.title, time, result.pushes,
+                   panels, info_lines(dirs.file, report, g, result.pushes, notes, time));
+  result.png = (dirs.out_dir / (dirs.stem + "_balance.png")).string();
+  result.svg = (dirs.out_dir / (dirs.stem + "_balance.svg")).string();
+  if (std::string why = draw(o, dirs, gnuplot, sheet, result, log); !why.empty()) return fail(why);
   result.exit_code = code;
   return result;
 }
