@@ -170,34 +170,39 @@ void append_seconds(std::string& line, std::uint64_t t, std::uint64_t origin) {
   line.append(buf, static_cast<std::size_t>(r.ptr - buf));
 }
 
-}  // namespace
+/// One export: two passes over the file (pass 1: column widths, decode failures, the time origin;
+/// pass 2: the rows), one CSV file per exported topic.
+class Exporter {
+ public:
+  Exporter(const std::string& path, const ExportOptions& options)
+      : path_(path), options_(options), wanted_(options.topics.begin(), options.topics.end()) {}
 
-ExportReport export_csv(const std::string& mcap_path, const ExportOptions& options) {
-  ExportReport report;
-  std::map<std::string, TopicState, std::less<>> topics;
-  std::map<std::uint16_t, record::SchemaRecord> schemas;
-  std::map<std::uint16_t, ChannelState> channels;
-  const std::set<std::string, std::less<>> wanted(options.topics.begin(), options.topics.end());
-  std::set<std::string, std::less<>> present;  // every topic with a channel in the file
+  ExportReport run() {
+    if (!read_pass() || !check_topics()) return std::move(report_);
+    if (open_outputs()) write_pass();
+    return finish();
+  }
 
-  // Channel -> topic state, the same in both passes (channel records come before their messages).
-  auto on_channel = [&](const record::ChannelRecord& c) {
-    if (channels.count(c.id)) return;  // second pass: known already
-    present.insert(c.topic);
-    ChannelState& state = channels[c.id];
-    if (!wanted.empty() && !wanted.count(c.topic)) return;
-    const auto schema = schemas.find(c.schema_id);
-    const std::string schema_name = schema == schemas.end() ? std::string() : schema->second.name;
+ private:
+  /// Channel -> topic state, the same in both passes (channel records come before their
+  /// messages).
+  void on_channel(const record::ChannelRecord& c) {
+    if (channels_.count(c.id)) return;  // second pass: known already
+    present_.insert(c.topic);
+    ChannelState& state = channels_[c.id];
+    if (!wanted_.empty() && !wanted_.count(c.topic)) return;
+    const auto schema = schemas_.find(c.schema_id);
+    const std::string schema_name = schema == schemas_.end() ? std::string() : schema->second.name;
     auto skip = [&](std::string reason) {
-      state.skipped = report.skipped.size();
-      report.skipped.push_back({c.topic, schema_name, std::move(reason), 0});
+      state.skipped = report_.skipped.size();
+      report_.skipped.push_back({c.topic, schema_name, std::move(reason), 0});
     };
-    if (schema == schemas.end())
+    if (schema == schemas_.end())
       return skip("its schema (id " + std::to_string(c.schema_id) + ") is not in the file");
     if (c.message_encoding != "cdr")
       return skip("message encoding '" + c.message_encoding + "', not cdr");
-    auto it = topics.find(c.topic);
-    if (it != topics.end()) {
+    auto it = topics_.find(c.topic);
+    if (it != topics_.end()) {
       if (it->second.out.type_name != schema_name)
         return skip("a second channel of the topic with another type (first: " +
                     it->second.out.type_name + ")");
@@ -206,126 +211,157 @@ ExportReport export_csv(const std::string& mcap_path, const ExportOptions& optio
     }
     std::unique_ptr<Sink> sink = make_sink(schema_name);
     if (!sink) return skip("not a Poise topic type");
-    TopicState& t = topics[c.topic];
+    TopicState& t = topics_[c.topic];
     t.out.topic = c.topic;
     t.out.type_name = schema_name;
     t.sink = std::move(sink);
     state.topic = &t;
-  };
+  }
 
-  // Pass 1: widths, failures, the time origin.
-  bool any_message = false;
-  std::uint64_t count = 0;
-  Progress progress1(options.progress, "reading", 0);
-  record::ScanHandlers pass1;
-  pass1.on_schema = [&](const record::SchemaRecord& s) { schemas.emplace(s.id, s); };
-  pass1.on_channel = on_channel;
-  pass1.on_message = [&](const record::MessageView& m) {
-    progress1.tick(++count);
-    if (!any_message || m.log_time < report.first_log_time) report.first_log_time = m.log_time;
-    any_message = true;
-    const auto ch = channels.find(m.channel_id);
-    if (ch == channels.end()) return true;
-    if (ch->second.skipped != SIZE_MAX) ++report.skipped[ch->second.skipped].messages;
+  /// Pass 1 on one message: the time origin, skipped and failed messages, column widths.
+  void measure(const record::MessageView& m) {
+    if (!any_message_ || m.log_time < report_.first_log_time) report_.first_log_time = m.log_time;
+    any_message_ = true;
+    const auto ch = channels_.find(m.channel_id);
+    if (ch == channels_.end()) return;
+    if (ch->second.skipped != SIZE_MAX) ++report_.skipped[ch->second.skipped].messages;
     TopicState* t = ch->second.topic;
-    if (!t) return true;
+    if (!t) return;
     std::string why;
     if (!t->sink->decode(m.data, why)) {
       if (t->out.decode_failures++ == 0) t->out.first_failure = why;
-      return true;
+      return;
     }
     t->sink->measure();
-    if (const std::string bad = t->sink->invalid(); !bad.empty()) {
+    if (const std::string bad = t->sink->invalid(); !bad.empty())
       if (t->out.invalid++ == 0) t->out.first_invalid = bad;
-    }
-    return true;
-  };
-  report.scan = record::scan(mcap_path, pass1);
-  if (!report.scan.is_mcap) {
-    report.error = report.scan.error.empty() ? "not an MCAP file" : report.scan.error;
-    return report;
-  }
-  for (const auto& name : options.topics) {
-    if (!present.count(name)) report.absent_topics.push_back(name);
-  }
-  if (options.topics_must_exist && !report.absent_topics.empty()) {
-    std::string held;
-    for (const auto& p : present)
-      held += (held.empty() ? "" : ", ") + p;
-    report.error = "topic '" + report.absent_topics.front() + "' is not in the recording (" +
-                   (held.empty() ? std::string("it holds no topic") : "it holds: " + held) + ")";
-    return report;
   }
 
-  // Open the outputs (every exported topic, even one whose messages all failed to decode).
-  std::error_code ec;
-  fs::create_directories(options.output_dir.empty() ? fs::path(".") : fs::path(options.output_dir),
-                         ec);
-  if (ec) {
-    report.error = "cannot create " + options.output_dir + ": " + ec.message();
-    return report;
-  }
-  std::string line;
-  for (auto& [name, t] : topics) {
-    t.out.csv_path = (fs::path(options.output_dir) / csv_file_name(name)).string();
-    t.out.columns = {"log_time_s", "publish_time_s"};
-    const auto fields = t.sink->header();
-    t.out.columns.insert(t.out.columns.end(), fields.begin(), fields.end());
-    t.file = std::fopen(t.out.csv_path.c_str(), "w");
-    if (!t.file) {
-      report.error = "cannot create " + t.out.csv_path + ": " + std::strerror(errno);
-      break;
-    }
-    static constexpr std::size_t kBuffer = 1 << 20;
-    std::setvbuf(t.file, nullptr, _IOFBF, kBuffer);
-    line.clear();
-    for (std::size_t i = 0; i < t.out.columns.size(); ++i) {
-      if (i) line.push_back(',');
-      const std::string& c = t.out.columns[i];
-      line += c.find_first_of(",\"\n\r") == std::string::npos ? c : csv_quote(c);
-    }
-    line.push_back('\n');
-    std::fwrite(line.data(), 1, line.size(), t.file);
-  }
-
-  // Pass 2: rows.
-  if (report.error.empty()) {
-    const std::uint64_t total = count;
-    count = 0;
-    Progress progress2(options.progress, "writing", total);
-    record::ScanHandlers pass2;
-    pass2.on_channel = on_channel;
-    pass2.on_message = [&](const record::MessageView& m) {
-      progress2.tick(++count);
-      const auto ch = channels.find(m.channel_id);
-      if (ch == channels.end() || !ch->second.topic) return true;
-      TopicState& t = *ch->second.topic;
-      std::string why;
-      if (!t.sink->decode(m.data, why)) return true;  // counted in pass 1
-      line.clear();
-      append_seconds(line, m.log_time, report.first_log_time);
-      line.push_back(',');
-      if (m.publish_time != 0) append_seconds(line, m.publish_time, report.first_log_time);
-      t.sink->append_row(line);
-      line.push_back('\n');
-      std::fwrite(line.data(), 1, line.size(), t.file);
-      ++t.out.rows;
-      if (options.on_sample) options.on_sample(t.out.topic, t.out.type_name, t.sink->sample(), m);
+  /// False when the file is not MCAP.
+  bool read_pass() {
+    Progress progress(options_.progress, "reading", 0);
+    record::ScanHandlers h;
+    h.on_schema = [&](const record::SchemaRecord& s) { schemas_.emplace(s.id, s); };
+    h.on_channel = [&](const record::ChannelRecord& c) { on_channel(c); };
+    h.on_message = [&](const record::MessageView& m) {
+      progress.tick(++messages_);
+      measure(m);
       return true;
     };
-    report.scan = record::scan(mcap_path, pass2);
+    report_.scan = record::scan(path_, h);
+    if (report_.scan.is_mcap) return true;
+    report_.error = report_.scan.error.empty() ? "not an MCAP file" : report_.scan.error;
+    return false;
   }
 
-  for (auto& [name, t] : topics) {
-    if (t.file) {
-      const bool failed = std::ferror(t.file) != 0;
-      if (std::fclose(t.file) != 0 || failed) {
-        if (report.error.empty()) report.error = "cannot write " + t.out.csv_path;
-      }
-    }
-    report.topics.push_back(std::move(t.out));
+  /// The topics asked for that the file does not have; false when that is an error.
+  bool check_topics() {
+    for (const auto& name : options_.topics)
+      if (!present_.count(name)) report_.absent_topics.push_back(name);
+    if (!options_.topics_must_exist || report_.absent_topics.empty()) return true;
+    std::string held;
+    for (const auto& p : present_) held += (held.empty() ? "" : ", ") + p;
+    report_.error = "topic '" + report_.absent_topics.front() + "' is not in the recording (" +
+                    (held.empty() ? std::string("it holds no topic") : "it holds: " + held) + ")";
+    return false;
   }
-  return report;
+
+  /// Opens the outputs (every exported topic, even one whose messages all failed to decode) and
+  /// writes their header lines. False (with the error) when one cannot be made.
+  bool open_outputs() {
+    std::error_code ec;
+    fs::create_directories(
+        options_.output_dir.empty() ? fs::path(".") : fs::path(options_.output_dir), ec);
+    if (ec) {
+      report_.error = "cannot create " + options_.output_dir + ": " + ec.message();
+      return false;
+    }
+    for (auto& [name, t] : topics_) {
+      t.out.csv_path = (fs::path(options_.output_dir) / csv_file_name(name)).string();
+      t.out.columns = {"log_time_s", "publish_time_s"};
+      const auto fields = t.sink->header();
+      t.out.columns.insert(t.out.columns.end(), fields.begin(), fields.end());
+      t.file = std::fopen(t.out.csv_path.c_str(), "w");
+      if (!t.file) {
+        report_.error = "cannot create " + t.out.csv_path + ": " + std::strerror(errno);
+        return false;
+      }
+      static constexpr std::size_t kBuffer = 1 << 20;
+      std::setvbuf(t.file, nullptr, _IOFBF, kBuffer);
+      line_.clear();
+      for (std::size_t i = 0; i < t.out.columns.size(); ++i) {
+        if (i) line_.push_back(',');
+        const std::string& c = t.out.columns[i];
+        line_ += c.find_first_of(",\"\n\r") == std::string::npos ? c : csv_quote(c);
+      }
+      line_.push_back('\n');
+      std::fwrite(line_.data(), 1, line_.size(), t.file);
+    }
+    return true;
+  }
+
+  /// Pass 2 on one message: its row.
+  void write_row(const record::MessageView& m) {
+    const auto ch = channels_.find(m.channel_id);
+    if (ch == channels_.end() || !ch->second.topic) return;
+    TopicState& t = *ch->second.topic;
+    std::string why;
+    if (!t.sink->decode(m.data, why)) return;  // counted in pass 1
+    line_.clear();
+    append_seconds(line_, m.log_time, report_.first_log_time);
+    line_.push_back(',');
+    if (m.publish_time != 0) append_seconds(line_, m.publish_time, report_.first_log_time);
+    t.sink->append_row(line_);
+    line_.push_back('\n');
+    std::fwrite(line_.data(), 1, line_.size(), t.file);
+    ++t.out.rows;
+    if (options_.on_sample) options_.on_sample(t.out.topic, t.out.type_name, t.sink->sample(), m);
+  }
+
+  void write_pass() {
+    std::uint64_t count = 0;
+    Progress progress(options_.progress, "writing", messages_);
+    record::ScanHandlers h;
+    h.on_channel = [&](const record::ChannelRecord& c) { on_channel(c); };
+    h.on_message = [&](const record::MessageView& m) {
+      progress.tick(++count);
+      write_row(m);
+      return true;
+    };
+    report_.scan = record::scan(path_, h);
+  }
+
+  /// Closes the outputs (a write error becomes the report's error) and hands over the topics.
+  ExportReport finish() {
+    for (auto& [name, t] : topics_) {
+      if (t.file) {
+        const bool failed = std::ferror(t.file) != 0;
+        if ((std::fclose(t.file) != 0 || failed) && report_.error.empty())
+          report_.error = "cannot write " + t.out.csv_path;
+        t.file = nullptr;
+      }
+      report_.topics.push_back(std::move(t.out));
+    }
+    return std::move(report_);
+  }
+
+  const std::string& path_;
+  const ExportOptions& options_;
+  const std::set<std::string, std::less<>> wanted_;
+  ExportReport report_;
+  std::map<std::string, TopicState, std::less<>> topics_;
+  std::map<std::uint16_t, record::SchemaRecord> schemas_;
+  std::map<std::uint16_t, ChannelState> channels_;
+  std::set<std::string, std::less<>> present_;  // every topic with a channel in the file
+  bool any_message_ = false;
+  std::uint64_t messages_ = 0;
+  std::string line_;
+};
+
+}  // namespace
+
+ExportReport export_csv(const std::string& mcap_path, const ExportOptions& options) {
+  return Exporter(mcap_path, options).run();
 }
 
 }  // namespace poise::plot
