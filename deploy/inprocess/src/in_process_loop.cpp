@@ -80,6 +80,19 @@ InProcessLoop::InProcessLoop(const scenario::Scenario& scenario, const LoopOptio
     throw std::runtime_error("scenario '" + scenario_.name + "': duration must be > 0");
 
   sim_ = std::make_unique<sim::Simulator>(scenario_.sim);
+  controller_ = std::make_unique<controller::BalanceController>(model_, robot_,
+                                                                controller_config());
+  map_joints_and_feet();
+  make_estimator();
+  make_messages_and_safety();
+  make_buffers_and_first_reference();
+  make_reference_player();
+  start_up();
+}
+
+// The controller's tuning: LoopOptions::controller, else its file, else the scenario's section,
+// else the defaults; at the simulator's period.
+controller::ControllerConfig InProcessLoop::controller_config() const {
   controller::ControllerConfig ccfg;
   if (options_.controller) {
     ccfg = *options_.controller;
@@ -90,8 +103,10 @@ InProcessLoop::InProcessLoop(const scenario::Scenario& scenario, const LoopOptio
                                                "scenario '" + scenario_.name + "', controller");
   }
   ccfg.dt = sim_->dt();
-  controller_ = std::make_unique<controller::BalanceController>(model_, robot_, ccfg);
+  return ccfg;
+}
 
+void InProcessLoop::map_joints_and_feet() {
   // Joint orders (both are depth-first by joint name today; mapped by name to be safe).
   sim_to_model_ = sim::joint_index_map(sim_->joint_names(), model_.joint_names);
   model_to_sim_ = sim::joint_index_map(model_.joint_names, sim_->joint_names());
@@ -108,7 +123,9 @@ InProcessLoop::InProcessLoop(const scenario::Scenario& scenario, const LoopOptio
       throw std::runtime_error("foot frame '" + robot_.feet[side].frame +
                                "' of the robot config is not a simulated foot");
   }
+}
 
+void InProcessLoop::make_estimator() {
   // The ground-truth state is poise-estimator --ground-truth-state's: the estimator runs and its
   // state is partly overwritten (read_state). Without the estimator library: the truth alone.
   if (options_.state_source == StateSource::kEstimator || estimator_available()) {
@@ -141,6 +158,10 @@ InProcessLoop::InProcessLoop(const scenario::Scenario& scenario, const LoopOptio
 #endif
   }
 
+}
+
+// The topics' messages of a tick, and the robot side's safety layer.
+void InProcessLoop::make_messages_and_safety() {
   wire_feet_ = sim_node::foot_order(*sim_);
   sensors_msg_ = std::make_unique<msg::Sensors>();
   state_msg_ = std::make_unique<msg::State>();
@@ -158,7 +179,10 @@ InProcessLoop::InProcessLoop(const scenario::Scenario& scenario, const LoopOptio
     sc.hold_s = options_.hold_s;                   // poise-sim --hold-s
     safety_ = std::make_unique<safety::SafetyLayer>(std::move(sc));
   }
+}
 
+void InProcessLoop::make_buffers_and_first_reference() {
+  const auto& sim_feet = scenario_.sim.robot.feet;
   sensors_ = sim_->make_sensor_frame();
   truth_ = sim_->make_ground_truth();
   sim_command_ = sim_->make_command();
@@ -174,6 +198,9 @@ InProcessLoop::InProcessLoop(const scenario::Scenario& scenario, const LoopOptio
     reference_.feet[side].mode =
         support ? controller::FootMode::kSupport : controller::FootMode::kSwing;
   }
+}
+
+void InProcessLoop::make_reference_player() {
   if (!scenario_.reference.empty()) {
     try {
       // As `poise run` starts poise-reference (the file's lead ticks) and poise-controller (a
@@ -188,6 +215,9 @@ InProcessLoop::InProcessLoop(const scenario::Scenario& scenario, const LoopOptio
       throw std::runtime_error("scenario '" + scenario_.name + "', reference: " + e.what());
     }
   }
+}
+
+void InProcessLoop::start_up() {
   sim_command_.mode = sim::CommandMode::kPd;  // the safety layer's command is a PD law
   // Start-up as poise-sim: the safety layer holds the initial posture for settle_ticks steps so
   // that the first frame measures the feet loaded; it then holds where it settled until the

@@ -542,8 +542,16 @@ struct Simulator::Impl {
   explicit Impl(const SimulatorConfig& c);
   ~Impl();
   void build_robot();
+  int robot_collision_mask() const;
+  void build_multibody();
+  static std::unique_ptr<btCollisionShape> make_shape(const ShapeSpec& s);
+  void add_colliders();
+  void add_joint_constraints();
   void build_world();
   void resolve_feet_and_imu();
+  void add_configured_frames();
+  void add_sole_box(const FootConfig& f, const detail::FrameSpec& fr, BodySpec& body);
+  void find_sole_corners();
   ResolvedPush resolve_push(const Push& p) const;
   void apply_initial_state();
   void set_state(const Eigen::Isometry3d& X_WB, const Eigen::VectorXd& q,
@@ -559,6 +567,12 @@ struct Simulator::Impl {
     return v_WK[b] + w_W[b].cross(p_W - X_WK[b].translation());
   }
   void fill(SensorFrame& s, GroundTruth& g, bool measure_imu);
+  void fill_imu(SensorFrame& s, bool measure_imu);
+  void fill_base_and_com(GroundTruth& g);
+  void reset_contact_truth(GroundTruth& g);
+  void add_manifold(const btPersistentManifold& man, GroundTruth& g, double* weight);
+  void finish_foot_wrenches(SensorFrame& s, GroundTruth& g, const double* weight,
+                            bool measure_imu);
   double lowest_foot_point(int foot, const Eigen::Vector3d& normal) const;
   void limit_explicit_joint_damping();
 };
@@ -668,23 +682,7 @@ Simulator::Impl::~Impl() {
 
 void Simulator::Impl::resolve_feet_and_imu() {
   foot_of_body.assign(tree.bodies.size(), -1);
-  // Frames fixed to a link at an offset (robot.yaml soles given as offset + rotation).
-  for (const AddedFrame& a : cfg.robot.added_frames) {
-    if (tree.find_frame(a.name))
-      throw std::runtime_error("robot.added_frames: '" + a.name + "' is already a URDF link");
-    const detail::FrameSpec* lf = tree.find_frame(a.link);
-    if (!lf)
-      throw std::runtime_error("robot.added_frames: '" + a.name + "': link '" + a.link +
-                               "' is not a link of the URDF");
-    if (!a.X_link_frame.matrix().allFinite())
-      throw std::runtime_error("robot.added_frames: the pose of '" + a.name + "' in '" + a.link +
-                               "' is not finite");
-    detail::FrameSpec added;
-    added.name = a.name;
-    added.body = lf->body;
-    added.X_LF = lf->X_LF * a.X_link_frame;
-    tree.frames.push_back(added);
-  }
+  add_configured_frames();
   // A foot touches with its primitives or the configured sole box, never with a mesh's hull
   // (the contact model of the soles, README "Collision"); other bodies keep theirs.
   for (const FootConfig& f : cfg.robot.feet)
@@ -706,34 +704,75 @@ void Simulator::Impl::resolve_feet_and_imu() {
     BodySpec& body = tree.bodies[static_cast<std::size_t>(fr->body)];
     Foot foot;
     foot.body = fr->body;
-    if (body.shapes.empty()) {
-      if (!f.has_sole)
-        throw std::runtime_error(
-            "robot.feet." + f.name + ": foot link '" + f.frame + "' (body '" + body.name +
-            "') has " + (body.has_mesh ? "only mesh collision geometry" : "no collision geometry") +
-            " and the robot configuration gives no sole rectangle for it: add a sole "
-            "(x_min, x_max, y_min, y_max, height) for this foot");
-      const SoleConfig& s = f.sole;
-      if (!(s.x_max > s.x_min) || !(s.y_max > s.y_min) || !(s.thickness > 0.0) ||
-          !std::isfinite(s.height))
-        throw std::runtime_error("robot.feet." + f.name +
-                                 ".sole: needs x_max > x_min, y_max > y_min, thickness > 0");
-      ShapeSpec box;
-      box.type = ShapeSpec::Type::kBox;
-      box.size = 0.5 * Eigen::Vector3d(s.x_max - s.x_min, s.y_max - s.y_min, s.thickness);
-      Eigen::Isometry3d X_FS = Eigen::Isometry3d::Identity();
-      X_FS.translation() = Eigen::Vector3d(0.5 * (s.x_min + s.x_max), 0.5 * (s.y_min + s.y_max),
-                                           -s.height + 0.5 * s.thickness);
-      box.X_LS = fr->X_LF * X_FS;
-      body.shapes.push_back(box);
-    }
+    if (body.shapes.empty()) add_sole_box(f, *fr, body);
     foot_of_body[static_cast<std::size_t>(fr->body)] = static_cast<int>(feet.size());
     feet.push_back(foot);
     foot_names.push_back(f.name);
   }
-  // Sole corners (for initial placement): the configured rectangle, else the bottom of the
-  // foot shapes' bounding box in F.
   X_LK.resize(tree.bodies.size());
+  find_sole_corners();
+  // What collides: every collision shape of the foot body (the sole box substitute included),
+  // in F; the robot is placed by these, not by the configured sole plane (they can differ).
+  for (std::size_t i = 0; i < feet.size(); ++i) {
+    const detail::FrameSpec* fr = tree.find_frame(cfg.robot.feet[i].frame);
+    for (ShapeSpec sh : tree.bodies[static_cast<std::size_t>(fr->body)].shapes) {
+      sh.X_LS = fr->X_LF.inverse() * sh.X_LS;
+      feet[i].shapes_F.push_back(sh);
+    }
+  }
+  const std::string imu = cfg.robot.imu_frame.empty() ? tree.bodies[0].name : cfg.robot.imu_frame;
+  if (!tree.find_frame(imu))
+    throw std::runtime_error("robot.imu_frame: '" + imu + "' is not a link of the URDF");
+}
+
+// Frames fixed to a link at an offset (robot.yaml soles given as offset + rotation).
+void Simulator::Impl::add_configured_frames() {
+  for (const AddedFrame& a : cfg.robot.added_frames) {
+    if (tree.find_frame(a.name))
+      throw std::runtime_error("robot.added_frames: '" + a.name + "' is already a URDF link");
+    const detail::FrameSpec* lf = tree.find_frame(a.link);
+    if (!lf)
+      throw std::runtime_error("robot.added_frames: '" + a.name + "': link '" + a.link +
+                               "' is not a link of the URDF");
+    if (!a.X_link_frame.matrix().allFinite())
+      throw std::runtime_error("robot.added_frames: the pose of '" + a.name + "' in '" + a.link +
+                               "' is not finite");
+    detail::FrameSpec added;
+    added.name = a.name;
+    added.body = lf->body;
+    added.X_LF = lf->X_LF * a.X_link_frame;
+    tree.frames.push_back(added);
+  }
+}
+
+// A foot link without collision primitives touches with the configured sole rectangle: a box
+// of the sole's thickness under the sole plane.
+void Simulator::Impl::add_sole_box(const FootConfig& f, const detail::FrameSpec& fr,
+                                   BodySpec& body) {
+  if (!f.has_sole)
+    throw std::runtime_error(
+        "robot.feet." + f.name + ": foot link '" + f.frame + "' (body '" + body.name +
+        "') has " + (body.has_mesh ? "only mesh collision geometry" : "no collision geometry") +
+        " and the robot configuration gives no sole rectangle for it: add a sole "
+        "(x_min, x_max, y_min, y_max, height) for this foot");
+  const SoleConfig& s = f.sole;
+  if (!(s.x_max > s.x_min) || !(s.y_max > s.y_min) || !(s.thickness > 0.0) ||
+      !std::isfinite(s.height))
+    throw std::runtime_error("robot.feet." + f.name +
+                             ".sole: needs x_max > x_min, y_max > y_min, thickness > 0");
+  ShapeSpec box;
+  box.type = ShapeSpec::Type::kBox;
+  box.size = 0.5 * Eigen::Vector3d(s.x_max - s.x_min, s.y_max - s.y_min, s.thickness);
+  Eigen::Isometry3d X_FS = Eigen::Isometry3d::Identity();
+  X_FS.translation() = Eigen::Vector3d(0.5 * (s.x_min + s.x_max), 0.5 * (s.y_min + s.y_max),
+                                       -s.height + 0.5 * s.thickness);
+  box.X_LS = fr.X_LF * X_FS;
+  body.shapes.push_back(box);
+}
+
+// Sole corners (for initial placement): the configured rectangle, else the bottom of the
+// foot shapes' bounding box in F.
+void Simulator::Impl::find_sole_corners() {
   for (std::size_t i = 0; i < feet.size(); ++i) {
     const FootConfig& f = cfg.robot.feet[i];
     const detail::FrameSpec* fr = tree.find_frame(f.frame);
@@ -758,18 +797,6 @@ void Simulator::Impl::resolve_feet_and_imu() {
       }
     }
   }
-  // What collides: every collision shape of the foot body (the sole box substitute included),
-  // in F; the robot is placed by these, not by the configured sole plane (they can differ).
-  for (std::size_t i = 0; i < feet.size(); ++i) {
-    const detail::FrameSpec* fr = tree.find_frame(cfg.robot.feet[i].frame);
-    for (ShapeSpec sh : tree.bodies[static_cast<std::size_t>(fr->body)].shapes) {
-      sh.X_LS = fr->X_LF.inverse() * sh.X_LS;
-      feet[i].shapes_F.push_back(sh);
-    }
-  }
-  const std::string imu = cfg.robot.imu_frame.empty() ? tree.bodies[0].name : cfg.robot.imu_frame;
-  if (!tree.find_frame(imu))
-    throw std::runtime_error("robot.imu_frame: '" + imu + "' is not a link of the URDF");
 }
 
 // The reality configuration's actuators (ActuatorReality): its friction joins the URDF's explicit
@@ -879,6 +906,19 @@ void Simulator::Impl::limit_explicit_joint_damping() {
 }
 
 void Simulator::Impl::build_robot() {
+  build_multibody();
+  add_colliders();
+  add_joint_constraints();
+}
+
+// Without self-collision the robot's links only meet the environment: robot-robot pairs are
+// then not even created by the broadphase (instead of being created and rejected each step).
+int Simulator::Impl::robot_collision_mask() const {
+  return cfg.robot.self_collision ? (kRobotGroup | kEnvGroup) : kEnvGroup;
+}
+
+// The articulated body: each link's frame K at its CoM along its principal axes.
+void Simulator::Impl::build_multibody() {
   const std::size_t nb = tree.bodies.size();
   std::vector<Eigen::Vector3d> principal(nb);
   for (std::size_t b = 0; b < nb; ++b) {
@@ -918,50 +958,58 @@ void Simulator::Impl::build_robot() {
   mb->setCanSleep(false);
   mb->setUseGyroTerm(true);
   mb->setMaxCoordinateVelocity(1000.0);
-  // Without self-collision the robot's links only meet the environment: robot-robot pairs are
-  // then not even created by the broadphase (instead of being created and rejected each step).
-  const int robot_mask = cfg.robot.self_collision ? (kRobotGroup | kEnvGroup) : kEnvGroup;
+  const int robot_mask = robot_collision_mask();
   world->addMultiBody(mb.get(), kRobotGroup, robot_mask);
+}
 
-  for (std::size_t b = 0; b < nb; ++b) {
+// One collision primitive of a link (a mesh as its reduced convex hull).
+std::unique_ptr<btCollisionShape> Simulator::Impl::make_shape(const ShapeSpec& s) {
+  std::unique_ptr<btCollisionShape> shape;
+  switch (s.type) {
+    case ShapeSpec::Type::kBox:
+      shape = std::make_unique<btBoxShape>(bt(s.size));
+      break;
+    case ShapeSpec::Type::kSphere:
+      shape = std::make_unique<btSphereShape>(s.size.x());
+      break;
+    case ShapeSpec::Type::kCylinder:
+      shape = std::make_unique<btCylinderShapeZ>(
+          btVector3(s.size.x(), s.size.x(), 0.5 * s.size.y()));
+      break;
+    case ShapeSpec::Type::kConvex: {
+      // The mesh's convex hull, reduced by Bullet's hull builder to a few dozen vertices
+      // (a support-point query per contact test walks them all).
+      btConvexHullShape all;
+      for (const Eigen::Vector3d& p : s.points)
+        all.addPoint(bt(p), false);
+      all.setMargin(0.0);  // the reduction samples support points, margin included
+      all.recalcLocalAabb();
+      btShapeHull reduced(&all);
+      reduced.buildHull(0.0);
+      auto hull = std::make_unique<btConvexHullShape>();
+      for (int v = 0; v < reduced.numVertices(); ++v)
+        hull->addPoint(reduced.getVertexPointer()[v], false);
+      // Bullet inflates a hull by its margin (0.04 m by default, unlike its box, sphere and
+      // cylinder, whose margin is inside): a shank 3 cm above the ground then touched it.
+      // 0.1 mm: a box mesh rests where the box does (tests/simulator/physics_test.cpp).
+      hull->setMargin(1e-4);
+      hull->recalcLocalAabb();
+      shape = std::move(hull);
+      break;
+    }
+  }
+  return shape;
+}
+
+// Each link's collision shapes, one compound per link, in the world.
+void Simulator::Impl::add_colliders() {
+  const int robot_mask = robot_collision_mask();
+  for (std::size_t b = 0; b < tree.bodies.size(); ++b) {
     const BodySpec& body = tree.bodies[b];
     if (body.shapes.empty()) continue;
     auto compound = std::make_unique<btCompoundShape>(false, static_cast<int>(body.shapes.size()));
     for (const ShapeSpec& s : body.shapes) {
-      std::unique_ptr<btCollisionShape> shape;
-      switch (s.type) {
-        case ShapeSpec::Type::kBox:
-          shape = std::make_unique<btBoxShape>(bt(s.size));
-          break;
-        case ShapeSpec::Type::kSphere:
-          shape = std::make_unique<btSphereShape>(s.size.x());
-          break;
-        case ShapeSpec::Type::kCylinder:
-          shape = std::make_unique<btCylinderShapeZ>(
-              btVector3(s.size.x(), s.size.x(), 0.5 * s.size.y()));
-          break;
-        case ShapeSpec::Type::kConvex: {
-          // The mesh's convex hull, reduced by Bullet's hull builder to a few dozen vertices
-          // (a support-point query per contact test walks them all).
-          btConvexHullShape all;
-          for (const Eigen::Vector3d& p : s.points)
-            all.addPoint(bt(p), false);
-          all.setMargin(0.0);  // the reduction samples support points, margin included
-          all.recalcLocalAabb();
-          btShapeHull reduced(&all);
-          reduced.buildHull(0.0);
-          auto hull = std::make_unique<btConvexHullShape>();
-          for (int v = 0; v < reduced.numVertices(); ++v)
-            hull->addPoint(reduced.getVertexPointer()[v], false);
-          // Bullet inflates a hull by its margin (0.04 m by default, unlike its box, sphere and
-          // cylinder, whose margin is inside): a shank 3 cm above the ground then touched it.
-          // 0.1 mm: a box mesh rests where the box does (tests/simulator/physics_test.cpp).
-          hull->setMargin(1e-4);
-          hull->recalcLocalAabb();
-          shape = std::move(hull);
-          break;
-        }
-      }
+      std::unique_ptr<btCollisionShape> shape = make_shape(s);
       compound->addChildShape(bt(Eigen::Isometry3d(X_LK[b].inverse() * s.X_LS)), shape.get());
       shapes.push_back(std::move(shape));
     }
@@ -982,7 +1030,10 @@ void Simulator::Impl::build_robot() {
       mb->getLink(static_cast<int>(b) - 1).m_collider = col.get();
     colliders.push_back(std::move(col));
   }
+}
 
+// Joint limits and Coulomb joint friction, as multibody constraints.
+void Simulator::Impl::add_joint_constraints() {
   for (int i = 0; i < n; ++i) {
     const BodySpec& body = tree.bodies[static_cast<std::size_t>(i + 1)];
     if (body.limited) {
@@ -1271,7 +1322,22 @@ void Simulator::Impl::fill(SensorFrame& s, GroundTruth& g, bool measure_imu) {
   sensors.encoders(measure_imu, q_true, qd_true, s);
   s.tau_measured = tau;
 
-  // IMU
+  fill_imu(s, measure_imu);
+  fill_base_and_com(g);
+  for (std::size_t k = 0; k < platforms.size() && k < g.platform_X_WP.size(); ++k) {
+    Eigen::Vector3d v, w;
+    platforms[k].pose(t, g.platform_X_WP[k], v, w);
+  }
+  // Contacts: impulses of the step just taken, from every robot/support manifold.
+  double weight[16] = {};
+  reset_contact_truth(g);
+  const int num_manifolds = dispatcher->getNumManifolds();
+  for (int m = 0; m < num_manifolds; ++m)
+    add_manifold(*dispatcher->getManifoldByIndexInternal(m), g, weight);
+  finish_foot_wrenches(s, g, weight, measure_imu);
+}
+
+void Simulator::Impl::fill_imu(SensorFrame& s, bool measure_imu) {
   const Eigen::Isometry3d X_WI = frame_pose(imu_body, X_KI);
   const Eigen::Matrix3d R_WI = X_WI.linear();
   const Eigen::Vector3d v_I = point_velocity(imu_body, X_WI.translation());
@@ -1282,7 +1348,11 @@ void Simulator::Impl::fill(SensorFrame& s, GroundTruth& g, bool measure_imu) {
   sensors.imu(measure_imu, R_WI, R_WI.transpose() * w_W[static_cast<std::size_t>(imu_body)],
               R_WI.transpose() * (imu_a - cfg.world.gravity), s);
 
-  // Base, CoM
+}
+
+// The base's pose and twist, the CoM and its velocity, and the CoM of the robot's model (reality:
+// the simulated robot's masses differ from the description's).
+void Simulator::Impl::fill_base_and_com(GroundTruth& g) {
   g.X_WB = X_WK[0] * X_LK[0].inverse();
   g.omega_WB = w_W[0];
   g.v_WB = point_velocity(0, g.X_WB.translation());
@@ -1299,14 +1369,9 @@ void Simulator::Impl::fill(SensorFrame& s, GroundTruth& g, bool measure_imu) {
       cn += nominal_mass[b] * (X_WK[b] * (X_LK[b].inverse() * nominal_com_L[b]));
     g.model_com_shift_W = cn / nominal_total_mass - g.com_W;
   }
+}
 
-  for (std::size_t k = 0; k < platforms.size() && k < g.platform_X_WP.size(); ++k) {
-    Eigen::Vector3d v, w;
-    platforms[k].pose(t, g.platform_X_WP[k], v, w);
-  }
-
-  // Contacts: impulses of the step just taken, from every robot/support manifold.
-  double weight[16] = {};
+void Simulator::Impl::reset_contact_truth(GroundTruth& g) {
   for (std::size_t f = 0; f < feet.size(); ++f) {
     FootContactTruth& ft = g.feet[f];
     ft.X_WF = frame_pose(feet[f].body, feet[f].X_KF);
@@ -1320,43 +1385,50 @@ void Simulator::Impl::fill(SensorFrame& s, GroundTruth& g, bool measure_imu) {
   std::fill(g.non_foot_contact.begin(), g.non_foot_contact.end(), 0);
   g.num_non_foot_contacts = 0;
   g.total_contact_force_W.setZero();
-  const int num_manifolds = dispatcher->getNumManifolds();
-  for (int m = 0; m < num_manifolds; ++m) {
-    const btPersistentManifold* man = dispatcher->getManifoldByIndexInternal(m);
-    const int u0 = man->getBody0()->getUserIndex();
-    const int u1 = man->getBody1()->getUserIndex();
-    if ((u0 >= 0) == (u1 >= 0)) continue;  // robot-robot or env-env
-    const bool robot_is_a = u0 >= 0;
-    const int body = robot_is_a ? u0 : u1;
-    const double sign = robot_is_a ? 1.0 : -1.0;
-    const int foot = foot_of_body[static_cast<std::size_t>(body)];
-    for (int j = 0; j < man->getNumContacts(); ++j) {
-      const btManifoldPoint& pt = man->getContactPoint(j);
-      const double ln = pt.getAppliedImpulse();
-      const bool touching = ln > 0.0 || pt.getDistance() < 0.0;
-      if (!touching) continue;
-      const Eigen::Vector3d f = sign *
-                                (eig(pt.m_normalWorldOnB) * ln +
-                                 eig(pt.m_lateralFrictionDir1) * pt.m_appliedImpulseLateral1 +
-                                 eig(pt.m_lateralFrictionDir2) * pt.m_appliedImpulseLateral2) /
-                                dt;
-      g.total_contact_force_W += f;
-      if (foot < 0) {
-        if (!g.non_foot_contact[static_cast<std::size_t>(body)]) ++g.num_non_foot_contacts;
-        g.non_foot_contact[static_cast<std::size_t>(body)] = 1;
-        continue;
-      }
-      FootContactTruth& ft = g.feet[static_cast<std::size_t>(foot)];
-      const Eigen::Vector3d p =
-          eig(robot_is_a ? pt.getPositionWorldOnA() : pt.getPositionWorldOnB());
-      ft.force_W += f;
-      ft.torque_Fo_W += (p - ft.X_WF.translation()).cross(f);
-      ft.cop_W += ln * p;
-      weight[foot] += ln;
-      ++ft.num_points;
-      ft.in_contact = true;
+}
+
+// One robot/support manifold's touching points into the feet's wrenches and CoPs (weight: each
+// foot's normal impulse, for the CoP) or the non-foot contacts.
+void Simulator::Impl::add_manifold(const btPersistentManifold& man, GroundTruth& g,
+                                   double* weight) {
+  const int u0 = man.getBody0()->getUserIndex();
+  const int u1 = man.getBody1()->getUserIndex();
+  if ((u0 >= 0) == (u1 >= 0)) return;  // robot-robot or env-env
+  const bool robot_is_a = u0 >= 0;
+  const int body = robot_is_a ? u0 : u1;
+  const double sign = robot_is_a ? 1.0 : -1.0;
+  const int foot = foot_of_body[static_cast<std::size_t>(body)];
+  for (int j = 0; j < man.getNumContacts(); ++j) {
+    const btManifoldPoint& pt = man.getContactPoint(j);
+    const double ln = pt.getAppliedImpulse();
+    const bool touching = ln > 0.0 || pt.getDistance() < 0.0;
+    if (!touching) continue;
+    const Eigen::Vector3d f = sign *
+                              (eig(pt.m_normalWorldOnB) * ln +
+                               eig(pt.m_lateralFrictionDir1) * pt.m_appliedImpulseLateral1 +
+                               eig(pt.m_lateralFrictionDir2) * pt.m_appliedImpulseLateral2) /
+                              dt;
+    g.total_contact_force_W += f;
+    if (foot < 0) {
+      if (!g.non_foot_contact[static_cast<std::size_t>(body)]) ++g.num_non_foot_contacts;
+      g.non_foot_contact[static_cast<std::size_t>(body)] = 1;
+      continue;
     }
+    FootContactTruth& ft = g.feet[static_cast<std::size_t>(foot)];
+    const Eigen::Vector3d p =
+        eig(robot_is_a ? pt.getPositionWorldOnA() : pt.getPositionWorldOnB());
+    ft.force_W += f;
+    ft.torque_Fo_W += (p - ft.X_WF.translation()).cross(f);
+    ft.cop_W += ln * p;
+    weight[foot] += ln;
+    ++ft.num_points;
+    ft.in_contact = true;
   }
+}
+
+// The feet's CoPs and F/T readings (wrench at the foot frame origin, in the foot frame).
+void Simulator::Impl::finish_foot_wrenches(SensorFrame& s, GroundTruth& g, const double* weight,
+                                           bool measure_imu) {
   for (std::size_t f = 0; f < feet.size(); ++f) {
     FootContactTruth& ft = g.feet[f];
     if (weight[f] > 0.0)

@@ -318,6 +318,340 @@ void load_world(const Ctx& c, const YAML::Node& n, World& sc) {
 
 }  // namespace
 
+namespace {
+
+/// `initial.joints`: angles by joint name, within the joint's limits, over the posture.
+void load_initial_joints(const Ctx& c, const YAML::Node& j,
+                         const std::map<std::string, std::pair<double, double>>& limits,
+                         InitialState& ini) {
+  if (!j.IsMap()) c.fail("initial.joints", "must be a mapping joint -> angle (rad)");
+  for (const auto& kv : j) {
+    const std::string name = kv.first.as<std::string>();
+    const double v = c.num(kv.second, "initial.joints." + name);
+    if (const auto l = limits.find(name);
+        l != limits.end() && (v < l->second.first || v > l->second.second)) {
+      std::ostringstream os;
+      os << v << " is outside the joint limits [" << l->second.first << ", " << l->second.second
+         << "]";
+      c.fail("initial.joints." + name, os.str());
+    }
+    auto it = std::find(ini.joint_names.begin(), ini.joint_names.end(), name);
+    if (it != ini.joint_names.end()) {
+      ini.joint_positions[static_cast<std::size_t>(it - ini.joint_names.begin())] = v;
+    } else {
+      ini.joint_names.push_back(name);
+      ini.joint_positions.push_back(v);
+    }
+  }
+}
+
+/// `initial.base_xy`, `base_height` (a number, or auto), `base_rpy_deg`.
+void load_initial_base(const Ctx& c, const YAML::Node& n, World& sc) {
+  InitialState& ini = sc.sim.initial;
+  if (n["base_xy"]) {
+    if (!n["base_xy"].IsSequence() || n["base_xy"].size() != 2)
+      c.fail("initial.base_xy", "must be a list of 2 numbers");
+    ini.base_position.x() = c.num(n["base_xy"][0], "initial.base_xy[0]");
+    ini.base_position.y() = c.num(n["base_xy"][1], "initial.base_xy[1]");
+  }
+  if (n["base_height"] &&
+      !(n["base_height"].IsScalar() && n["base_height"].as<std::string>() == "auto")) {
+    ini.auto_base_height = false;
+    ini.base_position.z() = c.num(n["base_height"], "initial.base_height");
+    const double ground = sc.sim.world.ground.height;
+    if (ini.base_position.z() < ground || ini.base_position.z() > ground + 100.0)
+      c.fail("initial.base_height", "must be between the ground height and 100 m above it");
+  }
+  if (n["base_rpy_deg"]) {
+    const Eigen::Vector3d rpy = c.vec3(n["base_rpy_deg"], "initial.base_rpy_deg") * kDeg;
+    const Eigen::Quaterniond q(Eigen::AngleAxisd(rpy.z(), Eigen::Vector3d::UnitZ()) *
+                               Eigen::AngleAxisd(rpy.y(), Eigen::Vector3d::UnitY()) *
+                               Eigen::AngleAxisd(rpy.x(), Eigen::Vector3d::UnitX()));
+    ini.base_orientation_wxyz << q.w(), q.x(), q.y(), q.z();
+  }
+}
+
+/// The base's yaw: the robot's forward (in its base frame) points along the facing direction;
+/// the support must be double or a foot.
+void apply_facing_and_check_support(const Ctx& c, double facing, World& sc) {
+  InitialState& ini = sc.sim.initial;
+  const Eigen::Vector3d& fwd = sc.sim.robot.forward_axis;
+  const double turn = facing - std::atan2(fwd.y(), fwd.x());
+  Eigen::Quaterniond q(ini.base_orientation_wxyz[0], ini.base_orientation_wxyz[1],
+                       ini.base_orientation_wxyz[2], ini.base_orientation_wxyz[3]);
+  q = Eigen::AngleAxisd(turn, Eigen::Vector3d::UnitZ()) * q;
+  ini.base_orientation_wxyz << q.w(), q.x(), q.y(), q.z();
+  bool support_ok = sc.support == "double";
+  for (const auto& f : sc.sim.robot.feet) support_ok = support_ok || f.name == sc.support;
+  if (!support_ok)
+    c.fail("initial.support", "must be 'double' or a foot name, got '" + sc.support + "'");
+}
+
+/// `initial:`: the posture (nominal, zero, joints by name within their limits), the base pose and
+/// the facing direction, the support. Returns the facing [rad] (initial.facing_deg).
+double load_initial(const Ctx& c, const YAML::Node& n, World& sc,
+                    const std::vector<std::pair<std::string, double>>& nominal,
+                    const std::map<std::string, std::pair<double, double>>& limits) {
+  InitialState& ini = sc.sim.initial;
+  if (!n) {
+    for (const auto& [name, v] : nominal) {
+      ini.joint_names.push_back(name);
+      ini.joint_positions.push_back(v);
+    }
+    return 0.0;
+  }
+  c.allow(n, "initial",
+          {"posture", "joints", "base_xy", "base_height", "base_rpy_deg", "facing_deg",
+           "clearance", "support"});
+  const std::string posture = n["posture"] ? c.str(n["posture"], "initial.posture") : "nominal";
+  if (posture != "nominal" && posture != "zero")
+    c.fail("initial.posture", "must be 'nominal' or 'zero'");
+  if (posture == "nominal")
+    for (const auto& [name, v] : nominal) {
+      ini.joint_names.push_back(name);
+      ini.joint_positions.push_back(v);
+    }
+  if (const YAML::Node j = n["joints"]) load_initial_joints(c, j, limits, ini);
+  load_initial_base(c, n, sc);
+  // The way the robot faces: its forward (robot.yaml forward_axis) turned to this world yaw.
+  const double facing = c.num(n, "facing_deg", "initial", 0.0) * kDeg;
+  if (std::abs(facing) > 2.0 * M_PI + 1e-9) c.fail("initial.facing_deg", "must be in [-360, 360]");
+  ini.clearance = c.num(n, "clearance", "initial", 0.0);
+  if (n["support"]) sc.support = c.str(n["support"], "initial.support");
+  return facing;
+}
+
+/// One push of `disturbances.pushes` (key `pk`): link, point, force (world or heading frame),
+/// start and duration, within physical ranges and the run.
+Push load_push(const Ctx& c, const YAML::Node& p, const std::string& pk, const World& sc,
+               double facing) {
+  c.allow(p, pk, {"link", "point", "force", "frame", "start", "duration"});
+  for (const char* k : {"link", "force", "start", "duration"})
+    if (!p[k]) c.fail(pk + "." + k, "is required");
+  Push push;
+  push.link = c.str(p["link"], pk + ".link");
+  if (p["point"]) push.point_L = c.vec3(p["point"], pk + ".point");
+  push.force_W = c.vec3(p["force"], pk + ".force");
+  // force in `world` (default, the meaning of existing files) or `heading`: x the robot's
+  // forward at the start (initial.facing_deg), y its left, z up
+  const std::string frame = p["frame"] ? c.str(p["frame"], pk + ".frame") : "world";
+  if (frame == "heading")
+    push.force_W = Eigen::AngleAxisd(facing, Eigen::Vector3d::UnitZ()) * push.force_W;
+  else if (frame != "world")
+    c.fail(pk + ".frame", "must be 'world' or 'heading', got '" + frame + "'");
+  push.start = c.num(p["start"], pk + ".start");
+  push.duration = c.num(p["duration"], pk + ".duration");
+  if (push.start < 0.0) c.fail(pk + ".start", "must be >= 0");
+  if (push.duration <= 0.0) c.fail(pk + ".duration", "must be > 0");
+  // Physical ranges: a push that could throw a humanoid across the room, or that never
+  // happens within the run, is a mistake in the file.
+  if (!(push.force_W.norm() <= kMaxPushForce))
+    c.fail(pk + ".force", "|force| must be at most " + std::to_string(int(kMaxPushForce)) +
+                              " N");
+  if (!(push.point_L.norm() <= kMaxPushLever))
+    c.fail(pk + ".point", "must be within " + std::to_string(int(kMaxPushLever)) +
+                              " m of the link's origin");
+  if (push.start >= sc.duration)
+    c.fail(pk + ".start", "must be before the end of the run (duration " +
+                              std::to_string(sc.duration) + " s)");
+  if (push.duration > sc.duration)
+    c.fail(pk + ".duration", "must be at most the run's duration (" +
+                                 std::to_string(sc.duration) + " s)");
+  return push;
+}
+
+/// `disturbances:`: the scheduled pushes.
+void load_disturbances(const Ctx& c, const YAML::Node& d, World& sc, double facing) {
+  if (!d) return;
+  c.allow(d, "disturbances", {"pushes"});
+  const YAML::Node ps = d["pushes"];
+  if (!ps) return;
+  if (!ps.IsSequence()) c.fail("disturbances.pushes", "must be a list");
+  for (std::size_t i = 0; i < ps.size(); ++i)
+    sc.sim.pushes.push_back(
+        load_push(c, ps[i], "disturbances.pushes[" + std::to_string(i) + "]", sc, facing));
+}
+
+/// A number >= 0 at n[k] (key `key`.k), when given.
+void nonneg(const Ctx& c, const YAML::Node& n, const char* k, const std::string& key, double& v) {
+  if (!n[k]) return;
+  v = c.num(n[k], key + "." + k);
+  if (v < 0.0) c.fail(key + "." + k, "must be >= 0");
+}
+
+/// A 3-vector at n[k] times `scale`, when given.
+void vec(const Ctx& c, const YAML::Node& n, const char* k, const std::string& key,
+         Eigen::Vector3d& v, double scale) {
+  if (n[k]) v = scale * c.vec3(n[k], key + "." + k);
+}
+
+/// `sensors.imu.orientation`: off, filter or truth.
+void load_imu_orientation(const Ctx& c, const YAML::Node& i, const std::string& key,
+                          ImuNoiseConfig& imu) {
+  if (!i["orientation"]) return;
+  const std::string o = c.str(i["orientation"], key + ".orientation");
+  if (o == "off")
+    imu.orientation = ImuOrientationOutput::kOff;
+  else if (o == "filter")
+    imu.orientation = ImuOrientationOutput::kFilter;
+  else if (o == "truth")
+    imu.orientation = ImuOrientationOutput::kTruth;
+  else
+    c.fail(key + ".orientation", "must be off, filter or truth (got '" + o + "')");
+}
+
+/// `sensors.imu`: noise, biases, scale, misalignment, range, rate, delay, orientation filter.
+void load_imu(const Ctx& c, const YAML::Node& i, ImuNoiseConfig& imu) {
+  const std::string key = "sensors.imu";
+  c.allow(i, key,
+          {"orientation", "gyro_noise_std", "gyro_noise_density", "gyro_bias",
+           "gyro_bias_walk", "gyro_scale_error", "gyro_misalignment_deg", "gyro_range",
+           "accel_noise_std", "accel_noise_density", "accel_bias", "accel_bias_walk",
+           "accel_scale_error", "accel_misalignment_deg", "accel_range", "rate_hz",
+           "delay_ticks", "filter_gain", "filter_accel_gate"});
+  load_imu_orientation(c, i, key, imu);
+  nonneg(c, i, "gyro_noise_std", key, imu.gyro_noise_std);
+  nonneg(c, i, "gyro_noise_density", key, imu.gyro_noise_density);
+  nonneg(c, i, "gyro_bias_walk", key, imu.gyro_bias_walk);
+  nonneg(c, i, "gyro_range", key, imu.gyro_range);
+  nonneg(c, i, "accel_noise_std", key, imu.accel_noise_std);
+  nonneg(c, i, "accel_noise_density", key, imu.accel_noise_density);
+  nonneg(c, i, "accel_bias_walk", key, imu.accel_bias_walk);
+  nonneg(c, i, "accel_range", key, imu.accel_range);
+  nonneg(c, i, "rate_hz", key, imu.rate_hz);
+  nonneg(c, i, "filter_gain", key, imu.filter_gain);
+  nonneg(c, i, "filter_accel_gate", key, imu.filter_accel_gate);
+  if (i["filter_accel_gate"] && imu.filter_accel_gate <= 0.0)
+    c.fail(key + ".filter_accel_gate", "must be > 0");
+  vec(c, i, "gyro_bias", key, imu.gyro_bias, 1.0);
+  vec(c, i, "gyro_scale_error", key, imu.gyro_scale_error, 1.0);
+  vec(c, i, "gyro_misalignment_deg", key, imu.gyro_misalignment, kDeg);
+  vec(c, i, "accel_bias", key, imu.accel_bias, 1.0);
+  vec(c, i, "accel_scale_error", key, imu.accel_scale_error, 1.0);
+  vec(c, i, "accel_misalignment_deg", key, imu.accel_misalignment, kDeg);
+  if (i["delay_ticks"]) {
+    const double d = c.num(i["delay_ticks"], key + ".delay_ticks");
+    if (d < 0.0 || d > 1000.0 || d != std::floor(d))
+      c.fail(key + ".delay_ticks", "must be an integer in [0, 1000]");
+    imu.delay_ticks = static_cast<int>(d);
+  }
+}
+
+/// `sensors:`: a preset (industrial_mems, the default without the section, or ideal), the
+/// seed, and the IMU's, encoders' and foot F/Ts' settings over it (SENSORS.md).
+void load_sensors(const Ctx& c, const YAML::Node& s, World& sc) {
+  sc.sim.imu = industrial_mems_imu();
+  sc.sim.encoders = industrial_encoder();
+  sc.sim.foot_ft = industrial_foot_ft();
+  if (!s) return;
+  c.allow(s, "sensors", {"preset", "imu", "encoders", "foot_ft", "seed"});
+  if (s["preset"]) {
+    const std::string p = c.str(s["preset"], "sensors.preset");
+    if (p == "ideal") {
+      sc.sim.imu = ImuNoiseConfig{};
+      sc.sim.encoders = EncoderConfig{};
+      sc.sim.foot_ft = ForceTorqueSensorConfig{};
+    } else if (p != "industrial_mems") {
+      c.fail("sensors.preset", "must be industrial_mems or ideal (got '" + p + "')");
+    }
+  }
+  if (s["seed"]) {
+    const double seed = c.num(s["seed"], "sensors.seed");
+    if (!(seed >= 0.0 && seed <= 9007199254740992.0) || seed != std::floor(seed))
+      c.fail("sensors.seed", "must be an integer in [0, 2^53]");
+    sc.sim.imu.seed = static_cast<std::uint64_t>(seed);
+  }
+  if (const YAML::Node i = s["imu"]) load_imu(c, i, sc.sim.imu);
+  if (const YAML::Node e = s["encoders"]) {
+    c.allow(e, "sensors.encoders", {"counts_per_rev", "velocity_filter_hz"});
+    nonneg(c, e, "counts_per_rev", "sensors.encoders", sc.sim.encoders.counts_per_rev);
+    nonneg(c, e, "velocity_filter_hz", "sensors.encoders", sc.sim.encoders.velocity_filter_hz);
+  }
+  if (const YAML::Node f = s["foot_ft"]) {
+    const std::string key = "sensors.foot_ft";
+    c.allow(f, key, {"force_noise_std", "torque_noise_std", "force_offset", "torque_offset"});
+    nonneg(c, f, "force_noise_std", key, sc.sim.foot_ft.force_noise_std);
+    nonneg(c, f, "torque_noise_std", key, sc.sim.foot_ft.torque_noise_std);
+    vec(c, f, "force_offset", key, sc.sim.foot_ft.force_offset, 1.0);
+    vec(c, f, "torque_offset", key, sc.sim.foot_ft.torque_offset, 1.0);
+  }
+}
+
+/// `solver:`: Bullet's step, iterations, contact and friction settings, warm starting.
+void load_solver(const Ctx& c, const YAML::Node& s, World& sc) {
+  if (!s) return;
+  c.allow(s, "solver",
+          {"dt", "iterations", "contact_erp", "contact_cfm", "friction_anchor",
+           "residual_threshold", "joint_friction_constraint", "joint_friction_velocity",
+           "warm_start", "warm_start_factor"});
+  SolverConfig& sv = sc.sim.solver;
+  sv.dt = c.num(s, "dt", "solver", sv.dt);
+  if (!(sv.dt > 0.0 && sv.dt <= 0.01)) c.fail("solver.dt", "must be in (0, 0.01] s");
+  const double it = c.num(s, "iterations", "solver", sv.iterations);
+  if (!(it >= 1 && it <= 10000) || it != std::floor(it))
+    c.fail("solver.iterations", "must be an integer in [1, 10000]");
+  sv.iterations = static_cast<int>(it);
+  sv.contact_erp = c.num(s, "contact_erp", "solver", sv.contact_erp);
+  sv.contact_cfm = c.num(s, "contact_cfm", "solver", sv.contact_cfm);
+  sv.friction_anchor = c.boolean(s, "friction_anchor", "solver", sv.friction_anchor);
+  sv.residual_threshold = c.num(s, "residual_threshold", "solver", sv.residual_threshold);
+  sv.joint_friction_constraint =
+      c.boolean(s, "joint_friction_constraint", "solver", sv.joint_friction_constraint);
+  sv.joint_friction_velocity =
+      c.num(s, "joint_friction_velocity", "solver", sv.joint_friction_velocity);
+  if (!(sv.joint_friction_velocity > 0.0))
+    c.fail("solver.joint_friction_velocity", "must be > 0");
+  sv.warm_start = c.boolean(s, "warm_start", "solver", sv.warm_start);
+  sv.warm_start_factor = c.num(s, "warm_start_factor", "solver", sv.warm_start_factor);
+  if (!(sv.warm_start_factor >= 0.0 && sv.warm_start_factor <= 1.0))
+    c.fail("solver.warm_start_factor", "must be in [0, 1]");
+}
+
+/// `success:`: the verdict's criteria.
+void load_success(const Ctx& c, const YAML::Node& s, World& sc) {
+  if (!s) return;
+  c.allow(s, "success",
+          {"com_error_max_m", "com_error_final_m", "foot_slip_max_m", "foot_tilt_max_deg",
+           "recovery_time_s",
+           "allow_non_foot_contacts", "min_base_height_m", "max_damping_ticks"});
+  SuccessCriteria& k = sc.success;
+  k.com_error_max_m = c.num(s, "com_error_max_m", "success", k.com_error_max_m);
+  k.com_error_final_m = c.num(s, "com_error_final_m", "success", k.com_error_final_m);
+  k.foot_slip_max_m = c.num(s, "foot_slip_max_m", "success", k.foot_slip_max_m);
+  for (const auto& [name, v] :
+       {std::pair<const char*, double>{"com_error_max_m", k.com_error_max_m},
+        {"com_error_final_m", k.com_error_final_m},
+        {"foot_slip_max_m", k.foot_slip_max_m}})
+    if (s[name] && !(v >= 0.0)) c.fail(std::string("success.") + name, "must be >= 0");
+  k.foot_tilt_max_deg = c.num(s, "foot_tilt_max_deg", "success", k.foot_tilt_max_deg);
+  if (!(k.foot_tilt_max_deg >= 0.0)) c.fail("success.foot_tilt_max_deg", "must be >= 0");
+  k.recovery_time_s = c.num(s, "recovery_time_s", "success", k.recovery_time_s);
+  k.allow_non_foot_contacts = c.boolean(s, "allow_non_foot_contacts", "success", false);
+  k.min_base_height_m = c.num(s, "min_base_height_m", "success", k.min_base_height_m);
+  const double damping = c.num(s, "max_damping_ticks", "success",
+                               static_cast<double>(k.max_damping_ticks));
+  if (!(damping >= 0.0 && damping <= 1e15) || damping != std::floor(damping))
+    c.fail("success.max_damping_ticks", "must be a whole number in [0, 1e15]");
+  else
+    k.max_damping_ticks = static_cast<long long>(damping);
+}
+
+/// Platforms must name feet of the robot.
+void check_platform_feet(const Ctx& c, const World& sc) {
+  for (std::size_t i = 0; i < sc.sim.world.platforms.size(); ++i) {
+    const std::string& foot = sc.sim.world.platforms[i].foot;
+    if (foot.empty()) continue;
+    bool found = false;
+    for (const auto& f : sc.sim.robot.feet)
+      found = found || f.name == foot;
+    if (!found)
+      c.fail("world.platforms[" + std::to_string(i) + "].foot",
+             "'" + foot + "' is not a foot of the robot");
+  }
+}
+
+}  // namespace
+
 World parse_world(const std::string& yaml_text, const fs::path& base_dir,
                   const std::string& what) {
   Ctx c{{what}, base_dir};
@@ -351,298 +685,16 @@ World parse_world(const std::string& yaml_text, const fs::path& base_dir,
   load_robot(c, root["robot"], sc, nominal, limits, robot);
   load_world(c, root["world"], sc);
 
-  // initial state
-  InitialState& ini = sc.sim.initial;
-  double facing = 0.0;  // initial.facing_deg [rad]
-  if (const YAML::Node n = root["initial"]) {
-    c.allow(
-        n, "initial",
-        {"posture", "joints", "base_xy", "base_height", "base_rpy_deg", "facing_deg", "clearance",
-         "support"});
-    std::string posture = n["posture"] ? c.str(n["posture"], "initial.posture") : "nominal";
-    if (posture != "nominal" && posture != "zero")
-      c.fail("initial.posture", "must be 'nominal' or 'zero'");
-    if (posture == "nominal")
-      for (const auto& [name, v] : nominal) {
-        ini.joint_names.push_back(name);
-        ini.joint_positions.push_back(v);
-      }
-    if (const YAML::Node j = n["joints"]) {
-      if (!j.IsMap()) c.fail("initial.joints", "must be a mapping joint -> angle (rad)");
-      for (const auto& kv : j) {
-        const std::string name = kv.first.as<std::string>();
-        const double v = c.num(kv.second, "initial.joints." + name);
-        if (const auto l = limits.find(name);
-            l != limits.end() && (v < l->second.first || v > l->second.second)) {
-          std::ostringstream os;
-          os << v << " is outside the joint limits [" << l->second.first << ", "
-             << l->second.second << "]";
-          c.fail("initial.joints." + name, os.str());
-        }
-        auto it = std::find(ini.joint_names.begin(), ini.joint_names.end(), name);
-        if (it != ini.joint_names.end())
-          ini.joint_positions[static_cast<std::size_t>(it - ini.joint_names.begin())] = v;
-        else {
-          ini.joint_names.push_back(name);
-          ini.joint_positions.push_back(v);
-        }
-      }
-    }
-    if (n["base_xy"]) {
-      if (!n["base_xy"].IsSequence() || n["base_xy"].size() != 2)
-        c.fail("initial.base_xy", "must be a list of 2 numbers");
-      ini.base_position.x() = c.num(n["base_xy"][0], "initial.base_xy[0]");
-      ini.base_position.y() = c.num(n["base_xy"][1], "initial.base_xy[1]");
-    }
-    if (n["base_height"] &&
-        !(n["base_height"].IsScalar() && n["base_height"].as<std::string>() == "auto")) {
-      ini.auto_base_height = false;
-      ini.base_position.z() = c.num(n["base_height"], "initial.base_height");
-      const double ground = sc.sim.world.ground.height;
-      if (ini.base_position.z() < ground || ini.base_position.z() > ground + 100.0)
-        c.fail("initial.base_height", "must be between the ground height and 100 m above it");
-    }
-    if (n["base_rpy_deg"]) {
-      const Eigen::Vector3d rpy = c.vec3(n["base_rpy_deg"], "initial.base_rpy_deg") * kDeg;
-      const Eigen::Quaterniond q(Eigen::AngleAxisd(rpy.z(), Eigen::Vector3d::UnitZ()) *
-                                 Eigen::AngleAxisd(rpy.y(), Eigen::Vector3d::UnitY()) *
-                                 Eigen::AngleAxisd(rpy.x(), Eigen::Vector3d::UnitX()));
-      ini.base_orientation_wxyz << q.w(), q.x(), q.y(), q.z();
-    }
-    // The way the robot faces: its forward (robot.yaml forward_axis) turned to this world yaw.
-    facing = c.num(n, "facing_deg", "initial", 0.0) * kDeg;
-    if (std::abs(facing) > 2.0 * M_PI + 1e-9) c.fail("initial.facing_deg", "must be in [-360, 360]");
-    ini.clearance = c.num(n, "clearance", "initial", 0.0);
-    if (n["support"]) sc.support = c.str(n["support"], "initial.support");
-  } else {
-    for (const auto& [name, v] : nominal) {
-      ini.joint_names.push_back(name);
-      ini.joint_positions.push_back(v);
-    }
-  }
-  {  // base yaw: the robot's forward (in its base frame) points along the facing direction
-    const Eigen::Vector3d& fwd = sc.sim.robot.forward_axis;
-    const double turn = facing - std::atan2(fwd.y(), fwd.x());
-    Eigen::Quaterniond q(ini.base_orientation_wxyz[0], ini.base_orientation_wxyz[1],
-                         ini.base_orientation_wxyz[2], ini.base_orientation_wxyz[3]);
-    q = Eigen::AngleAxisd(turn, Eigen::Vector3d::UnitZ()) * q;
-    ini.base_orientation_wxyz << q.w(), q.x(), q.y(), q.z();
-  }
-  bool support_ok = sc.support == "double";
-  for (const auto& f : sc.sim.robot.feet)
-    support_ok = support_ok || f.name == sc.support;
-  if (!support_ok)
-    c.fail("initial.support", "must be 'double' or a foot name, got '" + sc.support + "'");
-
-  // disturbances
-  if (const YAML::Node d = root["disturbances"]) {
-    c.allow(d, "disturbances", {"pushes"});
-    if (const YAML::Node ps = d["pushes"]) {
-      if (!ps.IsSequence()) c.fail("disturbances.pushes", "must be a list");
-      for (std::size_t i = 0; i < ps.size(); ++i) {
-        const std::string pk = "disturbances.pushes[" + std::to_string(i) + "]";
-        const YAML::Node p = ps[i];
-        c.allow(p, pk, {"link", "point", "force", "frame", "start", "duration"});
-        for (const char* k : {"link", "force", "start", "duration"})
-          if (!p[k]) c.fail(pk + "." + k, "is required");
-        Push push;
-        push.link = c.str(p["link"], pk + ".link");
-        if (p["point"]) push.point_L = c.vec3(p["point"], pk + ".point");
-        push.force_W = c.vec3(p["force"], pk + ".force");
-        // force in `world` (default, the meaning of existing files) or `heading`: x the robot's
-        // forward at the start (initial.facing_deg), y its left, z up
-        const std::string frame = p["frame"] ? c.str(p["frame"], pk + ".frame") : "world";
-        if (frame == "heading")
-          push.force_W = Eigen::AngleAxisd(facing, Eigen::Vector3d::UnitZ()) * push.force_W;
-        else if (frame != "world")
-          c.fail(pk + ".frame", "must be 'world' or 'heading', got '" + frame + "'");
-        push.start = c.num(p["start"], pk + ".start");
-        push.duration = c.num(p["duration"], pk + ".duration");
-        if (push.start < 0.0) c.fail(pk + ".start", "must be >= 0");
-        if (push.duration <= 0.0) c.fail(pk + ".duration", "must be > 0");
-        // Physical ranges: a push that could throw a humanoid across the room, or that never
-        // happens within the run, is a mistake in the file.
-        if (!(push.force_W.norm() <= kMaxPushForce))
-          c.fail(pk + ".force", "|force| must be at most " + std::to_string(int(kMaxPushForce)) +
-                                    " N");
-        if (!(push.point_L.norm() <= kMaxPushLever))
-          c.fail(pk + ".point", "must be within " + std::to_string(int(kMaxPushLever)) +
-                                    " m of the link's origin");
-        if (root["duration"] && push.start >= sc.duration)
-          c.fail(pk + ".start", "must be before the end of the run (duration " +
-                                    std::to_string(sc.duration) + " s)");
-        if (push.duration > sc.duration)
-          c.fail(pk + ".duration", "must be at most the run's duration (" +
-                                       std::to_string(sc.duration) + " s)");
-        sc.sim.pushes.push_back(push);
-      }
-    }
-  }
-
-  // sensors: a file without this section gets the industrial defaults (SENSORS.md).
-  sc.sim.imu = industrial_mems_imu();
-  sc.sim.encoders = industrial_encoder();
-  sc.sim.foot_ft = industrial_foot_ft();
-  if (const YAML::Node s = root["sensors"]) {
-    c.allow(s, "sensors", {"preset", "imu", "encoders", "foot_ft", "seed"});
-    if (s["preset"]) {
-      const std::string p = c.str(s["preset"], "sensors.preset");
-      if (p == "ideal") {
-        sc.sim.imu = ImuNoiseConfig{};
-        sc.sim.encoders = EncoderConfig{};
-        sc.sim.foot_ft = ForceTorqueSensorConfig{};
-      } else if (p != "industrial_mems") {
-        c.fail("sensors.preset", "must be industrial_mems or ideal (got '" + p + "')");
-      }
-    }
-    ImuNoiseConfig& imu = sc.sim.imu;
-    if (s["seed"]) {
-      const double seed = c.num(s["seed"], "sensors.seed");
-      if (!(seed >= 0.0 && seed <= 9007199254740992.0) || seed != std::floor(seed))
-        c.fail("sensors.seed", "must be an integer in [0, 2^53]");
-      imu.seed = static_cast<std::uint64_t>(seed);
-    }
-    const auto nonneg = [&](const YAML::Node& n, const char* k, const std::string& key,
-                            double& v) {
-      if (!n[k]) return;
-      v = c.num(n[k], key + "." + k);
-      if (v < 0.0) c.fail(key + "." + k, "must be >= 0");
-    };
-    const auto vec = [&](const YAML::Node& n, const char* k, const std::string& key,
-                         Eigen::Vector3d& v, double scale) {
-      if (n[k]) v = scale * c.vec3(n[k], key + "." + k);
-    };
-    if (const YAML::Node i = s["imu"]) {
-      const std::string key = "sensors.imu";
-      c.allow(i, key,
-              {"orientation", "gyro_noise_std", "gyro_noise_density", "gyro_bias",
-               "gyro_bias_walk", "gyro_scale_error", "gyro_misalignment_deg", "gyro_range",
-               "accel_noise_std", "accel_noise_density", "accel_bias", "accel_bias_walk",
-               "accel_scale_error", "accel_misalignment_deg", "accel_range", "rate_hz",
-               "delay_ticks", "filter_gain", "filter_accel_gate"});
-      if (i["orientation"]) {
-        const std::string o = c.str(i["orientation"], key + ".orientation");
-        if (o == "off")
-          imu.orientation = ImuOrientationOutput::kOff;
-        else if (o == "filter")
-          imu.orientation = ImuOrientationOutput::kFilter;
-        else if (o == "truth")
-          imu.orientation = ImuOrientationOutput::kTruth;
-        else
-          c.fail(key + ".orientation", "must be off, filter or truth (got '" + o + "')");
-      }
-      nonneg(i, "gyro_noise_std", key, imu.gyro_noise_std);
-      nonneg(i, "gyro_noise_density", key, imu.gyro_noise_density);
-      nonneg(i, "gyro_bias_walk", key, imu.gyro_bias_walk);
-      nonneg(i, "gyro_range", key, imu.gyro_range);
-      nonneg(i, "accel_noise_std", key, imu.accel_noise_std);
-      nonneg(i, "accel_noise_density", key, imu.accel_noise_density);
-      nonneg(i, "accel_bias_walk", key, imu.accel_bias_walk);
-      nonneg(i, "accel_range", key, imu.accel_range);
-      nonneg(i, "rate_hz", key, imu.rate_hz);
-      nonneg(i, "filter_gain", key, imu.filter_gain);
-      nonneg(i, "filter_accel_gate", key, imu.filter_accel_gate);
-      if (i["filter_accel_gate"] && imu.filter_accel_gate <= 0.0)
-        c.fail(key + ".filter_accel_gate", "must be > 0");
-      vec(i, "gyro_bias", key, imu.gyro_bias, 1.0);
-      vec(i, "gyro_scale_error", key, imu.gyro_scale_error, 1.0);
-      vec(i, "gyro_misalignment_deg", key, imu.gyro_misalignment, kDeg);
-      vec(i, "accel_bias", key, imu.accel_bias, 1.0);
-      vec(i, "accel_scale_error", key, imu.accel_scale_error, 1.0);
-      vec(i, "accel_misalignment_deg", key, imu.accel_misalignment, kDeg);
-      if (i["delay_ticks"]) {
-        const double d = c.num(i["delay_ticks"], key + ".delay_ticks");
-        if (d < 0.0 || d > 1000.0 || d != std::floor(d))
-          c.fail(key + ".delay_ticks", "must be an integer in [0, 1000]");
-        imu.delay_ticks = static_cast<int>(d);
-      }
-    }
-    if (const YAML::Node e = s["encoders"]) {
-      c.allow(e, "sensors.encoders", {"counts_per_rev", "velocity_filter_hz"});
-      nonneg(e, "counts_per_rev", "sensors.encoders", sc.sim.encoders.counts_per_rev);
-      nonneg(e, "velocity_filter_hz", "sensors.encoders", sc.sim.encoders.velocity_filter_hz);
-    }
-    if (const YAML::Node f = s["foot_ft"]) {
-      const std::string key = "sensors.foot_ft";
-      c.allow(f, key, {"force_noise_std", "torque_noise_std", "force_offset", "torque_offset"});
-      nonneg(f, "force_noise_std", key, sc.sim.foot_ft.force_noise_std);
-      nonneg(f, "torque_noise_std", key, sc.sim.foot_ft.torque_noise_std);
-      vec(f, "force_offset", key, sc.sim.foot_ft.force_offset, 1.0);
-      vec(f, "torque_offset", key, sc.sim.foot_ft.torque_offset, 1.0);
-    }
-  }
-
-  // solver
-  if (const YAML::Node s = root["solver"]) {
-    c.allow(s, "solver",
-            {"dt", "iterations", "contact_erp", "contact_cfm", "friction_anchor",
-             "residual_threshold", "joint_friction_constraint", "joint_friction_velocity",
-             "warm_start", "warm_start_factor"});
-    SolverConfig& sv = sc.sim.solver;
-    sv.dt = c.num(s, "dt", "solver", sv.dt);
-    if (!(sv.dt > 0.0 && sv.dt <= 0.01)) c.fail("solver.dt", "must be in (0, 0.01] s");
-    const double it = c.num(s, "iterations", "solver", sv.iterations);
-    if (!(it >= 1 && it <= 10000) || it != std::floor(it))
-      c.fail("solver.iterations", "must be an integer in [1, 10000]");
-    sv.iterations = static_cast<int>(it);
-    sv.contact_erp = c.num(s, "contact_erp", "solver", sv.contact_erp);
-    sv.contact_cfm = c.num(s, "contact_cfm", "solver", sv.contact_cfm);
-    sv.friction_anchor = c.boolean(s, "friction_anchor", "solver", sv.friction_anchor);
-    sv.residual_threshold = c.num(s, "residual_threshold", "solver", sv.residual_threshold);
-    sv.joint_friction_constraint =
-        c.boolean(s, "joint_friction_constraint", "solver", sv.joint_friction_constraint);
-    sv.joint_friction_velocity =
-        c.num(s, "joint_friction_velocity", "solver", sv.joint_friction_velocity);
-    if (!(sv.joint_friction_velocity > 0.0))
-      c.fail("solver.joint_friction_velocity", "must be > 0");
-    sv.warm_start = c.boolean(s, "warm_start", "solver", sv.warm_start);
-    sv.warm_start_factor = c.num(s, "warm_start_factor", "solver", sv.warm_start_factor);
-    if (!(sv.warm_start_factor >= 0.0 && sv.warm_start_factor <= 1.0))
-      c.fail("solver.warm_start_factor", "must be in [0, 1]");
-  }
-
+  const double facing = load_initial(c, root["initial"], sc, nominal, limits);
+  apply_facing_and_check_support(c, facing, sc);
+  load_disturbances(c, root["disturbances"], sc, facing);
+  load_sensors(c, root["sensors"], sc);
+  load_solver(c, root["solver"], sc);
   // reality: how the simulated robot differs from the description the nodes get (reality.hpp)
   if (const YAML::Node r = root["reality"]) sc.sim.reality = detail::parse_reality(c, r);
 
-  // success criteria
-  if (const YAML::Node s = root["success"]) {
-    c.allow(s, "success",
-            {"com_error_max_m", "com_error_final_m", "foot_slip_max_m", "foot_tilt_max_deg",
-             "recovery_time_s",
-             "allow_non_foot_contacts", "min_base_height_m", "max_damping_ticks"});
-    SuccessCriteria& k = sc.success;
-    k.com_error_max_m = c.num(s, "com_error_max_m", "success", k.com_error_max_m);
-    k.com_error_final_m = c.num(s, "com_error_final_m", "success", k.com_error_final_m);
-    k.foot_slip_max_m = c.num(s, "foot_slip_max_m", "success", k.foot_slip_max_m);
-    for (const auto& [name, v] :
-         {std::pair<const char*, double>{"com_error_max_m", k.com_error_max_m},
-          {"com_error_final_m", k.com_error_final_m},
-          {"foot_slip_max_m", k.foot_slip_max_m}})
-      if (s[name] && !(v >= 0.0)) c.fail(std::string("success.") + name, "must be >= 0");
-    k.foot_tilt_max_deg = c.num(s, "foot_tilt_max_deg", "success", k.foot_tilt_max_deg);
-    if (!(k.foot_tilt_max_deg >= 0.0)) c.fail("success.foot_tilt_max_deg", "must be >= 0");
-    k.recovery_time_s = c.num(s, "recovery_time_s", "success", k.recovery_time_s);
-    k.allow_non_foot_contacts = c.boolean(s, "allow_non_foot_contacts", "success", false);
-    k.min_base_height_m = c.num(s, "min_base_height_m", "success", k.min_base_height_m);
-    const double damping = c.num(s, "max_damping_ticks", "success",
-                                 static_cast<double>(k.max_damping_ticks));
-    if (!(damping >= 0.0 && damping <= 1e15) || damping != std::floor(damping))
-      c.fail("success.max_damping_ticks", "must be a whole number in [0, 1e15]");
-    else
-      k.max_damping_ticks = static_cast<long long>(damping);
-  }
-
-  // platforms must name existing feet
-  for (std::size_t i = 0; i < sc.sim.world.platforms.size(); ++i) {
-    const std::string& foot = sc.sim.world.platforms[i].foot;
-    if (foot.empty()) continue;
-    bool found = false;
-    for (const auto& f : sc.sim.robot.feet)
-      found = found || f.name == foot;
-    if (!found)
-      c.fail("world.platforms[" + std::to_string(i) + "].foot",
-             "'" + foot + "' is not a foot of the robot");
-  }
+  load_success(c, root["success"], sc);
+  check_platform_feet(c, sc);
 #ifdef POISE_SIM_HAVE_MODEL
   if (sc.support != "double" && robot.config)
     check_single_support(c, sc, *robot.config, *robot.model);

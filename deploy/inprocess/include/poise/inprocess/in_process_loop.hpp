@@ -224,6 +224,14 @@ class InProcessLoop {
 
  private:
   struct EstimatorParts;
+  // Construction, phase by phase.
+  controller::ControllerConfig controller_config() const;
+  void map_joints_and_feet();
+  void make_estimator();
+  void make_messages_and_safety();
+  void make_buffers_and_first_reference();
+  void make_reference_player();
+  void start_up();
   /// False when the estimator refused the frame (no state: poise-estimator sends none).
   bool read_state();
   void apply_references();
