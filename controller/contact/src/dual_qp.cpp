@@ -130,8 +130,28 @@ SolverStatus DualQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& G,
       !all_finite(A_eq) || !all_finite(b_eq) || !all_finite(A_in) || !all_finite(b_in)) {
     return SolverStatus::kInvalidInput;
   }
+  if (!factor(G)) return SolverStatus::kNotPositiveDefinite;
+  unconstrained_minimum(g, x);
+  for (int i = 0; i < min; ++i)
+    is_active_[i] = 0;
+  if (add_equalities(A_eq, b_eq, x) != SolverStatus::kOptimal) return SolverStatus::kInfeasible;
+  // Inequalities: the most violated one made active, until none is violated.
+  SolverStatus status = SolverStatus::kOptimal;
+  for (int p = most_violated(A_in, b_in, x); p >= 0; p = most_violated(A_in, b_in, x)) {
+    for (int k = 0; k < n; ++k)
+      np_[k] = A_in(p, k);
+    status = add_inequality(p, b_in[p], x);
+    if (status != SolverStatus::kOptimal) break;
+  }
+  store_multipliers();
+  objective_ = objective_at(G, g, x);
+  return status;
+}
 
-  // Cholesky G = L L^T (lower triangle of G).
+// Cholesky G = L L^T (lower triangle of G), then J = L^{-T}. False when G is not positive
+// definite (a pivot below 1e-14 of the trace).
+bool DualQp::factor(const Eigen::Ref<const Eigen::MatrixXd>& G) {
+  const int n = static_cast<int>(G.rows());
   double trace = 0.0;
   for (int j = 0; j < n; ++j)
     trace += std::abs(G(j, j));
@@ -139,7 +159,7 @@ SolverStatus DualQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& G,
     double s = G(j, j);
     for (int k = 0; k < j; ++k)
       s -= L_(j, k) * L_(j, k);
-    if (!(s > 1e-14 * trace)) return SolverStatus::kNotPositiveDefinite;
+    if (!(s > 1e-14 * trace)) return false;
     const double ljj = std::sqrt(s);
     L_(j, j) = ljj;
     for (int i = j + 1; i < n; ++i) {
@@ -159,7 +179,13 @@ SolverStatus DualQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& G,
       J_(c, i) = s / L_(i, i);
     }
   }
-  // Unconstrained minimum x = -G^{-1} g = -J J^T g.
+  return true;
+}
+
+// Unconstrained minimum x = -G^{-1} g = -J J^T g.
+void DualQp::unconstrained_minimum(const Eigen::Ref<const Eigen::VectorXd>& g,
+                                   Eigen::Ref<Eigen::VectorXd> x) {
+  const int n = static_cast<int>(g.size());
   for (int i = 0; i < n; ++i) {
     double s = 0.0;
     for (int k = 0; k < n; ++k)
@@ -172,48 +198,50 @@ SolverStatus DualQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& G,
       s -= J_(i, k) * d_[k];
     x[i] = s;
   }
-  for (int i = 0; i < min; ++i)
-    is_active_[i] = 0;
+}
 
-  // d = J^T np; z = J(:, q:n) d(q:n); r = R^{-1} d(0:q).
-  auto compute_directions = [&]() {
-    for (int i = 0; i < n; ++i) {
-      double s = 0.0;
-      for (int k = 0; k < n; ++k)
-        s += J_(k, i) * np_[k];
-      d_[i] = s;
-    }
-    for (int i = 0; i < n; ++i) {
-      double s = 0.0;
-      for (int k = q_; k < n; ++k)
-        s += J_(i, k) * d_[k];
-      z_[i] = s;
-    }
-    for (int i = q_ - 1; i >= 0; --i) {
-      double s = d_[i];
-      for (int k = i + 1; k < q_; ++k)
-        s -= R_(i, k) * r_[k];
-      r_[i] = s / R_(i, i);
-    }
-  };
-  auto dot_np = [&](const Eigen::Ref<const Eigen::VectorXd>& v) {  // Ref: no copy of x
+// d = J^T np; z = J(:, q:n) d(q:n); r = R^{-1} d(0:q).
+void DualQp::compute_directions(int n) {
+  for (int i = 0; i < n; ++i) {
     double s = 0.0;
-    for (int i = 0; i < n; ++i)
-      s += v[i] * np_[i];
-    return s;
-  };
-  double scale_x = 1.0;
+    for (int k = 0; k < n; ++k)
+      s += J_(k, i) * np_[k];
+    d_[i] = s;
+  }
+  for (int i = 0; i < n; ++i) {
+    double s = 0.0;
+    for (int k = q_; k < n; ++k)
+      s += J_(i, k) * d_[k];
+    z_[i] = s;
+  }
+  for (int i = q_ - 1; i >= 0; --i) {
+    double s = d_[i];
+    for (int k = i + 1; k < q_; ++k)
+      s -= R_(i, k) * r_[k];
+    r_[i] = s / R_(i, i);
+  }
+}
 
-  // Equalities: full steps.
-  for (int e = 0; e < meq; ++e) {
+double DualQp::dot_np(const Eigen::Ref<const Eigen::VectorXd>& v, int n) const {
+  double s = 0.0;
+  for (int i = 0; i < n; ++i)
+    s += v[i] * np_[i];
+  return s;
+}
+
+// Equalities: full steps. kInfeasible for a dependent equality.
+SolverStatus DualQp::add_equalities(const Eigen::Ref<const Eigen::MatrixXd>& A_eq,
+                                    const Eigen::Ref<const Eigen::VectorXd>& b_eq,
+                                    Eigen::Ref<Eigen::VectorXd> x) {
+  const int n = static_cast<int>(x.size());
+  for (int e = 0; e < static_cast<int>(A_eq.rows()); ++e) {
     for (int i = 0; i < n; ++i)
       np_[i] = A_eq(e, i);
-    compute_directions();
-    const double znp = dot_np(z_);
-    if (!(std::abs(znp) > 1e-14 * (1.0 + np_.head(n).squaredNorm()))) {
+    compute_directions(n);
+    const double znp = dot_np(z_, n);
+    if (!(std::abs(znp) > 1e-14 * (1.0 + np_.head(n).squaredNorm())))
       return SolverStatus::kInfeasible;  // dependent equality
-    }
-    const double t2 = (b_eq[e] - dot_np(x)) / znp;
+    const double t2 = (b_eq[e] - dot_np(x, n)) / znp;
     for (int i = 0; i < n; ++i)
       x[i] += t2 * z_[i];
     for (int i = 0; i < q_; ++i)
@@ -222,84 +250,79 @@ SolverStatus DualQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& G,
     active_[q_] = -(e + 1);
     add_to_active_set(n);
   }
+  return SolverStatus::kOptimal;
+}
 
-  SolverStatus status = SolverStatus::kOptimal;
+// The inactive inequality most violated at x (beyond a tolerance relative to its scale), or -1.
+int DualQp::most_violated(const Eigen::Ref<const Eigen::MatrixXd>& A_in,
+                          const Eigen::Ref<const Eigen::VectorXd>& b_in,
+                          const Eigen::Ref<const Eigen::VectorXd>& x) const {
+  const int n = static_cast<int>(x.size());
+  const double scale_x = 1.0 + x.norm();
+  int p = -1;
+  double worst = 0.0;
+  for (int i = 0; i < static_cast<int>(A_in.rows()); ++i) {
+    if (is_active_[i]) continue;
+    double s = -b_in[i];
+    double row_norm2 = 0.0;
+    for (int k = 0; k < n; ++k) {
+      s += A_in(i, k) * x[k];
+      row_norm2 += A_in(i, k) * A_in(i, k);
+    }
+    const double tol = 1e-12 * (std::abs(b_in[i]) + std::sqrt(row_norm2) * scale_x);
+    if (s < -tol && s < worst) {
+      worst = s;
+      p = i;
+    }
+  }
+  return p;
+}
+
+// Makes inequality p (normal np_, bound b_p) active: partial (dual) steps drop active
+// inequalities whose multipliers would turn negative, until the full (primal) step satisfies p.
+SolverStatus DualQp::add_inequality(int p, double b_p, Eigen::Ref<Eigen::VectorXd> x) {
+  const int n = static_cast<int>(x.size());
+  double u_plus = 0.0;
   for (;;) {
-    // Most violated inequality.
-    scale_x = 1.0 + x.norm();
-    int p = -1;
-    double worst = 0.0;
-    for (int i = 0; i < min; ++i) {
-      if (is_active_[i]) continue;
-      double s = -b_in[i];
-      double row_norm2 = 0.0;
-      for (int k = 0; k < n; ++k) {
-        s += A_in(i, k) * x[k];
-        row_norm2 += A_in(i, k) * A_in(i, k);
-      }
-      const double tol = 1e-12 * (std::abs(b_in[i]) + std::sqrt(row_norm2) * scale_x);
-      if (s < -tol && s < worst) {
-        worst = s;
-        p = i;
+    if (iterations_ >= max_iterations_) return SolverStatus::kIterationLimit;
+    ++iterations_;
+    compute_directions(n);
+    // Partial (dual) step: largest step keeping the active inequality multipliers >= 0.
+    double t1 = kInf;
+    int drop = -1;
+    for (int k = 0; k < q_; ++k) {
+      if (active_[k] < 0 || !(r_[k] > 0.0)) continue;
+      const double t = u_[k] / r_[k];
+      if (t < t1) {
+        t1 = t;
+        drop = k;
       }
     }
-    if (p < 0) break;
-    for (int k = 0; k < n; ++k)
-      np_[k] = A_in(p, k);
-    double u_plus = 0.0;
-    for (;;) {
-      if (iterations_ >= max_iterations_) {
-        status = SolverStatus::kIterationLimit;
-        break;
-      }
-      ++iterations_;
-      compute_directions();
-      // Partial (dual) step: largest step keeping the active inequality multipliers >= 0.
-      double t1 = kInf;
-      int drop = -1;
-      for (int k = 0; k < q_; ++k) {
-        if (active_[k] < 0 || !(r_[k] > 0.0)) continue;
-        const double t = u_[k] / r_[k];
-        if (t < t1) {
-          t1 = t;
-          drop = k;
-        }
-      }
-      // Full (primal) step: makes constraint p active.
-      const double znp = dot_np(z_);
-      double t2 = kInf;
-      if (znp > 1e-14 * np_.head(n).squaredNorm()) t2 = -(dot_np(x) - b_in[p]) / znp;
-      if (t1 == kInf && t2 == kInf) {
-        status = SolverStatus::kInfeasible;
-        break;
-      }
-      if (t2 == kInf) {
-        for (int k = 0; k < q_; ++k)
-          u_[k] -= t1 * r_[k];
-        u_plus += t1;
-        is_active_[active_[drop]] = 0;
-        drop_from_active_set(n, drop);
-        continue;
-      }
-      const double t = std::min(t1, t2);
+    // Full (primal) step: makes constraint p active.
+    const double znp = dot_np(z_, n);
+    double t2 = kInf;
+    if (znp > 1e-14 * np_.head(n).squaredNorm()) t2 = -(dot_np(x, n) - b_p) / znp;
+    if (t1 == kInf && t2 == kInf) return SolverStatus::kInfeasible;
+    const double t = t2 == kInf ? t1 : std::min(t1, t2);
+    if (t2 != kInf)
       for (int i = 0; i < n; ++i)
         x[i] += t * z_[i];
-      for (int k = 0; k < q_; ++k)
-        u_[k] -= t * r_[k];
-      u_plus += t;
-      if (t2 <= t1) {
-        u_[q_] = u_plus;
-        active_[q_] = p;
-        is_active_[p] = 1;
-        add_to_active_set(n);
-        break;
-      }
-      is_active_[active_[drop]] = 0;
-      drop_from_active_set(n, drop);
+    for (int k = 0; k < q_; ++k)
+      u_[k] -= t * r_[k];
+    u_plus += t;
+    if (t2 != kInf && t2 <= t1) {
+      u_[q_] = u_plus;
+      active_[q_] = p;
+      is_active_[p] = 1;
+      add_to_active_set(n);
+      return SolverStatus::kOptimal;
     }
-    if (status != SolverStatus::kOptimal) break;
+    is_active_[active_[drop]] = 0;
+    drop_from_active_set(n, drop);
   }
+}
 
+void DualQp::store_multipliers() {
   for (int k = 0; k < q_; ++k) {
     if (active_[k] >= 0) {
       u_in_[active_[k]] = u_[k];
@@ -307,6 +330,13 @@ SolverStatus DualQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& G,
       lambda_eq_[-active_[k] - 1] = u_[k];
     }
   }
+}
+
+// 1/2 x^T G x + g^T x, G from its lower triangle.
+double DualQp::objective_at(const Eigen::Ref<const Eigen::MatrixXd>& G,
+                            const Eigen::Ref<const Eigen::VectorXd>& g,
+                            const Eigen::Ref<const Eigen::VectorXd>& x) const {
+  const int n = static_cast<int>(x.size());
   double obj = 0.0;
   for (int i = 0; i < n; ++i) {
     double gi = g[i];
@@ -316,8 +346,7 @@ SolverStatus DualQp::solve(const Eigen::Ref<const Eigen::MatrixXd>& G,
     }
     obj += gi * x[i];
   }
-  objective_ = obj;
-  return status;
+  return obj;
 }
 
 }  // namespace poise::contact

@@ -51,6 +51,22 @@ class DualQp {
  private:
   void add_to_active_set(int n);  // uses d_; q_ += 1
   void drop_from_active_set(int n, int k);
+  bool factor(const Eigen::Ref<const Eigen::MatrixXd>& G);
+  void unconstrained_minimum(const Eigen::Ref<const Eigen::VectorXd>& g,
+                             Eigen::Ref<Eigen::VectorXd> x);
+  void compute_directions(int n);
+  double dot_np(const Eigen::Ref<const Eigen::VectorXd>& v, int n) const;
+  SolverStatus add_equalities(const Eigen::Ref<const Eigen::MatrixXd>& A_eq,
+                              const Eigen::Ref<const Eigen::VectorXd>& b_eq,
+                              Eigen::Ref<Eigen::VectorXd> x);
+  int most_violated(const Eigen::Ref<const Eigen::MatrixXd>& A_in,
+                    const Eigen::Ref<const Eigen::VectorXd>& b_in,
+                    const Eigen::Ref<const Eigen::VectorXd>& x) const;
+  SolverStatus add_inequality(int p, double b_p, Eigen::Ref<Eigen::VectorXd> x);
+  void store_multipliers();
+  double objective_at(const Eigen::Ref<const Eigen::MatrixXd>& G,
+                      const Eigen::Ref<const Eigen::VectorXd>& g,
+                      const Eigen::Ref<const Eigen::VectorXd>& x) const;
 
   int max_vars_ = 0;
   int max_eq_ = 0;
