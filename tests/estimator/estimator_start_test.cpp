@@ -5,8 +5,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
+#include <map>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "poise/estimator/estimator.hpp"
 #include "poise/scenario/scenario.hpp"
@@ -132,6 +135,68 @@ TEST(EstimatorStart, PlatformHeightsFollowThePlacement) {
   const double expected = 0.1 + 0.14 * std::sin(10.0 * M_PI / 180.0);
   EXPECT_NEAR(s.support_height[1], expected, 1e-3);
   EXPECT_NEAR(s.support_height[0], expected, 2e-3);
+}
+
+std::string error_of(const std::string& section) {
+  try {
+    parse(section);
+  } catch (const std::runtime_error& e) {
+    return e.what();
+  }
+  return "accepted";
+}
+
+// The `estimator:` keys come from one table (deploy/scenario/src/estimator_section.cpp): each is
+// parsed, checked and in the reference (estimator/CONFIG.md). A key added to the table without a
+// case here fails.
+TEST(EstimatorSection, EveryTableKeyIsParsedCheckedAndDocumented) {
+  using Hints = scenario::EstimatorHints;
+  struct Case {
+    std::string good;
+    std::function<bool(const Hints&)> stored;
+    std::vector<std::string> bad;
+  };
+  const std::map<std::string, Case> cases = {
+      {"type", {"leg-odometry", [](const Hints& h) { return h.type == "leg-odometry"; },
+                {"kalman", "[invariant-ekf]", "''"}}},
+      {"supports", {"translating", [](const Hints& h) { return h.supports == "translating"; },
+                    {"rolling", "{a: 1}"}}},
+      {"ground_height", {"0.25", [](const Hints& h) { return h.ground_height == 0.25; },
+                         {"high", ".nan"}}},
+      {"support_height",
+       {"{left: 0.1}",
+        [](const Hints& h) {
+          return h.support_height.size() == 1 && h.support_height[0].first == "left" &&
+                 h.support_height[0].second == 0.1;
+        },
+        {"0.1", "{middle: 0.1}", "{left: x}"}}},
+      {"stance_rate_hz", {"12.5", [](const Hints& h) { return h.stance_rate_hz == 12.5; },
+                          {"-1", "fast", ".inf"}}},
+      {"contact_ft_noise", {"0.3", [](const Hints& h) { return h.contact_ft_noise == 0.3; },
+                            {"-0.5", ".nan"}}},
+      {"contact_rest_time", {"0.05", [](const Hints& h) { return h.contact_rest_time == 0.05; },
+                             {"-0.1", "20", "soon"}}},
+      {"imu_delay_ticks", {"3", [](const Hints& h) { return h.imu_delay_ticks == 3; },
+                           {"-1", "101", "2.5"}}},
+  };
+  const std::vector<std::string_view> keys = scenario::estimator_section_keys();
+  EXPECT_EQ(keys.size(), cases.size());
+  const std::string md = scenario::estimator_section_markdown();
+  const std::string unknown = error_of("estimator: {kind: x}\n");
+  EXPECT_NE(unknown.find("estimator.kind: unknown key"), std::string::npos) << unknown;
+  for (const std::string_view k : keys) {
+    const std::string key(k);
+    const auto it = cases.find(key);
+    ASSERT_NE(it, cases.end()) << key << ": a table key without a case here";
+    EXPECT_NE(md.find("| `estimator." + key + "` |"), std::string::npos) << key;
+    EXPECT_NE(unknown.find(key), std::string::npos) << key << " not in the allowed list";
+    const scenario::Scenario s = parse("estimator: {" + key + ": " + it->second.good + "}\n");
+    EXPECT_TRUE(it->second.stored(s.estimator)) << key << ": " << it->second.good;
+    for (const std::string& bad : it->second.bad) {
+      const std::string m = error_of("estimator: {" + key + ": " + bad + "}\n");
+      EXPECT_NE(m.find("estimator." + key), std::string::npos) << key << ": " << bad << " -> " << m;
+    }
+  }
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "estimator_section.hpp"
 #include "poise/sim/simulator.hpp"
 #include "poise/sim/yaml_checks.hpp"
 
@@ -30,9 +31,11 @@ std::string plain_name_problem(const std::string& name) {
                            ch == '_' || ch == '-';
                   });
   if (ok) return "";
-  return "'" + name.substr(0, 100) +
-         "' is not a plain file name (1 to 100 of A-Z a-z 0-9 . _ -, no '..'): it names the "
+  std::string why = "'";
+  why.append(name, 0, 100);
+  why += "' is not a plain file name (1 to 100 of A-Z a-z 0-9 . _ -, no '..'): it names the "
          "result files";
+  return why;
 }
 
 Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
@@ -67,64 +70,8 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
     }
   }
 
-  // estimator setting
-  if (const YAML::Node e = root["estimator"]) {
-    c.allow(e, "estimator",
-            {"type", "supports", "ground_height", "support_height", "stance_rate_hz",
-             "contact_ft_noise", "contact_rest_time", "imu_delay_ticks"});
-    if (e["imu_delay_ticks"]) {
-      const double d = c.num(e["imu_delay_ticks"], "estimator.imu_delay_ticks");
-      if (!(d >= 0.0 && d <= 100.0) || d != std::floor(d))
-        c.fail("estimator.imu_delay_ticks",
-               "must be a whole number of ticks within 0..100 (the IMU's latency, used with an "
-               "IMU behind joints)");
-      else
-        sc.estimator.imu_delay_ticks = static_cast<int>(d);
-    }
-    if (e["contact_ft_noise"]) {
-      sc.estimator.contact_ft_noise = c.num(e["contact_ft_noise"], "estimator.contact_ft_noise");
-      if (!(sc.estimator.contact_ft_noise >= 0.0) || !std::isfinite(sc.estimator.contact_ft_noise))
-        c.fail("estimator.contact_ft_noise",
-               "must be a finite number >= 0 (N, the F/T normal-force noise; 0: the light-touch "
-               "rule off)");
-    }
-    if (e["contact_rest_time"]) {
-      sc.estimator.contact_rest_time = c.num(e["contact_rest_time"], "estimator.contact_rest_time");
-      if (!(sc.estimator.contact_rest_time >= 0.0) || !(sc.estimator.contact_rest_time <= 10.0))
-        c.fail("estimator.contact_rest_time",
-               "must be a number of seconds within 0..10 (the contact detector's resting rule; "
-               "0: off)");
-    }
-    if (e["stance_rate_hz"]) {
-      sc.estimator.stance_rate_hz = c.num(e["stance_rate_hz"], "estimator.stance_rate_hz");
-      if (!(sc.estimator.stance_rate_hz >= 0.0) || !std::isfinite(sc.estimator.stance_rate_hz))
-        c.fail("estimator.stance_rate_hz", "must be a finite number >= 0 (Hz; 0: the gyro alone)");
-    }
-    if (e["type"]) {
-      sc.estimator.type = c.str(e["type"], "estimator.type");
-      if (sc.estimator.type != "invariant-ekf" && sc.estimator.type != "leg-odometry")
-        c.fail("estimator.type", "must be 'invariant-ekf' or 'leg-odometry'");
-    }
-    if (e["ground_height"]) sc.estimator.ground_height = c.num(e["ground_height"], "estimator.ground_height");
-    if (const YAML::Node sh = e["support_height"]) {
-      if (!sh.IsMap()) c.fail("estimator.support_height", "must be a mapping foot -> height (m)");
-      for (const auto& kv : sh) {
-        const std::string foot = kv.first.as<std::string>();
-        bool known = false;
-        for (const auto& f : sc.sim.robot.feet)
-          known = known || f.name == foot;
-        if (!known) c.fail("estimator.support_height." + foot, "is not a foot of the robot");
-        sc.estimator.support_height.emplace_back(
-            foot, c.num(kv.second, "estimator.support_height." + foot));
-      }
-    }
-    if (e["supports"]) {
-      sc.estimator.supports = c.str(e["supports"], "estimator.supports");
-      if (sc.estimator.supports != "fixed" && sc.estimator.supports != "moving" &&
-          sc.estimator.supports != "translating")
-        c.fail("estimator.supports", "must be 'fixed', 'moving' or 'translating'");
-    }
-  }
+  // estimator setting (estimator_section.cpp: the table of its keys)
+  if (const YAML::Node e = root["estimator"]) parse_estimator_section(e, c, sc, sc.estimator);
 
   // contact optimiser hint for poise run
   if (const YAML::Node cn = root["contact"]) {

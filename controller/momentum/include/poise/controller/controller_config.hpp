@@ -5,6 +5,10 @@
 // (swap the Y and Z entries: the VERTICAL gains are the paper's middle entries), plus the values
 // this project chose where the paper gives none (documented field by field; measured on the
 // project humanoid, see controller/momentum/README.md).
+//
+// The YAML keys, their units, paper equations and allowed ranges are declared once, in the table
+// of controller_config_keys.hpp: it drives load_controller_config(), validate() and the reference
+// controller/momentum/CONFIG.md. A new field needs its row there.
 
 #include <Eigen/Core>
 #include <filesystem>
@@ -309,7 +313,8 @@ struct ControllerConfig {
   /// no CoM target [m]; <= 0: the nominal posture's CoM height.
   double com_height = 0.0;
 
-  /// Throws ConfigError naming the first bad field (negative gain, w_b outside (0,1), ...).
+  /// Throws ConfigError naming the first bad field: a value outside its key's range in the table
+  /// (controller_config_keys.hpp), or a cut-off not below half the control rate.
   void validate() const;
 };
 

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <limits>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -23,7 +24,8 @@ struct DdsHints {
   std::vector<std::pair<std::string, std::string>> per_component;  ///< component -> vendor
 };
 
-/// Optional setting of the state estimator for this world (`estimator:` in the file): which
+/// Optional setting of the state estimator for this world (`estimator:` in the file; its keys,
+/// defaults and ranges: one table, estimator_section.cpp, and estimator/CONFIG.md): which
 /// estimator publishes the state, whether the feet stand on supports that move in W (the
 /// estimator's SupportModel; see estimator.hpp) and the height of what the soles stand on at the
 /// start. A property of the deployment the user knows, not information from the simulation.
@@ -50,6 +52,12 @@ struct EstimatorHints {
   /// (EstimatorConfig::imu_delay_ticks); -1: not given (estimator_imu_delay_ticks()).
   int imu_delay_ticks = -1;
 };
+
+/// The keys of a scenario's `estimator:` section, in the table's order.
+std::vector<std::string_view> estimator_section_keys();
+/// The reference page estimator/CONFIG.md: one Markdown table row per `estimator:` key (key,
+/// default, unit, allowed values, one line), from the table the parser uses.
+std::string estimator_section_markdown();
 
 /// A scenario: the simulator's world (name, duration, robot_config, sim, success, support...)
 /// and the configuration of the other components.
