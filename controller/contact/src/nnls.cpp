@@ -46,124 +46,139 @@ SolverStatus Nnls::run(const Eigen::Ref<const Eigen::MatrixXd>* A, const double*
   int* cols = ws_.cols.data();  // the passive set, in the order its variables entered
   int* passive = ws_.state.data();
   int* rejected = ws_.rejected.data();
-  const double* z = ws_.z.data();
   for (int j = 0; j < n; ++j) {
     passive[j] = 0;
     rejected[j] = 0;
   }
-  int k = 0;         // size of the passive set
   int factored = 0;  // leading columns whose Cholesky rows are valid
-
-  // Warm start: the unconstrained least-squares solution, pruned repeatedly to its positive
-  // entries, gives a feasible point (x_P > 0, x_Z = 0) from which Lawson-Hanson continues; when the
-  // unconstrained solution is already non-negative this is the answer. If a sub-problem is
-  // ill-conditioned the solver starts cold from x = 0.
-  {
-    int m = n;
-    for (int j = 0; j < n; ++j)
-      cols[j] = j;
-    while (m > 0 && iterations_ < max_iterations_) {
-      ++iterations_;
-      for (int c = 0; c < m; ++c)
-        ws_.rhs[c] = ws_.Atb[cols[c]];
-      if (!detail::subset_normal_equations(m, factored, ws_)) break;
-      const int kept = detail::compact_columns(m, factored, ws_, [&](int c) { return z[c] > 0.0; });
-      if (kept == m) {
-        for (int c = 0; c < m; ++c) {
-          x[cols[c]] = z[c];
-          passive[cols[c]] = 1;
-        }
-        k = m;
-        break;
-      }
-      m = kept;
-    }
-    if (k == 0) factored = 0;  // cold start
-  }
-
-  SolverStatus status = SolverStatus::kOptimal;
+  int k = warm_start(n, x, factored);  // size of the passive set
   for (;;) {
     detail::dual_from_normal(n, x.data(), ws_);  // w = A^T (b - A x)
-    // Most positive dual among the zero (non-passive, not rejected) variables.
-    int t = -1;
-    double best = tol;
-    for (int j = 0; j < n; ++j) {
-      if (!passive[j] && !rejected[j] && ws_.w[j] > best) {
-        best = ws_.w[j];
-        t = j;
-      }
-    }
-    if (t < 0) break;  // KKT conditions hold
+    const int t = entering_variable(n, tol);
+    if (t < 0) return SolverStatus::kOptimal;  // KKT conditions hold
     passive[t] = 1;
     cols[k++] = t;
-
     bool x_changed = false;
-    bool first = true;
-    for (;;) {
-      if (iterations_ >= max_iterations_) {
-        status = SolverStatus::kIterationLimit;
-        break;
-      }
-      ++iterations_;
-      for (int c = 0; c < k; ++c)
-        ws_.rhs[c] = ws_.Atb[cols[c]];
-      if (!detail::subset_normal_equations(k, factored, ws_)) {
-        if (A == nullptr) {  // normal-equation form: no columns to fall back on (x stays feasible)
-          status = SolverStatus::kNotPositiveDefinite;
-          break;
-        }
-        detail::subset_least_squares(*A, k, b, ws_);
-      }
-      if (first) {
-        first = false;
-        // The entering variable (last in the set) must move into the positive orthant; otherwise
-        // (round-off or a dependent column) it is rejected until x changes, as in Lawson-Hanson's
-        // NNLS code.
-        if (!(z[k - 1] > 0.0)) {
-          passive[t] = 0;
-          rejected[t] = 1;
-          --k;
-          factored = std::min(factored, k);
-          break;
-        }
-      }
-      bool all_positive = true;
-      double alpha = 2.0;
-      int blocking = -1;
-      for (int c = 0; c < k; ++c) {
-        if (z[c] <= 0.0) {
-          all_positive = false;
-          const int j = cols[c];
-          const double a = x[j] / (x[j] - z[c]);
-          if (a < alpha) {
-            alpha = a;
-            blocking = j;
-          }
-        }
-      }
-      x_changed = true;
-      if (all_positive) {
-        for (int c = 0; c < k; ++c)
-          x[cols[c]] = z[c];
-        break;
-      }
-      for (int c = 0; c < k; ++c) {
-        const int j = cols[c];
-        x[j] += alpha * (z[c] - x[j]);
-        if (j == blocking || x[j] <= 0.0) {
-          x[j] = 0.0;
-          passive[j] = 0;
-        }
-      }
-      k = detail::compact_columns(k, factored, ws_, [&](int c) { return passive[cols[c]] != 0; });
-    }
-    if (x_changed) {
+    const SolverStatus status = add_variable(A, b, t, k, factored, x_changed, x);
+    if (x_changed)
       for (int j = 0; j < n; ++j)
         rejected[j] = 0;
-    }
-    if (status != SolverStatus::kOptimal) break;
+    if (status != SolverStatus::kOptimal) return status;
   }
-  return status;
+}
+
+// Warm start: the unconstrained least-squares solution, pruned repeatedly to its positive
+// entries, gives a feasible point (x_P > 0, x_Z = 0) from which Lawson-Hanson continues; when the
+// unconstrained solution is already non-negative this is the answer. If a sub-problem is
+// ill-conditioned the solver starts cold from x = 0. Returns the size of the passive set.
+int Nnls::warm_start(int n, Eigen::Ref<Eigen::VectorXd> x, int& factored) {
+  int* cols = ws_.cols.data();
+  const double* z = ws_.z.data();
+  int k = 0;
+  int m = n;
+  for (int j = 0; j < n; ++j)
+    cols[j] = j;
+  while (m > 0 && iterations_ < max_iterations_) {
+    ++iterations_;
+    for (int c = 0; c < m; ++c)
+      ws_.rhs[c] = ws_.Atb[cols[c]];
+    if (!detail::subset_normal_equations(m, factored, ws_)) break;
+    const int kept = detail::compact_columns(m, factored, ws_, [&](int c) { return z[c] > 0.0; });
+    if (kept == m) {
+      for (int c = 0; c < m; ++c) {
+        x[cols[c]] = z[c];
+        ws_.state[cols[c]] = 1;
+      }
+      k = m;
+      break;
+    }
+    m = kept;
+  }
+  if (k == 0) factored = 0;  // cold start
+  return k;
+}
+
+// Most positive dual (above tol) among the zero (non-passive, not rejected) variables, or -1.
+int Nnls::entering_variable(int n, double tol) const {
+  int t = -1;
+  double best = tol;
+  for (int j = 0; j < n; ++j) {
+    if (!ws_.state[j] && !ws_.rejected[j] && ws_.w[j] > best) {
+      best = ws_.w[j];
+      t = j;
+    }
+  }
+  return t;
+}
+
+// Lawson-Hanson's inner loop for the entering variable t (last of the k passive columns): solve
+// on the passive set, and while a passive variable would turn non-positive, step towards that
+// solution as far as feasible and drop the variables that reach 0.
+SolverStatus Nnls::add_variable(const Eigen::Ref<const Eigen::MatrixXd>* A, const double* b, int t,
+                                int& k, int& factored, bool& x_changed,
+                                Eigen::Ref<Eigen::VectorXd> x) {
+  const int* cols = ws_.cols.data();
+  const double* z = ws_.z.data();
+  for (bool first = true;; first = false) {
+    if (iterations_ >= max_iterations_) return SolverStatus::kIterationLimit;
+    ++iterations_;
+    for (int c = 0; c < k; ++c)
+      ws_.rhs[c] = ws_.Atb[cols[c]];
+    if (!detail::subset_normal_equations(k, factored, ws_)) {
+      // Normal-equation form: no columns to fall back on (x stays feasible).
+      if (A == nullptr) return SolverStatus::kNotPositiveDefinite;
+      detail::subset_least_squares(*A, k, b, ws_);
+    }
+    // The entering variable (last in the set) must move into the positive orthant; otherwise
+    // (round-off or a dependent column) it is rejected until x changes, as in Lawson-Hanson's
+    // NNLS code.
+    if (first && !(z[k - 1] > 0.0)) {
+      ws_.state[t] = 0;
+      ws_.rejected[t] = 1;
+      --k;
+      factored = std::min(factored, k);
+      return SolverStatus::kOptimal;
+    }
+    x_changed = true;
+    if (step_to_passive_solution(k, x)) return SolverStatus::kOptimal;
+    k = detail::compact_columns(k, factored, ws_,
+                                [&](int c) { return ws_.state[cols[c]] != 0; });
+  }
+}
+
+// x moves towards the passive set's solution z: all the way when z > 0 (returns true), else as
+// far as the first variable to reach 0 (those that do leave the passive set).
+bool Nnls::step_to_passive_solution(int k, Eigen::Ref<Eigen::VectorXd> x) {
+  const int* cols = ws_.cols.data();
+  const double* z = ws_.z.data();
+  bool all_positive = true;
+  double alpha = 2.0;
+  int blocking = -1;
+  for (int c = 0; c < k; ++c) {
+    if (z[c] <= 0.0) {
+      all_positive = false;
+      const int j = cols[c];
+      const double a = x[j] / (x[j] - z[c]);
+      if (a < alpha) {
+        alpha = a;
+        blocking = j;
+      }
+    }
+  }
+  if (all_positive) {
+    for (int c = 0; c < k; ++c)
+      x[cols[c]] = z[c];
+    return true;
+  }
+  for (int c = 0; c < k; ++c) {
+    const int j = cols[c];
+    x[j] += alpha * (z[c] - x[j]);
+    if (j == blocking || x[j] <= 0.0) {
+      x[j] = 0.0;
+      ws_.state[j] = 0;
+    }
+  }
+  return false;
 }
 
 }  // namespace poise::contact

@@ -55,6 +55,11 @@ class Nnls {
   /// normal-equation form) serve the QR fallback of ill-conditioned sub-problems.
   SolverStatus run(const Eigen::Ref<const Eigen::MatrixXd>* A, const double* b, int n, double tol,
                    Eigen::Ref<Eigen::VectorXd> x);
+  int warm_start(int n, Eigen::Ref<Eigen::VectorXd> x, int& factored);
+  int entering_variable(int n, double tol) const;
+  SolverStatus add_variable(const Eigen::Ref<const Eigen::MatrixXd>* A, const double* b, int t,
+                            int& k, int& factored, bool& x_changed, Eigen::Ref<Eigen::VectorXd> x);
+  bool step_to_passive_solution(int k, Eigen::Ref<Eigen::VectorXd> x);
 
   int max_iterations_ = 0;
   double tolerance_ = 1e-12;
