@@ -472,132 +472,164 @@ std::string run_ddsperf(int domain, double& p50, double& p99, double& max) {
   return {};
 }
 
+// The command line.
+struct BenchArgs {
+  poise::dds::DdsOptions dds;
+  bool echo = false;
+  std::string api = "layer";
+  int samples = 5000, warmup = 500;
+  double timeout_s = 120;
+};
+
+/// Parses the command line (the DDS options first); 0 after --help, else nullopt. Throws
+/// std::invalid_argument on a bad option.
+std::optional<int> parse_args(int argc, char** argv, BenchArgs& args) {
+  args.dds = poise::dds::consume_dds_args(argc, argv);
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&]() -> std::string {
+      if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
+      return argv[++i];
+    };
+    if (a == "--echo") {
+      args.echo = true;
+    } else if (a == "--api") {
+      args.api = next();
+    } else if (a == "--samples") {
+      args.samples = std::stoi(next());
+    } else if (a == "--warmup") {
+      args.warmup = std::stoi(next());
+    } else if (a == "--timeout-s") {
+      args.timeout_s = std::stod(next());
+    } else if (a == "--help" || a == "-h") {
+      std::printf(
+          "usage: poise-bench-dds-latency [--samples N] [--warmup N] [--domain FIRST]\n"
+          "Uses 7 consecutive DDS domains from FIRST (default: derived from the pid).\n");
+      return 0;
+    } else {
+      throw std::invalid_argument("unknown option " + a);
+    }
+  }
+  return std::nullopt;
+}
+
+// The pairings measured, one domain each: ping side, echo side, api.
+struct Row {
+  const char* name;
+  const char* api;
+  poise::dds::Vendor ping, echo;
+};
+using poise::dds::Vendor;
+constexpr Row kRows[] = {
+    {"cyclone-cyclone", "layer", Vendor::cyclone, Vendor::cyclone},
+    {"cyclone-cyclone", "raw", Vendor::cyclone, Vendor::cyclone},
+    {"cyclone-cyclone", "wd1", Vendor::cyclone, Vendor::cyclone},
+    {"fastdds-fastdds", "layer", Vendor::fastdds, Vendor::fastdds},
+    {"fastdds-fastdds", "raw", Vendor::fastdds, Vendor::fastdds},
+    {"fastdds-fastdds", "wd1", Vendor::fastdds, Vendor::fastdds},
+    {"cyclone-fastdds", "layer", Vendor::cyclone, Vendor::fastdds},
+    {"cyclone-fastdds", "raw", Vendor::cyclone, Vendor::fastdds},
+    {"cyclone-fastdds", "wd1", Vendor::cyclone, Vendor::fastdds},
+};
+
+/// CPU cost of what our layer adds per sample (same process, no DDS).
+void print_layer_cpu(const poise::msg::Sensors& probe) {
+  const auto& ts = poise::dds::TopicTraits<poise::msg::Sensors>::type_support();
+  std::vector<std::uint8_t> buf(ts.max_serialized_size);
+  poise::msg::Sensors out;
+  char why[256];
+  constexpr int kIter = 20000;
+  std::size_t n = 0;
+  bool ok = true;
+  auto t0 = Clock::now();
+  for (int i = 0; i < kIter; ++i)
+    n = ts.serialize(&probe, buf.data(), buf.size());
+  auto t1 = Clock::now();
+  for (int i = 0; i < kIter; ++i)
+    ok &= ts.deserialize(buf.data(), n, &out, why, sizeof(why));
+  auto t2 = Clock::now();
+  for (int i = 0; i < kIter; ++i)
+    ok &= ts.validate(&out, why, sizeof(why));
+  auto t3 = Clock::now();
+  auto us = [](auto d) { return std::chrono::duration<double, std::micro>(d).count() / kIter; };
+  std::printf(
+      "Layer CPU per sample: serialize %.2f us, deserialize %.2f us, validate %.2f us%s\n\n",
+      us(t1 - t0), us(t2 - t1), us(t3 - t2), ok ? "" : " (FAILED)");
+}
+
+/// One line per pairing, on the domains from `base`; returns the next free domain.
+int run_pairings(int base, int samples, int warmup) {
+  std::printf("%-16s %-6s %10s %10s %10s %14s\n", "ping-echo", "api", "median", "p99", "max",
+              "allocs/rt*");
+  std::fflush(stdout);
+  int domain = base;
+  double layer_median = 0;
+  for (const Row& r : kRows) {
+    const Stats s = run_pairing(r.api, r.ping, r.echo, domain++, samples, warmup);
+    if (!s.error.empty()) {
+      std::printf("%-16s %-6s FAILED: %s\n", r.name, r.api, s.error.c_str());
+      continue;
+    }
+    std::printf("%-16s %-6s %10.1f %10.1f %10.1f %14.2f", r.name, r.api, s.median, s.p99, s.max,
+                s.allocs_per_rt);
+    if (std::string(r.api) == "layer") {
+      layer_median = s.median;
+    } else if (std::string(r.api) == "raw") {
+      std::printf("   layer - raw (median): %+.1f", layer_median - s.median);
+    } else {
+      std::printf("   layer (writers keep-last 32) / writers keep-last 1 (median): %.2f",
+                  layer_median / s.median);
+    }
+    std::printf("\n");
+    std::fflush(stdout);
+  }
+  return domain;
+}
+
+/// The floor: ddsperf ping/pong on `domain`.
+void print_ddsperf_floor(int domain) {
+  double p50 = 0, p99 = 0, max = 0;
+  const std::string err = run_ddsperf(domain, p50, p99, max);
+  if (!err.empty()) {
+    std::printf("ddsperf: %s\n", err.c_str());
+  } else {
+    std::printf(
+        "%-16s %-6s %10.1f %10.1f %10.1f   (ddsperf ping size 1k; it prints half the round "
+        "trip: %.1f / %.1f / %.1f)\n",
+        "ddsperf", "floor", 2 * p50, 2 * p99, 2 * max, p50, p99, max);
+  }
+}
+
+int run_bench(const BenchArgs& args) {
+  if (args.samples < 100) throw std::invalid_argument("--samples must be >= 100");
+  const int base = args.dds.domain_id != 0 ? args.dds.domain_id
+                                           : 10 + static_cast<int>(::getpid() % 20) * 10;
+  if (base + 9 > 232) throw std::invalid_argument("--domain must be <= 223");
+  poise::msg::Sensors probe;
+  fill(probe);
+  const auto& ts = poise::dds::TopicTraits<poise::msg::Sensors>::type_support();
+  std::printf(
+      "DDS round trip: Sensors sample of %zu bytes (CDR incl. header), reliable keep-last 1,\n"
+      "loopback configs (deploy/dds), separate echo process, %d round trips after %d warm-up,\n"
+      "domains %d..%d. Times in microseconds.\n\n",
+      ts.serialized_size(&probe), args.samples, args.warmup, base, base + 9);
+  print_layer_cpu(probe);
+  const int domain = run_pairings(base, args.samples, args.warmup);
+  print_ddsperf_floor(domain);
+  std::printf(
+      "\n* operator new calls per round trip in the ping process (our code + vendor internals;\n"
+      "  the Cyclone path also mallocs one serdata per sample, not counted here).\n");
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   try {
-    poise::dds::DdsOptions dds = poise::dds::consume_dds_args(argc, argv);
-    bool echo = false;
-    std::string api = "layer";
-    int samples = 5000, warmup = 500;
-    double timeout_s = 120;
-    for (int i = 1; i < argc; ++i) {
-      const std::string a = argv[i];
-      auto next = [&]() -> std::string {
-        if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
-        return argv[++i];
-      };
-      if (a == "--echo") {
-        echo = true;
-      } else if (a == "--api") {
-        api = next();
-      } else if (a == "--samples") {
-        samples = std::stoi(next());
-      } else if (a == "--warmup") {
-        warmup = std::stoi(next());
-      } else if (a == "--timeout-s") {
-        timeout_s = std::stod(next());
-      } else if (a == "--help" || a == "-h") {
-        std::printf(
-            "usage: poise-bench-dds-latency [--samples N] [--warmup N] [--domain FIRST]\n"
-            "Uses 7 consecutive DDS domains from FIRST (default: derived from the pid).\n");
-        return 0;
-      } else {
-        throw std::invalid_argument("unknown option " + a);
-      }
-    }
-    if (echo) return run_echo(api, dds.vendor, dds.domain_id, timeout_s);
-    if (samples < 100) throw std::invalid_argument("--samples must be >= 100");
-    const int base =
-        dds.domain_id != 0 ? dds.domain_id : 10 + static_cast<int>(::getpid() % 20) * 10;
-    if (base + 9 > 232) throw std::invalid_argument("--domain must be <= 223");
-
-    using poise::dds::Vendor;
-    struct Row {
-      const char* name;
-      const char* api;
-      Vendor ping, echo;
-    };
-    const Row rows[] = {
-        {"cyclone-cyclone", "layer", Vendor::cyclone, Vendor::cyclone},
-        {"cyclone-cyclone", "raw", Vendor::cyclone, Vendor::cyclone},
-        {"cyclone-cyclone", "wd1", Vendor::cyclone, Vendor::cyclone},
-        {"fastdds-fastdds", "layer", Vendor::fastdds, Vendor::fastdds},
-        {"fastdds-fastdds", "raw", Vendor::fastdds, Vendor::fastdds},
-        {"fastdds-fastdds", "wd1", Vendor::fastdds, Vendor::fastdds},
-        {"cyclone-fastdds", "layer", Vendor::cyclone, Vendor::fastdds},
-        {"cyclone-fastdds", "raw", Vendor::cyclone, Vendor::fastdds},
-        {"cyclone-fastdds", "wd1", Vendor::cyclone, Vendor::fastdds},
-    };
-    poise::msg::Sensors probe;
-    fill(probe);
-    const auto& ts = poise::dds::TopicTraits<poise::msg::Sensors>::type_support();
-    std::printf(
-        "DDS round trip: Sensors sample of %zu bytes (CDR incl. header), reliable keep-last 1,\n"
-        "loopback configs (deploy/dds), separate echo process, %d round trips after %d warm-up,\n"
-        "domains %d..%d. Times in microseconds.\n\n",
-        ts.serialized_size(&probe), samples, warmup, base, base + 9);
-    {
-      // CPU cost of what our layer adds per sample (same process, no DDS).
-      std::vector<std::uint8_t> buf(ts.max_serialized_size);
-      poise::msg::Sensors out;
-      char why[256];
-      constexpr int kIter = 20000;
-      std::size_t n = 0;
-      bool ok = true;
-      auto t0 = Clock::now();
-      for (int i = 0; i < kIter; ++i)
-        n = ts.serialize(&probe, buf.data(), buf.size());
-      auto t1 = Clock::now();
-      for (int i = 0; i < kIter; ++i)
-        ok &= ts.deserialize(buf.data(), n, &out, why, sizeof(why));
-      auto t2 = Clock::now();
-      for (int i = 0; i < kIter; ++i)
-        ok &= ts.validate(&out, why, sizeof(why));
-      auto t3 = Clock::now();
-      auto us = [](auto d) { return std::chrono::duration<double, std::micro>(d).count() / kIter; };
-      std::printf(
-          "Layer CPU per sample: serialize %.2f us, deserialize %.2f us, validate %.2f us%s\n\n",
-          us(t1 - t0), us(t2 - t1), us(t3 - t2), ok ? "" : " (FAILED)");
-    }
-    std::printf("%-16s %-6s %10s %10s %10s %14s\n", "ping-echo", "api", "median", "p99", "max",
-                "allocs/rt*");
-    std::fflush(stdout);
-    int domain = base;
-    double layer_median = 0;
-    for (const Row& r : rows) {
-      const Stats s = run_pairing(r.api, r.ping, r.echo, domain++, samples, warmup);
-      if (!s.error.empty()) {
-        std::printf("%-16s %-6s FAILED: %s\n", r.name, r.api, s.error.c_str());
-        continue;
-      }
-      std::printf("%-16s %-6s %10.1f %10.1f %10.1f %14.2f", r.name, r.api, s.median, s.p99, s.max,
-                  s.allocs_per_rt);
-      if (std::string(r.api) == "layer") {
-        layer_median = s.median;
-      } else if (std::string(r.api) == "raw") {
-        std::printf("   layer - raw (median): %+.1f", layer_median - s.median);
-      } else {
-        std::printf("   layer (writers keep-last 32) / writers keep-last 1 (median): %.2f",
-                    layer_median / s.median);
-      }
-      std::printf("\n");
-      std::fflush(stdout);
-    }
-    double p50 = 0, p99 = 0, max = 0;
-    const std::string err = run_ddsperf(domain, p50, p99, max);
-    if (!err.empty()) {
-      std::printf("ddsperf: %s\n", err.c_str());
-    } else {
-      std::printf(
-          "%-16s %-6s %10.1f %10.1f %10.1f   (ddsperf ping size 1k; it prints half the round "
-          "trip: %.1f / %.1f / %.1f)\n",
-          "ddsperf", "floor", 2 * p50, 2 * p99, 2 * max, p50, p99, max);
-    }
-    std::printf(
-        "\n* operator new calls per round trip in the ping process (our code + vendor internals;\n"
-        "  the Cyclone path also mallocs one serdata per sample, not counted here).\n");
-    return 0;
+    BenchArgs args;
+    if (const auto code = parse_args(argc, argv, args)) return *code;
+    if (args.echo) return run_echo(args.api, args.dds.vendor, args.dds.domain_id, args.timeout_s);
+    return run_bench(args);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "poise-bench-dds-latency: %s\n", e.what());
     return 2;

@@ -156,7 +156,8 @@ json to_json(const Vector3& v) {
   return json::array({v.x(), v.y(), v.z()});
 }
 
-int run_eval(std::istream& in) {
+// The query of `poise model eval`: a JSON object with known keys and a URDF path.
+json read_eval_query(std::istream& in) {
   json query;
   try {
     query = json::parse(in);
@@ -169,12 +170,16 @@ int run_eval(std::istream& in) {
   for (const auto& [k, _] : query.items())
     if (!known.count(k)) bad("unknown key '" + k + "'");
   if (!query.contains("urdf") || !query["urdf"].is_string()) bad("'urdf' (path) is required");
-  const Model model = build_model_from_urdf_file(query["urdf"].get<std::string>());
-  Data data(model);
+  return query;
+}
 
-  Eigen::VectorXd q = model.neutral();
-  Eigen::VectorXd v = Eigen::VectorXd::Zero(model.nv);
-  Eigen::VectorXd a = Eigen::VectorXd::Zero(model.nv);
+// The robot's state of the query: configuration, velocity and acceleration.
+struct EvalState {
+  Eigen::VectorXd q, v, a;
+};
+
+// query.base: the base pose and velocity (world frame) into `s`.
+void read_eval_base(const json& query, EvalState& s) {
   Matrix3 R = Matrix3::Identity();
   Vector3 v_W = Vector3::Zero(), w_W = Vector3::Zero();
   if (query.contains("base")) {
@@ -184,7 +189,7 @@ int run_eval(std::istream& in) {
       if (k != "position" && k != "orientation_wxyz" && k != "linear_velocity" &&
           k != "angular_velocity")
         bad("unknown key 'base." + k + "'");
-    if (b.contains("position")) q.head<3>() = vec3(b["position"], "base.position");
+    if (b.contains("position")) s.q.head<3>() = vec3(b["position"], "base.position");
     if (b.contains("orientation_wxyz")) {
       const json& o = b["orientation_wxyz"];
       if (!o.is_array() || o.size() != 4) bad("base.orientation_wxyz must have 4 numbers");
@@ -195,74 +200,84 @@ int run_eval(std::istream& in) {
       if (std::abs(n - 1.0) > 1e-3)
         bad("base.orientation_wxyz is not a unit quaternion (norm " + std::to_string(n) + ")");
       quat.coeffs() /= n;
-      q.segment<4>(3) = quat.coeffs();
+      s.q.segment<4>(3) = quat.coeffs();
       R = quat.toRotationMatrix();
     }
     if (b.contains("linear_velocity")) v_W = vec3(b["linear_velocity"], "base.linear_velocity");
     if (b.contains("angular_velocity")) w_W = vec3(b["angular_velocity"], "base.angular_velocity");
   }
-  v.head<6>() = base_velocity_from_world(R, v_W, w_W);
+  s.v.head<6>() = base_velocity_from_world(R, v_W, w_W);
   // Zero angular acceleration and zero linear acceleration of the base origin (world frame):
   // d/dt v_B = R^T p_ddot - omega_B x v_B = -omega_B x v_B.
-  a.head<3>() = -v.segment<3>(3).cross(v.head<3>());
+  s.a.head<3>() = -s.v.segment<3>(3).cross(s.v.head<3>());
+}
 
-  if (query.contains("joints")) {
-    const json& js = query["joints"];
-    if (!js.is_object()) bad("'joints' must be an object {name: {q, qd, qdd}}");
-    for (const auto& [name, val] : js.items()) {
-      if (!model.has_joint(name)) bad("unknown joint '" + name + "'");
-      const int j = model.joint_index(name);
-      if (!val.is_object()) bad("joints." + name + " must be an object");
-      for (const auto& [k, x] : val.items()) {
-        const double d = number(x, "joints." + name + "." + k);
-        if (k == "q")
-          q[model.idx_q(j)] = d;
-        else if (k == "qd")
-          v[model.idx_v(j)] = d;
-        else if (k == "qdd")
-          a[model.idx_v(j)] = d;
-        else
-          bad("unknown key 'joints." + name + "." + k + "' (expected q, qd, qdd)");
-      }
+// query.joints: {name: {q, qd, qdd}} into `s`.
+void read_eval_joints(const json& query, const Model& model, EvalState& s) {
+  if (!query.contains("joints")) return;
+  const json& js = query["joints"];
+  if (!js.is_object()) bad("'joints' must be an object {name: {q, qd, qdd}}");
+  for (const auto& [name, val] : js.items()) {
+    if (!model.has_joint(name)) bad("unknown joint '" + name + "'");
+    const int j = model.joint_index(name);
+    if (!val.is_object()) bad("joints." + name + " must be an object");
+    for (const auto& [k, x] : val.items()) {
+      const double d = number(x, "joints." + name + "." + k);
+      if (k == "q")
+        s.q[model.idx_q(j)] = d;
+      else if (k == "qd")
+        s.v[model.idx_v(j)] = d;
+      else if (k == "qdd")
+        s.a[model.idx_v(j)] = d;
+      else
+        bad("unknown key 'joints." + name + "." + k + "' (expected q, qd, qdd)");
     }
   }
-  Model m = model;
-  if (query.contains("gravity")) m.gravity = vec3(query["gravity"], "gravity");
+}
 
+// query.external_forces: wrenches at world points on links, into `data`.
+void read_eval_external_forces(const json& query, const Model& model, Data& data) {
   clear_external_forces(data);
-  if (query.contains("external_forces")) {
-    const json& ef = query["external_forces"];
-    if (!ef.is_array()) bad("'external_forces' must be an array");
-    for (std::size_t i = 0; i < ef.size(); ++i) {
-      const json& e = ef[i];
-      const std::string key = "external_forces[" + std::to_string(i) + "]";
-      if (!e.is_object() || !e.contains("link") || !e["link"].is_string())
-        bad(key + " needs a 'link' name");
-      const std::string link = e["link"].get<std::string>();
-      if (!model.has_frame(link)) bad(key + ": unknown link '" + link + "'");
-      const Vector3 f = e.contains("force") ? vec3(e["force"], key + ".force") : Vector3::Zero();
-      const Vector3 t = e.contains("torque") ? vec3(e["torque"], key + ".torque") : Vector3::Zero();
-      Vector3 p;
-      if (e.contains("point")) {
-        p = vec3(e["point"], key + ".point");
-      } else {
-        bad(key + ": 'point' (world coordinates) is required");
-      }
-      add_external_wrench(model, data, model.frame_id(link), p, f, t);
+  if (!query.contains("external_forces")) return;
+  const json& ef = query["external_forces"];
+  if (!ef.is_array()) bad("'external_forces' must be an array");
+  for (std::size_t i = 0; i < ef.size(); ++i) {
+    const json& e = ef[i];
+    const std::string key = "external_forces[" + std::to_string(i) + "]";
+    if (!e.is_object() || !e.contains("link") || !e["link"].is_string())
+      bad(key + " needs a 'link' name");
+    const std::string link = e["link"].get<std::string>();
+    if (!model.has_frame(link)) bad(key + ": unknown link '" + link + "'");
+    const Vector3 f = e.contains("force") ? vec3(e["force"], key + ".force") : Vector3::Zero();
+    const Vector3 t = e.contains("torque") ? vec3(e["torque"], key + ".torque") : Vector3::Zero();
+    Vector3 p;
+    if (e.contains("point")) {
+      p = vec3(e["point"], key + ".point");
+    } else {
+      bad(key + ": 'point' (world coordinates) is required");
     }
+    add_external_wrench(model, data, model.frame_id(link), p, f, t);
   }
-  std::vector<std::string> frames;
-  if (query.contains("frames")) {
-    if (!query["frames"].is_array()) bad("'frames' must be an array of link names");
-    for (const json& f : query["frames"]) {
-      if (!f.is_string()) bad("'frames' must be an array of link names");
-      if (!model.has_frame(f.get<std::string>()))
-        bad("unknown link '" + f.get<std::string>() + "' in frames");
-      frames.push_back(f.get<std::string>());
-    }
-  }
+}
 
-  centroidal_momentum(m, data, q, v);
+// query.frames: the links whose placement is reported.
+std::vector<std::string> read_eval_frames(const json& query, const Model& model) {
+  std::vector<std::string> frames;
+  if (!query.contains("frames")) return frames;
+  if (!query["frames"].is_array()) bad("'frames' must be an array of link names");
+  for (const json& f : query["frames"]) {
+    if (!f.is_string()) bad("'frames' must be an array of link names");
+    if (!model.has_frame(f.get<std::string>()))
+      bad("unknown link '" + f.get<std::string>() + "' in frames");
+    frames.push_back(f.get<std::string>());
+  }
+  return frames;
+}
+
+// The answer: centroidal quantities, the frames' placements, the inverse dynamics.
+json evaluate(const Model& m, Data& data, const EvalState& s,
+              const std::vector<std::string>& frames) {
+  centroidal_momentum(m, data, s.q, s.v);
   json out;
   out["mass"] = data.mass;
   out["com"] = to_json(data.com);
@@ -277,15 +292,29 @@ int run_eval(std::istream& in) {
                 {"orientation_wxyz", json::array({quat.w(), quat.x(), quat.y(), quat.z()})}};
   }
   out["frames"] = jf;
-  const Eigen::VectorXd& tau = rnea(m, data, q, v, a);
-  const Matrix3 R_WB = base_pose(q).R;
+  const Eigen::VectorXd& tau = rnea(m, data, s.q, s.v, s.a);
+  const Matrix3 R_WB = base_pose(s.q).R;
   out["base_force"] = to_json(R_WB * tau.head<3>());
   out["base_torque"] = to_json(R_WB * tau.segment<3>(3));
   json jt = json::object();
   for (int j = 0; j < m.njoints; ++j)
     jt[m.joint_names[j]] = tau[m.idx_v(j)];
   out["joint_torques"] = jt;
-  std::cout << out.dump(2) << "\n";
+  return out;
+}
+
+int run_eval(std::istream& in) {
+  const json query = read_eval_query(in);
+  const Model model = build_model_from_urdf_file(query["urdf"].get<std::string>());
+  Data data(model);
+  EvalState s{model.neutral(), Eigen::VectorXd::Zero(model.nv), Eigen::VectorXd::Zero(model.nv)};
+  read_eval_base(query, s);
+  read_eval_joints(query, model, s);
+  Model m = model;
+  if (query.contains("gravity")) m.gravity = vec3(query["gravity"], "gravity");
+  read_eval_external_forces(query, model, data);
+  const std::vector<std::string> frames = read_eval_frames(query, model);
+  std::cout << evaluate(m, data, s, frames).dump(2) << "\n";
   return 0;
 }
 

@@ -402,11 +402,10 @@ class RawChecker {
   std::string origin_;
 };
 
-// Checks the raw XML; returns the text urdfdom is to parse: `xml` itself, or a copy without the
-// <mimic> elements of fixed joints (legal URDF, meaningless there, ignored).
-std::string precheck_xml(const std::string& xml, const std::string& origin) {
+// Parses the URDF text; returns its one <robot> element.
+const TiXmlElement* parse_robot_element(TiXmlDocument& doc, const std::string& xml,
+                                        const std::string& origin) {
   detail::check_xml_depth(xml, "URDF " + origin);
-  TiXmlDocument doc;
   doc.Parse(xml.c_str());
   if (doc.Error()) {
     std::ostringstream os;
@@ -418,51 +417,58 @@ std::string precheck_xml(const std::string& xml, const std::string& origin) {
   if (robot == nullptr) throw ModelError("URDF " + origin + ": no <robot> element");
   if (robot->NextSiblingElement("robot") != nullptr)
     throw ModelError("URDF " + origin + ": more than one <robot> element");
+  return robot;
+}
 
-  // A massless root link whose only joint is a `floating` one to the robot (URDFs written for
-  // Drake, converted from MJCF, or for Gazebo: `world` -> floating -> pelvis): that joint is the
-  // floating base Poise adds anyway; the dummy link and the joint are dropped below and the
-  // joint's child is the root. A `floating` joint anywhere else is refused (RawChecker::joint).
-  std::string dummy_root, root_floating_joint;
-  {
-    std::map<std::string, int> joints_below;
-    std::set<std::string> child_links;
-    const TiXmlElement* floating = nullptr;
-    int nfloating = 0;
-    for (const TiXmlElement* e = robot->FirstChildElement("joint"); e != nullptr;
-         e = e->NextSiblingElement("joint")) {
-      const TiXmlElement* p = e->FirstChildElement("parent");
-      const TiXmlElement* c = e->FirstChildElement("child");
-      if (p && p->Attribute("link")) ++joints_below[p->Attribute("link")];
-      if (c && c->Attribute("link")) child_links.insert(c->Attribute("link"));
-      const char* type = e->Attribute("type");
-      if (type && std::string(type) == "floating") {
-        floating = e;
-        ++nfloating;
-      }
-    }
-    const TiXmlElement* fp = floating ? floating->FirstChildElement("parent") : nullptr;
-    if (nfloating == 1 && fp && fp->Attribute("link") && floating->Attribute("name")) {
-      const std::string parent = fp->Attribute("link");
-      const TiXmlElement* link = nullptr;
-      for (const TiXmlElement* e = robot->FirstChildElement("link"); e != nullptr;
-           e = e->NextSiblingElement("link"))
-        if (e->Attribute("name") && parent == e->Attribute("name")) link = e;
-      double mass = 0.0;
-      if (link)
-        if (const TiXmlElement* in = link->FirstChildElement("inertial"))
-          if (const TiXmlElement* me = in->FirstChildElement("mass"))
-            if (me->Attribute("value")) mass = std::strtod(me->Attribute("value"), nullptr);
-      if (link && !child_links.count(parent) && joints_below[parent] == 1 && mass == 0.0 &&
-          !link->FirstChildElement("collision") && !link->FirstChildElement("visual")) {
-        dummy_root = parent;
-        root_floating_joint = floating->Attribute("name");
-      }
+// A dummy root link and the floating joint below it (both empty: none).
+struct DummyRoot {
+  std::string link, joint;
+};
+
+// A massless root link whose only joint is a `floating` one to the robot (URDFs written for
+// Drake, converted from MJCF, or for Gazebo: `world` -> floating -> pelvis): that joint is the
+// floating base Poise adds anyway; the dummy link and the joint are dropped below and the
+// joint's child is the root. A `floating` joint anywhere else is refused (RawChecker::joint).
+DummyRoot find_dummy_root(const TiXmlElement* robot) {
+  DummyRoot dummy;
+  std::map<std::string, int> joints_below;
+  std::set<std::string> child_links;
+  const TiXmlElement* floating = nullptr;
+  int nfloating = 0;
+  for (const TiXmlElement* e = robot->FirstChildElement("joint"); e != nullptr;
+       e = e->NextSiblingElement("joint")) {
+    const TiXmlElement* p = e->FirstChildElement("parent");
+    const TiXmlElement* c = e->FirstChildElement("child");
+    if (p && p->Attribute("link")) ++joints_below[p->Attribute("link")];
+    if (c && c->Attribute("link")) child_links.insert(c->Attribute("link"));
+    const char* type = e->Attribute("type");
+    if (type && std::string(type) == "floating") {
+      floating = e;
+      ++nfloating;
     }
   }
+  const TiXmlElement* fp = floating ? floating->FirstChildElement("parent") : nullptr;
+  if (nfloating == 1 && fp && fp->Attribute("link") && floating->Attribute("name")) {
+    const std::string parent = fp->Attribute("link");
+    const TiXmlElement* link = nullptr;
+    for (const TiXmlElement* e = robot->FirstChildElement("link"); e != nullptr;
+         e = e->NextSiblingElement("link"))
+      if (e->Attribute("name") && parent == e->Attribute("name")) link = e;
+    double mass = 0.0;
+    if (link)
+      if (const TiXmlElement* in = link->FirstChildElement("inertial"))
+        if (const TiXmlElement* me = in->FirstChildElement("mass"))
+          if (me->Attribute("value")) mass = std::strtod(me->Attribute("value"), nullptr);
+    if (link && !child_links.count(parent) && joints_below[parent] == 1 && mass == 0.0 &&
+        !link->FirstChildElement("collision") && !link->FirstChildElement("visual")) {
+      dummy.link = parent;
+      dummy.joint = floating->Attribute("name");
+    }
+  }
+  return dummy;
+}
 
-  RawChecker ck(origin);
-  std::set<std::string> links;
+void check_element_counts(const TiXmlElement* robot, const std::string& origin) {
   std::size_t nlinks = 0, njoints = 0;
   for (const TiXmlElement* e = robot->FirstChildElement("link"); e != nullptr;
        e = e->NextSiblingElement("link"))
@@ -474,6 +480,12 @@ std::string precheck_xml(const std::string& xml, const std::string& origin) {
     throw ModelError("URDF " + origin + ": " + std::to_string(nlinks) + " links and " +
                      std::to_string(njoints) + " joints; at most " + std::to_string(kMaxLinks) +
                      " of each are accepted");
+}
+
+// Checks every <link> but the dummy root; returns their names.
+std::set<std::string> check_links(const TiXmlElement* robot, const DummyRoot& dummy,
+                                  RawChecker& ck) {
+  std::set<std::string> links;
   for (const TiXmlElement* e = robot->FirstChildElement("link"); e != nullptr;
        e = e->NextSiblingElement("link")) {
     const char* name = e->Attribute("name");
@@ -481,13 +493,14 @@ std::string precheck_xml(const std::string& xml, const std::string& origin) {
       ck.err("a <link>", "has no name");
       continue;
     }
-    if (name == dummy_root) continue;
+    if (name == dummy.link) continue;
     if (!links.insert(name).second) ck.err("link '" + std::string(name) + "'", "defined twice");
     ck.link(e, name);
   }
-  if (links.empty()) throw ModelError(join_lines(ck.errors) + (ck.errors.empty() ? "" : "\n") +
-                                      "URDF " + origin + ": no links");
+  return links;
+}
 
+std::set<std::string> check_joint_names(const TiXmlElement* robot, RawChecker& ck) {
   std::set<std::string> joint_names;
   for (const TiXmlElement* e = robot->FirstChildElement("joint"); e != nullptr;
        e = e->NextSiblingElement("joint")) {
@@ -495,6 +508,13 @@ std::string precheck_xml(const std::string& xml, const std::string& origin) {
     if (name != nullptr && !joint_names.insert(name).second)
       ck.err("joint '" + std::string(name) + "'", "defined twice");
   }
+  return joint_names;
+}
+
+// Checks every <joint> but the dummy root's; returns those between two known links.
+std::vector<RawJoint> check_joints(const TiXmlElement* robot, const std::set<std::string>& links,
+                                   const DummyRoot& dummy, RawChecker& ck) {
+  const std::set<std::string> joint_names = check_joint_names(robot, ck);
   std::vector<RawJoint> joints;
   for (const TiXmlElement* e = robot->FirstChildElement("joint"); e != nullptr;
        e = e->NextSiblingElement("joint")) {
@@ -507,7 +527,7 @@ std::string precheck_xml(const std::string& xml, const std::string& origin) {
     }
     j.name = name;
     j.type = type ? type : "";
-    if (j.name == root_floating_joint) continue;
+    if (j.name == dummy.joint) continue;
     ck.joint(e, j, joint_names);
     const TiXmlElement* p = e->FirstChildElement("parent");
     const TiXmlElement* c = e->FirstChildElement("child");
@@ -529,7 +549,12 @@ std::string precheck_xml(const std::string& xml, const std::string& origin) {
     }
     if (ok) joints.push_back(j);
   }
+  return joints;
+}
 
+// The parent link of every child link; refuses a link that is the child of two joints.
+std::map<std::string, std::string> parent_links(const std::vector<RawJoint>& joints,
+                                                RawChecker& ck) {
   std::map<std::string, std::string> parent_of, joint_of;
   for (const RawJoint& j : joints) {
     if (j.parent == j.child) {
@@ -547,6 +572,12 @@ std::string precheck_xml(const std::string& xml, const std::string& origin) {
     joint_of[j.child] = j.name;
     parent_of[j.child] = j.parent;
   }
+  return parent_of;
+}
+
+// Refuses a cycle and a tree deeper than kMaxTreeDepth; returns whether there is a cycle.
+bool check_tree_depth(const std::set<std::string>& links,
+                      const std::map<std::string, std::string>& parent_of, RawChecker& ck) {
   // Depth of every link below its root, memoised (linear time); a cycle never reaches a root.
   std::map<std::string, long> depth;  // -1: on the current path
   bool cycle = false;
@@ -594,6 +625,12 @@ std::string precheck_xml(const std::string& xml, const std::string& origin) {
     ck.err("link '" + deepest + "'", "is " + std::to_string(max_depth) +
                                          " joints below the root; at most " +
                                          std::to_string(kMaxTreeDepth) + " are accepted");
+  return cycle;
+}
+
+void check_single_root(const std::set<std::string>& links,
+                       const std::map<std::string, std::string>& parent_of, bool cycle,
+                       RawChecker& ck) {
   std::vector<std::string> roots;
   for (const std::string& l : links)
     if (!parent_of.count(l)) roots.push_back(l);
@@ -606,16 +643,18 @@ std::string precheck_xml(const std::string& xml, const std::string& origin) {
   } else if (roots.empty() && !cycle) {
     ck.err("links", "no root link (kinematic loop)");
   }
-  if (!ck.errors.empty()) throw ModelError(join_lines(ck.errors));
+}
 
+// Removes what urdfdom is not to see; returns whether anything was removed.
+bool strip_for_urdfdom(TiXmlDocument& doc, const DummyRoot& dummy) {
   bool stripped = false;
-  if (!dummy_root.empty()) {
+  if (!dummy.link.empty()) {
     TiXmlElement* r = doc.FirstChildElement("robot");
     for (const char* kind : {"link", "joint"})
       for (TiXmlElement* e = r->FirstChildElement(kind); e != nullptr;) {
         TiXmlElement* next = e->NextSiblingElement(kind);
         const char* n = e->Attribute("name");
-        if (n && std::string(n) == (std::string(kind) == "link" ? dummy_root : root_floating_joint))
+        if (n && std::string(n) == (std::string(kind) == "link" ? dummy.link : dummy.joint))
           r->RemoveChild(e);
         e = next;
       }
@@ -642,7 +681,28 @@ std::string precheck_xml(const std::string& xml, const std::string& origin) {
   }
   std::map<std::string, int> foreign;
   stripped = strip_namespaced(doc.FirstChildElement("robot"), foreign) || stripped;
-  if (!stripped) return xml;
+  return stripped;
+}
+
+// Checks the raw XML; returns the text urdfdom is to parse: `xml` itself, or a copy without the
+// <mimic> elements of fixed joints (legal URDF, meaningless there, ignored).
+std::string precheck_xml(const std::string& xml, const std::string& origin) {
+  TiXmlDocument doc;
+  const TiXmlElement* robot = parse_robot_element(doc, xml, origin);
+  const DummyRoot dummy = find_dummy_root(robot);
+
+  RawChecker ck(origin);
+  check_element_counts(robot, origin);
+  const std::set<std::string> links = check_links(robot, dummy, ck);
+  if (links.empty()) throw ModelError(join_lines(ck.errors) + (ck.errors.empty() ? "" : "\n") +
+                                      "URDF " + origin + ": no links");
+  const std::vector<RawJoint> joints = check_joints(robot, links, dummy, ck);
+  const auto parent_of = parent_links(joints, ck);
+  const bool cycle = check_tree_depth(links, parent_of, ck);
+  check_single_root(links, parent_of, cycle, ck);
+  if (!ck.errors.empty()) throw ModelError(join_lines(ck.errors));
+
+  if (!strip_for_urdfdom(doc, dummy)) return xml;
   TiXmlPrinter printer;
   doc.Accept(&printer);
   return printer.CStr();

@@ -218,299 +218,383 @@ void collision_bottoms(const Model& model, RobotConfig& cfg, const Reader& r) {
   (void)r;
 }
 
-// Everything of robot.yaml but `name` and `urdf`, checked against `model`; `urdf_origin` names
-// the model's source in messages.
-void read_config_body(const YAML::Node& root, const Reader& r, Model& model,
-                      const std::string& urdf_origin, RobotConfig& cfg) {
-  auto frame = [&](const std::string& name, const std::string& key) {
+// What every section of robot.yaml reads against: the document, the reader, the model (feet add
+// frames to it) and the configuration being filled.
+struct BodyContext {
+  const YAML::Node& root;
+  const Reader& r;
+  Model& model;
+  const std::string& urdf_origin;
+  RobotConfig& cfg;
+
+  int frame(const std::string& name, const std::string& key) const {
     if (!model.has_frame(name)) r.fail(key, "'" + name + "' is not a link of " + urdf_origin);
     return model.frame_id(name);
-  };
-  auto frozen = [&](const std::string& name) {
+  }
+  bool frozen(const std::string& name) const {
     return std::find(model.frozen_joints.begin(), model.frozen_joints.end(), name) !=
            model.frozen_joints.end();
-  };
-  auto joint = [&](const std::string& name, const std::string& key) {
+  }
+  int joint(const std::string& name, const std::string& key) const {
     if (!model.has_joint(name))
       r.fail(key, "'" + name + "' is not a (non-fixed) joint of " + urdf_origin);
     return model.joint_index(name);
-  };
+  }
+};
 
-  r.attempt([&] {
-    cfg.imu_frame = r.text(r.child(root, "", "imu_frame"), "imu_frame");
-    cfg.imu_frame_id = frame(cfg.imu_frame, "imu_frame");  // on any body (estimator.hpp)
+void read_imu_frame(const BodyContext& c) {
+  c.r.attempt([&] {
+    c.cfg.imu_frame = c.r.text(c.r.child(c.root, "", "imu_frame"), "imu_frame");
+    c.cfg.imu_frame_id = c.frame(c.cfg.imu_frame, "imu_frame");  // on any body (estimator.hpp)
   });
+}
 
-  // ---- feet -----------------------------------------------------------------------------------
-  bool feet_ok = true;
+// feet.<side>.sole: the rectangle in the foot frame and the sole's height below it.
+void read_sole_rectangle(const Reader& r, const YAML::Node& fn, const std::string& base,
+                         SoleRectangle& s) {
+  const YAML::Node sn = r.child(fn, base, "sole");
+  const std::string sb = base + ".sole";
+  r.keys(sn, sb, {"x_min", "x_max", "y_min", "y_max", "height"});
+  s.x_min = r.number(r.child(sn, sb, "x_min"), sb + ".x_min");
+  s.x_max = r.number(r.child(sn, sb, "x_max"), sb + ".x_max");
+  s.y_min = r.number(r.child(sn, sb, "y_min"), sb + ".y_min");
+  s.y_max = r.number(r.child(sn, sb, "y_max"), sb + ".y_max");
+  s.height = r.number(r.child(sn, sb, "height"), sb + ".height");
+  if (!(s.x_min < s.x_max) || !(s.y_min < s.y_max))
+    r.fail(sb, "empty rectangle (need x_min < x_max and y_min < y_max)");
+  if (!(s.height >= 0.0)) r.fail(sb + ".height", "must be >= 0");
+  for (double v : {s.x_min, s.x_max, s.y_min, s.y_max, s.height})
+    if (std::abs(v) > 10.0) r.fail(sb, "implausible: a sole coordinate beyond 10 m");
+}
+
+// feet.<side>.stand_point (optional): a point inside the sole rectangle.
+void read_stand_point(const Reader& r, const YAML::Node& fn, const std::string& base,
+                      FootConfig& foot) {
+  const YAML::Node pn = fn["stand_point"];
+  if (!pn) return;
+  const SoleRectangle& s = foot.sole;
+  const std::string pk = base + ".stand_point";
+  if (!pn.IsSequence() || pn.size() != 2) r.fail(pk, "expected a list of 2 numbers [x, y]");
+  const Eigen::Vector2d p(r.number(pn[0], pk + "[0]"), r.number(pn[1], pk + "[1]"));
+  if (!(p.x() >= s.x_min && p.x() <= s.x_max && p.y() >= s.y_min && p.y() <= s.y_max))
+    r.fail(pk, "(" + std::to_string(p.x()) + ", " + std::to_string(p.y()) +
+                   ") is outside the sole rectangle x [" + std::to_string(s.x_min) + ", " +
+                   std::to_string(s.x_max) + "] y [" + std::to_string(s.y_min) + ", " +
+                   std::to_string(s.y_max) + "]");
+  foot.stand_point = p;
+}
+
+// The sole frame given as an offset and rotation in the foot link: no URDF link needed.
+void read_sole_frame_offset(const BodyContext& c, const YAML::Node& sfn, const std::string& sk,
+                            FootConfig& foot) {
+  const Reader& r = c.r;
+  r.keys(sfn, sk, {"offset", "rpy"});
+  const Vector3 offset = r.vector3(r.child(sfn, sk, "offset"), sk + ".offset");
+  const Vector3 rpy = sfn["rpy"] ? r.vector3(sfn["rpy"], sk + ".rpy") : Vector3::Zero();
+  if (offset.norm() > 10.0) r.fail(sk + ".offset", "implausible: more than 10 m from the link");
+  for (int k = 0; k < 3; ++k)
+    if (std::abs(rpy[k]) > 2.0 * M_PI + 1e-9)
+      r.fail(sk + ".rpy", "bad rotation: an angle beyond 2 pi (radians, not degrees)");
+  foot.sole_from_offset = true;
+  foot.X_link_sole = SE3(rpy_to_matrix(rpy), offset);
+  foot.sole_frame = foot.link + "_sole_poise";
+  foot.X_link_foot =
+      foot.X_link_sole * SE3(Matrix3::Identity(), Vector3(0.0, 0.0, foot.sole.height));
+  if (foot.X_link_foot.is_approx(SE3::Identity(), 1e-12)) {
+    foot.frame = foot.link;  // F is the link itself
+    foot.X_link_foot = SE3::Identity();
+  } else {
+    foot.frame = foot.link + "_foot_poise";
+  }
+  for (const std::string& n : {foot.sole_frame, foot.frame})
+    if (n != foot.link && c.model.has_frame(n))
+      r.fail(sk, "'" + n + "' (the frame this entry adds) is already a link of " + c.urdf_origin);
+}
+
+// The sole frame given as a URDF link: rigidly attached to the foot link, at the sole height
+// below it, with the foot link's axes.
+void read_sole_frame_link(const BodyContext& c, const YAML::Node& sfn, const std::string& base,
+                          const std::string& sk, int link_id, FootConfig& foot) {
+  const Reader& r = c.r;
+  const double height = foot.sole.height;
+  const Frame& lf = c.model.frames[link_id];
+  foot.frame = foot.link;
+  foot.sole_frame = r.text(sfn, sk + " (a link name, or {offset: [x, y, z], rpy: [r, p, y]})");
+  foot.sole_frame_id = c.frame(foot.sole_frame, sk);
+  const Frame& sf = c.model.frames[foot.sole_frame_id];
+  if (lf.body != sf.body)
+    r.fail(sk, "'" + foot.sole_frame + "' is not rigidly attached to '" + foot.link + "'");
+  foot.X_link_sole = lf.X_BF.inverse() * sf.X_BF;
+  const SE3& X_FS = foot.X_link_sole;
+  const bool at = (X_FS.p - Vector3(0.0, 0.0, -height)).norm() <= 1e-3;
+  const bool axes = X_FS.R.isApprox(Matrix3::Identity(), 1e-6);
+  if (!at || !axes) {
+    std::ostringstream os;
+    os << "sole frame '" << foot.sole_frame << "' is at (" << X_FS.p.transpose() << ") in '"
+       << foot.link << "'";
+    if (!axes)
+      os << " and its axes differ from the foot frame's (its z axis is ("
+         << X_FS.R.col(2).transpose() << ") in '" << foot.link << "')";
+    os << "; expected (0, 0, " << -height
+       << ") with the same axes. Give the sole instead as sole_frame: {offset: [x, y, z], "
+          "rpy: [roll, pitch, yaw]} in '"
+       << foot.link << "' (no URDF link needed; deploy/robots/README.md)";
+    r.fail(base, os.str());
+  }
+}
+
+// feet.right or feet.left.
+void read_foot(const BodyContext& c, const YAML::Node& feet, Side side, const char* key) {
+  const Reader& r = c.r;
+  const std::string base = std::string("feet.") + key;
+  const YAML::Node fn = r.child(feet, "feet", key);
+  r.keys(fn, base, {"frame", "sole_frame", "sole", "stand_point"});
+  FootConfig& foot = c.cfg.feet[side];
+  foot.link = r.text(r.child(fn, base, "frame"), base + ".frame");
+  const int link_id = c.frame(foot.link, base + ".frame");
+  read_sole_rectangle(r, fn, base, foot.sole);
+  read_stand_point(r, fn, base, foot);
+  const YAML::Node sfn = r.child(fn, base, "sole_frame");
+  const std::string sk = base + ".sole_frame";
+  if (sfn.IsMap())
+    read_sole_frame_offset(c, sfn, sk, foot);
+  else
+    read_sole_frame_link(c, sfn, base, sk, link_id, foot);
+}
+
+// The feet; when they are valid, their frames are added to the model. Returns whether they are.
+bool read_feet(const BodyContext& c) {
+  const Reader& r = c.r;
+  RobotConfig& cfg = c.cfg;
   const std::size_t errors_before_feet = r.count();
   r.attempt([&] {
-  const YAML::Node feet = r.child(root, "", "feet");
-  r.keys(feet, "feet", {"right", "left"});
-  for (const auto& [side, key] : {std::pair{kRight, "right"}, std::pair{kLeft, "left"}}) {
-    const std::string base = std::string("feet.") + key;
-    r.attempt([&, side = side, key = key] {
-    const YAML::Node fn = r.child(feet, "feet", key);
-    r.keys(fn, base, {"frame", "sole_frame", "sole", "stand_point"});
-    FootConfig& foot = cfg.feet[side];
-    foot.link = r.text(r.child(fn, base, "frame"), base + ".frame");
-    const int link_id = frame(foot.link, base + ".frame");
-    const YAML::Node sn = r.child(fn, base, "sole");
-    const std::string sb = base + ".sole";
-    r.keys(sn, sb, {"x_min", "x_max", "y_min", "y_max", "height"});
-    SoleRectangle& s = foot.sole;
-    s.x_min = r.number(r.child(sn, sb, "x_min"), sb + ".x_min");
-    s.x_max = r.number(r.child(sn, sb, "x_max"), sb + ".x_max");
-    s.y_min = r.number(r.child(sn, sb, "y_min"), sb + ".y_min");
-    s.y_max = r.number(r.child(sn, sb, "y_max"), sb + ".y_max");
-    s.height = r.number(r.child(sn, sb, "height"), sb + ".height");
-    if (!(s.x_min < s.x_max) || !(s.y_min < s.y_max))
-      r.fail(sb, "empty rectangle (need x_min < x_max and y_min < y_max)");
-    if (!(s.height >= 0.0)) r.fail(sb + ".height", "must be >= 0");
-    for (double v : {s.x_min, s.x_max, s.y_min, s.y_max, s.height})
-      if (std::abs(v) > 10.0) r.fail(sb, "implausible: a sole coordinate beyond 10 m");
-    if (const YAML::Node pn = fn["stand_point"]) {
-      const std::string pk = base + ".stand_point";
-      if (!pn.IsSequence() || pn.size() != 2) r.fail(pk, "expected a list of 2 numbers [x, y]");
-      const Eigen::Vector2d p(r.number(pn[0], pk + "[0]"), r.number(pn[1], pk + "[1]"));
-      if (!(p.x() >= s.x_min && p.x() <= s.x_max && p.y() >= s.y_min && p.y() <= s.y_max))
-        r.fail(pk, "(" + std::to_string(p.x()) + ", " + std::to_string(p.y()) +
-                       ") is outside the sole rectangle x [" + std::to_string(s.x_min) + ", " +
-                       std::to_string(s.x_max) + "] y [" + std::to_string(s.y_min) + ", " +
-                       std::to_string(s.y_max) + "]");
-      foot.stand_point = p;
-    }
-    const Frame& lf = model.frames[link_id];
-    const YAML::Node sfn = r.child(fn, base, "sole_frame");
-    const std::string sk = base + ".sole_frame";
-    if (sfn.IsMap()) {
-      // The sole frame given as an offset and rotation in the foot link: no URDF link needed.
-      r.keys(sfn, sk, {"offset", "rpy"});
-      const Vector3 offset = r.vector3(r.child(sfn, sk, "offset"), sk + ".offset");
-      const Vector3 rpy = sfn["rpy"] ? r.vector3(sfn["rpy"], sk + ".rpy") : Vector3::Zero();
-      if (offset.norm() > 10.0) r.fail(sk + ".offset", "implausible: more than 10 m from the link");
-      for (int k = 0; k < 3; ++k)
-        if (std::abs(rpy[k]) > 2.0 * M_PI + 1e-9)
-          r.fail(sk + ".rpy", "bad rotation: an angle beyond 2 pi (radians, not degrees)");
-      foot.sole_from_offset = true;
-      foot.X_link_sole = SE3(rpy_to_matrix(rpy), offset);
-      foot.sole_frame = foot.link + "_sole_poise";
-      foot.X_link_foot = foot.X_link_sole * SE3(Matrix3::Identity(), Vector3(0.0, 0.0, s.height));
-      if (foot.X_link_foot.is_approx(SE3::Identity(), 1e-12)) {
-        foot.frame = foot.link;  // F is the link itself
-        foot.X_link_foot = SE3::Identity();
-      } else {
-        foot.frame = foot.link + "_foot_poise";
-      }
-      for (const std::string& n : {foot.sole_frame, foot.frame})
-        if (n != foot.link && model.has_frame(n))
-          r.fail(sk, "'" + n + "' (the frame this entry adds) is already a link of " + urdf_origin);
-    } else {
-      foot.frame = foot.link;
-      foot.sole_frame = r.text(sfn, sk + " (a link name, or {offset: [x, y, z], rpy: [r, p, y]})");
-      foot.sole_frame_id = frame(foot.sole_frame, sk);
-      const Frame& sf = model.frames[foot.sole_frame_id];
-      if (lf.body != sf.body)
-        r.fail(sk, "'" + foot.sole_frame + "' is not rigidly attached to '" + foot.link + "'");
-      foot.X_link_sole = lf.X_BF.inverse() * sf.X_BF;
-      const SE3& X_FS = foot.X_link_sole;
-      const bool at = (X_FS.p - Vector3(0.0, 0.0, -s.height)).norm() <= 1e-3;
-      const bool axes = X_FS.R.isApprox(Matrix3::Identity(), 1e-6);
-      if (!at || !axes) {
-        std::ostringstream os;
-        os << "sole frame '" << foot.sole_frame << "' is at (" << X_FS.p.transpose() << ") in '"
-           << foot.link << "'";
-        if (!axes)
-          os << " and its axes differ from the foot frame's (its z axis is (" << X_FS.R.col(2).transpose()
-             << ") in '" << foot.link << "')";
-        os << "; expected (0, 0, " << -s.height
-           << ") with the same axes. Give the sole instead as sole_frame: {offset: [x, y, z], "
-              "rpy: [roll, pitch, yaw]} in '"
-           << foot.link << "' (no URDF link needed; deploy/robots/README.md)";
-        r.fail(base, os.str());
-      }
-    }
-    });
-  }
-  if (r.count() == errors_before_feet && cfg.feet[kRight].frame == cfg.feet[kLeft].frame)
-    r.fail("feet", "left and right use the same frame");
+    const YAML::Node feet = r.child(c.root, "", "feet");
+    r.keys(feet, "feet", {"right", "left"});
+    for (const auto& [side, key] : {std::pair{kRight, "right"}, std::pair{kLeft, "left"}})
+      r.attempt([&, side = side, key = key] { read_foot(c, feet, side, key); });
+    if (r.count() == errors_before_feet && cfg.feet[kRight].frame == cfg.feet[kLeft].frame)
+      r.fail("feet", "left and right use the same frame");
   });
-  if (r.count() != errors_before_feet) feet_ok = false;
+  const bool feet_ok = r.count() == errors_before_feet;
   if (feet_ok) {
-    add_config_frames(model, cfg);
+    add_config_frames(c.model, cfg);
     for (FootConfig& f : cfg.feet) {
-      f.frame_id = model.frame_id(f.frame);
-      f.sole_frame_id = model.frame_id(f.sole_frame);
+      f.frame_id = c.model.frame_id(f.frame);
+      f.sole_frame_id = c.model.frame_id(f.sole_frame);
     }
-    collision_bottoms(model, cfg, r);
+    collision_bottoms(c.model, cfg, r);
   }
+  return feet_ok;
+}
 
-  // ---- forward axis ---------------------------------------------------------------------------
-  r.attempt([&] {
-    if (!root["forward_axis"]) return;
-    const Vector3 a = r.vector3(root["forward_axis"], "forward_axis");
-    if (a.norm() < 1e-6) r.fail("forward_axis", "must not be zero");
+void read_forward_axis(const BodyContext& c) {
+  c.r.attempt([&] {
+    if (!c.root["forward_axis"]) return;
+    const Vector3 a = c.r.vector3(c.root["forward_axis"], "forward_axis");
+    if (a.norm() < 1e-6) c.r.fail("forward_axis", "must not be zero");
     const Vector3 u = a.normalized();
     if (std::abs(u.z()) > 0.1)
-      r.fail("forward_axis", "must be (nearly) horizontal in the base frame (z component <= 0.1)");
-    cfg.forward_axis = Vector3(u.x(), u.y(), 0.0).normalized();
+      c.r.fail("forward_axis",
+               "must be (nearly) horizontal in the base frame (z component <= 0.1)");
+    c.cfg.forward_axis = Vector3(u.x(), u.y(), 0.0).normalized();
   });
+}
 
-  // ---- contact --------------------------------------------------------------------------------
+// contact: margins and friction; the margin is checked against the soles when the feet are valid.
+void read_contact(const BodyContext& c, bool feet_ok) {
+  const Reader& r = c.r;
+  RobotConfig& cfg = c.cfg;
   r.attempt([&] {
-  const YAML::Node contact = r.child(root, "", "contact");
-  r.keys(contact, "contact", {"safety_margin", "friction_mu", "torsional_mu", "effort_limited_sole"});
-  if (const YAML::Node e = contact["effort_limited_sole"]) {
-    if (!e.IsScalar() || (e.Scalar() != "true" && e.Scalar() != "false"))
-      r.fail("contact.effort_limited_sole", "expected true or false");
-    cfg.effort_limited_sole = e.Scalar() == "true";
-  }
-  cfg.safety_margin =
-      r.number(r.child(contact, "contact", "safety_margin"), "contact.safety_margin");
-  cfg.friction_mu = r.number(r.child(contact, "contact", "friction_mu"), "contact.friction_mu");
-  cfg.torsional_mu = r.number(r.child(contact, "contact", "torsional_mu"), "contact.torsional_mu");
-  if (cfg.safety_margin < 0.0) r.fail("contact.safety_margin", "must be >= 0");
-  if (!(cfg.friction_mu > 0.0)) r.fail("contact.friction_mu", "must be > 0");
-  if (cfg.torsional_mu < 0.0) r.fail("contact.torsional_mu", "must be >= 0");
-  for (const FootConfig& f : cfg.feet) {
-    if (!feet_ok) break;
-    if (2.0 * cfg.safety_margin >=
-        std::min(f.sole.x_max - f.sole.x_min, f.sole.y_max - f.sole.y_min))
-      r.fail("contact.safety_margin", "leaves no safe region inside the sole of " + f.frame);
-  }
+    const YAML::Node contact = r.child(c.root, "", "contact");
+    r.keys(contact, "contact",
+           {"safety_margin", "friction_mu", "torsional_mu", "effort_limited_sole"});
+    if (const YAML::Node e = contact["effort_limited_sole"]) {
+      if (!e.IsScalar() || (e.Scalar() != "true" && e.Scalar() != "false"))
+        r.fail("contact.effort_limited_sole", "expected true or false");
+      cfg.effort_limited_sole = e.Scalar() == "true";
+    }
+    cfg.safety_margin =
+        r.number(r.child(contact, "contact", "safety_margin"), "contact.safety_margin");
+    cfg.friction_mu = r.number(r.child(contact, "contact", "friction_mu"), "contact.friction_mu");
+    cfg.torsional_mu =
+        r.number(r.child(contact, "contact", "torsional_mu"), "contact.torsional_mu");
+    if (cfg.safety_margin < 0.0) r.fail("contact.safety_margin", "must be >= 0");
+    if (!(cfg.friction_mu > 0.0)) r.fail("contact.friction_mu", "must be > 0");
+    if (cfg.torsional_mu < 0.0) r.fail("contact.torsional_mu", "must be >= 0");
+    for (const FootConfig& f : cfg.feet) {
+      if (!feet_ok) break;
+      if (2.0 * cfg.safety_margin >=
+          std::min(f.sole.x_max - f.sole.x_min, f.sole.y_max - f.sole.y_min))
+        r.fail("contact.safety_margin", "leaves no safe region inside the sole of " + f.frame);
+    }
   });
+}
 
-  // ---- joint groups ---------------------------------------------------------------------------
+// joint_groups: every (non-frozen) joint in exactly one of legs and upper_body.
+void read_joint_groups(const BodyContext& c) {
+  const Reader& r = c.r;
+  RobotConfig& cfg = c.cfg;
   r.attempt([&] {
-  const YAML::Node groups = r.child(root, "", "joint_groups");
-  r.keys(groups, "joint_groups", {"legs", "upper_body"});
-  cfg.leg_joints = r.text_list(r.child(groups, "joint_groups", "legs"), "joint_groups.legs");
-  cfg.upper_body_joints =
-      r.text_list(r.child(groups, "joint_groups", "upper_body"), "joint_groups.upper_body");
-  std::vector<int> group_of(model.njoints, -1);
-  for (int g = 0; g < 2; ++g) {
-    auto& names = g == 0 ? cfg.leg_joints : cfg.upper_body_joints;
-    auto& idx = g == 0 ? cfg.leg_joint_indices : cfg.upper_body_joint_indices;
-    const std::string key = g == 0 ? "joint_groups.legs" : "joint_groups.upper_body";
-    std::vector<std::string> kept;
-    for (const std::string& n : names) {
-      if (frozen(n)) continue;  // a frozen mimic joint is no model joint: entry ignored
+    const YAML::Node groups = r.child(c.root, "", "joint_groups");
+    r.keys(groups, "joint_groups", {"legs", "upper_body"});
+    cfg.leg_joints = r.text_list(r.child(groups, "joint_groups", "legs"), "joint_groups.legs");
+    cfg.upper_body_joints =
+        r.text_list(r.child(groups, "joint_groups", "upper_body"), "joint_groups.upper_body");
+    std::vector<int> group_of(c.model.njoints, -1);
+    for (int g = 0; g < 2; ++g) {
+      auto& names = g == 0 ? cfg.leg_joints : cfg.upper_body_joints;
+      auto& idx = g == 0 ? cfg.leg_joint_indices : cfg.upper_body_joint_indices;
+      const std::string key = g == 0 ? "joint_groups.legs" : "joint_groups.upper_body";
+      std::vector<std::string> kept;
+      for (const std::string& n : names) {
+        if (c.frozen(n)) continue;  // a frozen mimic joint is no model joint: entry ignored
+        r.attempt([&] {
+          const int j = c.joint(n, key);
+          if (group_of[j] != -1) r.fail(key, "joint '" + n + "' is listed twice");
+          group_of[j] = g;
+          idx.push_back(j);
+          kept.push_back(n);
+        });
+      }
+      names = kept;
+    }
+    for (int j = 0; j < c.model.njoints; ++j)
+      if (group_of[j] == -1)
+        r.record("joint_groups", "joint '" + c.model.joint_names[j] + "' belongs to no group");
+  });
+}
+
+// nominal_posture into `q` (the model's neutral configuration); returns whether it is valid.
+bool read_nominal_posture(const BodyContext& c, Eigen::VectorXd& q) {
+  const Reader& r = c.r;
+  const Model& model = c.model;
+  const std::size_t errors_before_posture = r.count();
+  r.attempt([&] {
+    const YAML::Node posture = r.child(c.root, "", "nominal_posture");
+    if (!posture.IsMap()) r.fail("nominal_posture", "expected a mapping joint: angle");
+    for (const auto& kv : posture) {
       r.attempt([&] {
-        const int j = joint(n, key);
-        if (group_of[j] != -1) r.fail(key, "joint '" + n + "' is listed twice");
-        group_of[j] = g;
-        idx.push_back(j);
-        kept.push_back(n);
+        const std::string n = r.text(kv.first, "nominal_posture");
+        const std::string key = "nominal_posture." + n;
+        if (c.frozen(n)) return;  // frozen mimic joint: the model fixed it (README "Mimic joints")
+        const int j = c.joint(n, key);
+        const double x = r.number(kv.second, key);
+        if (x < model.limits[j].lower || x > model.limits[j].upper) {
+          std::ostringstream os;
+          os << x << " is outside the joint limits [" << model.limits[j].lower << ", "
+             << model.limits[j].upper << "]";
+          r.fail(key, os.str());
+        }
+        q[model.idx_q(j)] = x;
       });
     }
-    names = kept;
-  }
-  for (int j = 0; j < model.njoints; ++j)
-    if (group_of[j] == -1)
-      r.record("joint_groups", "joint '" + model.joint_names[j] + "' belongs to no group");
   });
+  return r.count() == errors_before_posture;
+}
 
-  // ---- nominal posture ------------------------------------------------------------------------
-  Eigen::VectorXd q = model.neutral();
-  const std::size_t errors_before_posture = r.count();
-  bool posture_ok = true;
+// The nominal stance: both soles flat and level (the base height `q[2]` is set so that they are
+// at z = 0), the CoM above the box of the feet.
+void check_nominal_stance(const BodyContext& c, Eigen::VectorXd& q) {
+  const Reader& r = c.r;
+  const Model& model = c.model;
+  const RobotConfig& cfg = c.cfg;
   r.attempt([&] {
-  const YAML::Node posture = r.child(root, "", "nominal_posture");
-  if (!posture.IsMap()) r.fail("nominal_posture", "expected a mapping joint: angle");
-  for (const auto& kv : posture) {
-    r.attempt([&] {
-    const std::string n = r.text(kv.first, "nominal_posture");
-    const std::string key = "nominal_posture." + n;
-    if (frozen(n)) return;  // frozen mimic joint: the model fixed it (README "Mimic joints")
-    const int j = joint(n, key);
-    const double x = r.number(kv.second, key);
-    if (x < model.limits[j].lower || x > model.limits[j].upper) {
+    Data data(model);
+    forward_kinematics(model, data, q);
+    double z_sum = 0.0;
+    for (const FootConfig& f : cfg.feet) {
+      const SE3 X = frame_placement(model, data, f.sole_frame_id);
+      if (X.R.col(2).z() < std::cos(1e-3))
+        r.fail("nominal_posture", "the sole of '" + f.frame + "' is not flat (tilted)");
+      z_sum += X.p.z();
+    }
+    q[2] = -0.5 * z_sum;
+    forward_kinematics(model, data, q);
+    const double dz = frame_placement(model, data, cfg.feet[0].sole_frame_id).p.z() -
+                      frame_placement(model, data, cfg.feet[1].sole_frame_id).p.z();
+    if (std::abs(dz) > 1e-3) r.fail("nominal_posture", "the two soles are not at the same height");
+    center_of_mass(model, data, q);
+    Eigen::Vector2d lo(1e9, 1e9), hi(-1e9, -1e9);
+    for (const FootConfig& f : cfg.feet) {
+      const SE3 X = frame_placement(model, data, f.frame_id);
+      for (double x : {f.sole.x_min, f.sole.x_max})
+        for (double y : {f.sole.y_min, f.sole.y_max}) {
+          const Vector3 p = X.act(Vector3(x, y, -f.sole.height));
+          lo = lo.cwiseMin(p.head<2>());
+          hi = hi.cwiseMax(p.head<2>());
+        }
+    }
+    const Eigen::Vector2d com = data.com.head<2>();
+    if ((com.array() < lo.array()).any() || (com.array() > hi.array()).any()) {
       std::ostringstream os;
-      os << x << " is outside the joint limits [" << model.limits[j].lower << ", "
-         << model.limits[j].upper << "]";
-      posture_ok = false;
-      r.fail(key, os.str());
+      os << "the CoM (" << com.transpose() << ") is not above the feet";
+      r.fail("nominal_posture", os.str());
     }
-    q[model.idx_q(j)] = x;
-    });
-  }
   });
-  if (r.count() != errors_before_posture) posture_ok = false;
-  // The stance checks need valid feet and posture.
-  if (posture_ok && feet_ok) r.attempt([&] {
-  Data data(model);
-  forward_kinematics(model, data, q);
-  double z_sum = 0.0;
-  for (const FootConfig& f : cfg.feet) {
-    const SE3 X = frame_placement(model, data, f.sole_frame_id);
-    if (X.R.col(2).z() < std::cos(1e-3))
-      r.fail("nominal_posture", "the sole of '" + f.frame + "' is not flat (tilted)");
-    z_sum += X.p.z();
-  }
-  q[2] = -0.5 * z_sum;
-  forward_kinematics(model, data, q);
-  const double dz = frame_placement(model, data, cfg.feet[0].sole_frame_id).p.z() -
-                    frame_placement(model, data, cfg.feet[1].sole_frame_id).p.z();
-  if (std::abs(dz) > 1e-3) r.fail("nominal_posture", "the two soles are not at the same height");
-  center_of_mass(model, data, q);
-  Eigen::Vector2d lo(1e9, 1e9), hi(-1e9, -1e9);
-  for (const FootConfig& f : cfg.feet) {
-    const SE3 X = frame_placement(model, data, f.frame_id);
-    for (double x : {f.sole.x_min, f.sole.x_max})
-      for (double y : {f.sole.y_min, f.sole.y_max}) {
-        const Vector3 c = X.act(Vector3(x, y, -f.sole.height));
-        lo = lo.cwiseMin(c.head<2>());
-        hi = hi.cwiseMax(c.head<2>());
-      }
-  }
-  const Eigen::Vector2d com = data.com.head<2>();
-  if ((com.array() < lo.array()).any() || (com.array() > hi.array()).any()) {
-    std::ostringstream os;
-    os << "the CoM (" << com.transpose() << ") is not above the feet";
-    r.fail("nominal_posture", os.str());
-  }
-  });
-  cfg.q_nominal = q;
+}
 
-  // ---- gains ----------------------------------------------------------------------------------
+// pd_gains: per joint or `default`; every (non-frozen) joint needs gains.
+void read_pd_gains(const BodyContext& c) {
+  const Reader& r = c.r;
+  const Model& model = c.model;
+  RobotConfig& cfg = c.cfg;
   r.attempt([&] {
-  const YAML::Node gains = r.child(root, "", "pd_gains");
-  if (!gains.IsMap()) r.fail("pd_gains", "expected a mapping");
-  auto read_gains = [&](const YAML::Node& n, const std::string& key) {
-    JointGains g;
-    r.keys(n, key, {"kp", "kd"});
-    g.kp = r.number(r.child(n, key, "kp"), key + ".kp");
-    g.kd = r.number(r.child(n, key, "kd"), key + ".kd");
-    if (g.kp < 0.0) r.fail(key + ".kp", "must be >= 0");
-    if (g.kd < 0.0) r.fail(key + ".kd", "must be >= 0");
-    return g;
-  };
-  bool have_default = false;
-  JointGains def;
-  std::vector<bool> set(model.njoints, false);
-  cfg.gains.assign(model.njoints, JointGains{});
-  for (const auto& kv : gains) {
-    r.attempt([&] {
-    const std::string n = r.text(kv.first, "pd_gains");
-    const std::string key = "pd_gains." + n;
-    if (n == "default") {
-      have_default = true;
-      def = read_gains(kv.second, key);
-      return;
+    const YAML::Node gains = r.child(c.root, "", "pd_gains");
+    if (!gains.IsMap()) r.fail("pd_gains", "expected a mapping");
+    auto read_gains = [&](const YAML::Node& n, const std::string& key) {
+      JointGains g;
+      r.keys(n, key, {"kp", "kd"});
+      g.kp = r.number(r.child(n, key, "kp"), key + ".kp");
+      g.kd = r.number(r.child(n, key, "kd"), key + ".kd");
+      if (g.kp < 0.0) r.fail(key + ".kp", "must be >= 0");
+      if (g.kd < 0.0) r.fail(key + ".kd", "must be >= 0");
+      return g;
+    };
+    bool have_default = false;
+    JointGains def;
+    std::vector<bool> set(model.njoints, false);
+    cfg.gains.assign(model.njoints, JointGains{});
+    for (const auto& kv : gains) {
+      r.attempt([&] {
+        const std::string n = r.text(kv.first, "pd_gains");
+        const std::string key = "pd_gains." + n;
+        if (n == "default") {
+          have_default = true;
+          def = read_gains(kv.second, key);
+          return;
+        }
+        if (c.frozen(n)) return;
+        const int j = c.joint(n, key);
+        set[j] = true;
+        cfg.gains[j] = read_gains(kv.second, key);
+      });
     }
-    if (frozen(n)) return;
-    const int j = joint(n, key);
-    set[j] = true;
-    cfg.gains[j] = read_gains(kv.second, key);
-    });
-  }
-  for (int j = 0; j < model.njoints; ++j) {
-    if (set[j]) continue;
-    if (!have_default)
-      r.record("pd_gains", "no gains for joint '" + model.joint_names[j] + "' and no default");
-    cfg.gains[j] = def;
-  }
+    for (int j = 0; j < model.njoints; ++j) {
+      if (set[j]) continue;
+      if (!have_default)
+        r.record("pd_gains", "no gains for joint '" + model.joint_names[j] + "' and no default");
+      cfg.gains[j] = def;
+    }
   });
+}
+
+// Everything of robot.yaml but `name` and `urdf`, checked against `model`; `urdf_origin` names
+// the model's source in messages. Each section records its first problem and the next still
+// runs (Reader::attempt).
+void read_config_body(const YAML::Node& root, const Reader& r, Model& model,
+                      const std::string& urdf_origin, RobotConfig& cfg) {
+  const BodyContext c{root, r, model, urdf_origin, cfg};
+  read_imu_frame(c);
+  const bool feet_ok = read_feet(c);
+  read_forward_axis(c);
+  read_contact(c, feet_ok);
+  read_joint_groups(c);
+  Eigen::VectorXd q = model.neutral();
+  const bool posture_ok = read_nominal_posture(c, q);
+  // The stance checks need valid feet and posture.
+  if (posture_ok && feet_ok) check_nominal_stance(c, q);
+  cfg.q_nominal = q;
+  read_pd_gains(c);
 }
 
 // Structure of the document: duplicated keys anywhere, unknown top-level keys.
@@ -520,6 +604,16 @@ void check_structure(const YAML::Node& root, const Reader& r) {
   r.keys(root, "",
          {"name", "urdf", "imu_frame", "feet", "contact", "joint_groups", "nominal_posture",
           "pd_gains", "forward_axis"});
+}
+
+// 'text' (appended piece by piece: GCC 12 warns, wrongly, of overlapping copies in "'" + s + "'").
+std::string quoted(const std::string& text) {
+  std::string q;
+  q.reserve(text.size() + 2);
+  q += '\'';
+  q += text;
+  q += '\'';
+  return q;
 }
 
 // Builds the model; a URDF problem is recorded with the robot.yaml ones and all are thrown.
@@ -568,7 +662,7 @@ RobotConfig load_robot_config(const std::filesystem::path& path) {
   });
   if (!have_urdf) r.throw_if_errors();
   Model model = model_or_throw(
-      r, [&] { return build_model_from_urdf_string(cfg.urdf_xml, "'" + cfg.urdf_path.string() + "'"); });
+      r, [&] { return build_model_from_urdf_string(cfg.urdf_xml, quoted(cfg.urdf_path.string())); });
   read_config_body(root, r, model, cfg.urdf_path.string(), cfg);
   r.throw_if_errors();
   for (const std::string& n : model.notes)
@@ -608,7 +702,7 @@ Model load_robot_model(const RobotConfig& config) {
       !config.urdf_xml.empty()
           ? build_model_from_urdf_string(config.urdf_xml, config.urdf_path.empty()
                                                               ? "of robot '" + config.name + "'"
-                                                              : "'" + config.urdf_path.string() + "'")
+                                                              : quoted(config.urdf_path.string()))
           : build_model_from_urdf_file(config.urdf_path);
   add_config_frames(model, config);
   return model;

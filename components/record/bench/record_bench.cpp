@@ -549,36 +549,23 @@ bool stdout_has(const Child& c, const char* word) {
   return slurp(c.stdout_path()).find(word) != std::string::npos;
 }
 
-CaseResult run_case(const fs::path& poise, const fs::path& self, const fs::path& dir, int domain,
-                    const std::string& compression, double rate_hz, double seconds,
-                    const std::string& tag) {
-  CaseResult r;
-  r.compression = compression;
-  r.flat_out = rate_hz <= 0;
-  const fs::path file = dir / (tag + ".mcap");
-  const fs::path logs = dir / "logs";
-  const fs::path pub_json = logs / (tag + ".publisher.json");
-  fs::remove(file);
-  Child recorder("record_" + tag,
-                 {poise.string(), "record", "--domain", std::to_string(domain), "-o", file.string(),
-                  "--compression", compression, "--progress", "0", "--duration",
-                  std::to_string(static_cast<int>(seconds + 180))},
-                 logs);
+// Waits for the recorder's first line; false (with r.problem) when it did not start.
+bool wait_for_recorder(Child& recorder, CaseResult& r) {
   const auto t_ready = Clock::now();
   while (slurp(recorder.stderr_path()).find("poise record: ") == std::string::npos) {
     if (!recorder.running() || seconds_since(t_ready) > 20) {
       r.problem = "the recorder did not start (see " + recorder.stderr_path().string() + ")";
-      return r;
+      return false;
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
-  Child publisher(
-      "publisher_" + tag,
-      {self.string(), "--publisher", "--domain", std::to_string(domain), "--rate",
-       std::to_string(rate_hz), "--seconds", std::to_string(seconds), "--out", pub_json.string()},
-      logs);
-  CpuSampler cpu;
-  cpu.pid = recorder.pid();
+  return true;
+}
+
+// Follows the publisher to its end, sampling the recorder's CPU when it starts and when it is
+// done publishing; false (with r.problem) when it did not finish or failed.
+bool watch_publisher(Child& publisher, Child& recorder, CpuSampler& cpu, double seconds,
+                     CaseResult& r) {
   bool started = false, done = false;
   const auto t0 = Clock::now();
   const double bound = seconds + 60;
@@ -599,12 +586,65 @@ CaseResult run_case(const fs::path& poise, const fs::path& self, const fs::path&
     publisher.stop(3000);
     r.problem = recorder.running() ? "the publisher did not finish in time"
                                    : "the recorder exited during the run";
-    return r;
+    return false;
   }
   if (*publisher.poll() != 0) {
     r.problem = "the publisher failed: " + slurp(publisher.stderr_path());
-    return r;
+    return false;
   }
+  return true;
+}
+
+// The recording as `poise info --json` sees it, against what the publisher says it published.
+void count_recorded(const Json& info, const Json& pub, CaseResult& r) {
+  r.complete = info.value("complete", false);
+  r.file_bytes = info.value("file_size", 0ULL);
+  r.dropped = metadata_u64(info, "total.dropped");
+  r.vendor_lost = metadata_u64(info, "total.vendor_lost");
+  r.tick_gaps = metadata_u64(info, "total.tick_gaps");
+  std::map<std::string, std::uint64_t> in_file;
+  for (const auto& t : info["topics"]) {
+    in_file[t.value("topic", "")] = t.value("messages", 0ULL);
+    r.message_bytes += t.value("bytes", 0ULL);
+    r.sequence_gaps += t.value("sequence_gaps", 0ULL);
+    r.missing_ticks += t.value("missing_ticks", 0ULL);
+  }
+  for (const auto& [topic, n] : pub["published"].items()) {
+    const auto published = n.get<std::uint64_t>();
+    const std::uint64_t got = in_file.count(topic) ? in_file[topic] : 0;
+    r.per_topic[topic] = {published, got};
+    r.published += published;
+    r.recorded += got;
+    r.lost += published > got ? published - got : 0;
+  }
+  for (const auto& [topic, b] : pub["sample_bytes"].items())
+    r.sample_bytes[topic] = {b[0].get<std::size_t>(), b[1].get<std::size_t>()};
+}
+
+CaseResult run_case(const fs::path& poise, const fs::path& self, const fs::path& dir, int domain,
+                    const std::string& compression, double rate_hz, double seconds,
+                    const std::string& tag) {
+  CaseResult r;
+  r.compression = compression;
+  r.flat_out = rate_hz <= 0;
+  const fs::path file = dir / (tag + ".mcap");
+  const fs::path logs = dir / "logs";
+  const fs::path pub_json = logs / (tag + ".publisher.json");
+  fs::remove(file);
+  Child recorder("record_" + tag,
+                 {poise.string(), "record", "--domain", std::to_string(domain), "-o", file.string(),
+                  "--compression", compression, "--progress", "0", "--duration",
+                  std::to_string(static_cast<int>(seconds + 180))},
+                 logs);
+  if (!wait_for_recorder(recorder, r)) return r;
+  Child publisher(
+      "publisher_" + tag,
+      {self.string(), "--publisher", "--domain", std::to_string(domain), "--rate",
+       std::to_string(rate_hz), "--seconds", std::to_string(seconds), "--out", pub_json.string()},
+      logs);
+  CpuSampler cpu;
+  cpu.pid = recorder.pid();
+  if (!watch_publisher(publisher, recorder, cpu, seconds, r)) return r;
   r.cpu_percent = cpu.percent();
   const auto t_stop = Clock::now();
   const int code = recorder.stop(120000);
@@ -630,28 +670,7 @@ CaseResult run_case(const fs::path& poise, const fs::path& self, const fs::path&
     r.problem = "poise info gave no JSON";
     return r;
   }
-  r.complete = info.value("complete", false);
-  r.file_bytes = info.value("file_size", 0ULL);
-  r.dropped = metadata_u64(info, "total.dropped");
-  r.vendor_lost = metadata_u64(info, "total.vendor_lost");
-  r.tick_gaps = metadata_u64(info, "total.tick_gaps");
-  std::map<std::string, std::uint64_t> in_file;
-  for (const auto& t : info["topics"]) {
-    in_file[t.value("topic", "")] = t.value("messages", 0ULL);
-    r.message_bytes += t.value("bytes", 0ULL);
-    r.sequence_gaps += t.value("sequence_gaps", 0ULL);
-    r.missing_ticks += t.value("missing_ticks", 0ULL);
-  }
-  for (const auto& [topic, n] : pub["published"].items()) {
-    const auto published = n.get<std::uint64_t>();
-    const std::uint64_t got = in_file.count(topic) ? in_file[topic] : 0;
-    r.per_topic[topic] = {published, got};
-    r.published += published;
-    r.recorded += got;
-    r.lost += published > got ? published - got : 0;
-  }
-  for (const auto& [topic, b] : pub["sample_bytes"].items())
-    r.sample_bytes[topic] = {b[0].get<std::size_t>(), b[1].get<std::size_t>()};
+  count_recorded(info, pub, r);
   r.ok = true;
   return r;
 }
@@ -708,17 +727,10 @@ struct RunResult {
   fs::path logs;
 };
 
-RunResult run_stack(const fs::path& poise, const fs::path& dir, const std::string& tag,
-                    double duration, RecordMode mode, const LoopSettings& loop = {}) {
-  RunResult r;
-  const bool record = mode != RecordMode::none;
-  r.recorded = record;
-  r.mode = mode;
-  const fs::path json = dir / (tag + ".json");
-  const fs::path logs = dir / (tag + ".logs");
-  const fs::path mcap = dir / (tag + ".mcap");
-  fs::create_directories(logs);
-  r.logs = logs;
+// The command line of the `poise run` of a latency or long run.
+std::vector<std::string> run_argv(const fs::path& poise, double duration, const fs::path& json,
+                                  const fs::path& logs, const fs::path& mcap, RecordMode mode,
+                                  const LoopSettings& loop) {
   std::vector<std::string> argv{
       poise.string(),           "run", "standing",    "--realtime", "--duration",
       std::to_string(duration), "-o",  json.string(), "--log-dir",  logs.string()};
@@ -730,30 +742,37 @@ RunResult run_stack(const fs::path& poise, const fs::path& dir, const std::strin
     argv.push_back(mcap.string());
     if (mode == RecordMode::passive) argv.push_back("--passive");
   }
-  // The passive recorder captures before the run starts (it must see the writers' announcements).
-  std::unique_ptr<Child> passive;
-  if (mode == RecordMode::passive_hand) {
-    std::vector<std::string> rec;
-    if (!loop.recorder_cpus.empty()) rec = {"/usr/bin/taskset", "-c", loop.recorder_cpus};
-    // No DDS reader at all (--no-passive-read): nothing but the capture (ground truth and
-    // diagnostics are then not in the file: nothing else reads them).
-    rec.insert(rec.end(), {poise.string(), "record", "--passive", "--no-passive-read", "--domain",
-                           std::to_string(loop.domain), "-o", mcap.string(), "--progress", "0"});
-    passive = std::make_unique<Child>("rec_" + tag, rec, dir / "logs");
-    const auto w0 = Clock::now();
-    while (slurp(passive->stderr_path()).find("poise record: passive capture") == std::string::npos) {
-      if (!passive->running() || seconds_since(w0) > 20) {
-        r.problem = "the passive recorder did not start: " + slurp(passive->stderr_path());
-        return r;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  return argv;
+}
+
+// passive-hand: `poise record --passive --no-passive-read` started before the run, once it
+// captures; null (with r.problem) when it did not start.
+std::unique_ptr<Child> start_passive_recorder(const fs::path& poise, const fs::path& dir,
+                                              const std::string& tag, const fs::path& mcap,
+                                              const LoopSettings& loop, RunResult& r) {
+  std::vector<std::string> rec;
+  if (!loop.recorder_cpus.empty()) rec = {"/usr/bin/taskset", "-c", loop.recorder_cpus};
+  // No DDS reader at all (--no-passive-read): nothing but the capture (ground truth and
+  // diagnostics are then not in the file: nothing else reads them).
+  rec.insert(rec.end(), {poise.string(), "record", "--passive", "--no-passive-read", "--domain",
+                         std::to_string(loop.domain), "-o", mcap.string(), "--progress", "0"});
+  auto passive = std::make_unique<Child>("rec_" + tag, rec, dir / "logs");
+  const auto w0 = Clock::now();
+  while (slurp(passive->stderr_path()).find("poise record: passive capture") == std::string::npos) {
+    if (!passive->running() || seconds_since(w0) > 20) {
+      r.problem = "the passive recorder did not start: " + slurp(passive->stderr_path());
+      return nullptr;
     }
-    r.recorder.pid = passive->pid();
-  } else if (record && !loop.recorder_cpus.empty()) {
-    progress("  note: the recorder of `poise run --record` is not pinned");
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
-  const auto t0 = Clock::now();
-  Child run("run_" + tag, argv, dir / "logs");
+  r.recorder.pid = passive->pid();
+  return passive;
+}
+
+// Follows `poise run` to its end (bounded), sampling the recorder every 250 ms; false (with
+// r.problem) when it took too long.
+bool watch_run(Child& run, Clock::time_point t0, const std::string& tag, double duration,
+               bool record, RunResult& r) {
   const double bound = duration + 120;
   auto last_sample = Clock::now() - std::chrono::hours(1);
   double last_note = 0;
@@ -761,7 +780,7 @@ RunResult run_stack(const fs::path& poise, const fs::path& dir, const std::strin
     if (seconds_since(t0) > bound) {
       run.stop(30000);
       r.problem = "poise run took more than " + std::to_string(bound) + " s";
-      return r;
+      return false;
     }
     if (record && Clock::now() - last_sample > std::chrono::milliseconds(250)) {
       last_sample = Clock::now();
@@ -775,22 +794,16 @@ RunResult run_stack(const fs::path& poise, const fs::path& dir, const std::strin
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
-  r.wall_s = seconds_since(t0);
-  r.exit_code = *run.poll();
-  if (passive) {
-    r.recorder.sample();
-    ::kill(passive->pid(), SIGINT);
-    if (!passive->wait(30)) passive->stop(3000);
-  }
-  r.tree_cpu_s = cpu_seconds(run.usage());
-  r.loop_cpu_s = r.tree_cpu_s;
-  if (mode == RecordMode::subscribing || mode == RecordMode::passive)
-    r.loop_cpu_s -= r.recorder.last_cpu;
+  return true;
+}
+
+// The figures of the run's result JSON; false (with r.problem) when it has none or no latency.
+bool read_run_result(const fs::path& json, const Child& run, const fs::path& logs, RunResult& r) {
   r.result = Json::parse(slurp(json), nullptr, false);
   if (r.result.is_discarded() || !r.result.is_object()) {
     r.problem = "no result JSON (exit " + std::to_string(r.exit_code) + ", see " +
                 run.stderr_path().string() + ")";
-    return r;
+    return false;
   }
   const Json& lat = r.result["tick_latency_us"];
   if (lat.is_object()) {
@@ -811,12 +824,50 @@ RunResult run_stack(const fs::path& poise, const fs::path& dir, const std::strin
     // A run that failed (a component exited, ...) has no latency: not a sample of the cost.
     r.problem = "no tick latency in the result: " + r.result.value("failure", std::string("?")) +
                 " (see " + logs.string() + ")";
-    return r;
+    return false;
   }
   r.deadline_misses = r.result.value("deadline_misses", 0ULL);
   r.damping_ticks = r.result.value("damping_ticks", 0ULL);
   r.survived = r.result.value("survived", false);
   r.realtime_factor = r.result.value("realtime_factor", 0.0);
+  return true;
+}
+
+RunResult run_stack(const fs::path& poise, const fs::path& dir, const std::string& tag,
+                    double duration, RecordMode mode, const LoopSettings& loop = {}) {
+  RunResult r;
+  const bool record = mode != RecordMode::none;
+  r.recorded = record;
+  r.mode = mode;
+  const fs::path json = dir / (tag + ".json");
+  const fs::path logs = dir / (tag + ".logs");
+  const fs::path mcap = dir / (tag + ".mcap");
+  fs::create_directories(logs);
+  r.logs = logs;
+  const std::vector<std::string> argv = run_argv(poise, duration, json, logs, mcap, mode, loop);
+  // The passive recorder captures before the run starts (it must see the writers' announcements).
+  std::unique_ptr<Child> passive;
+  if (mode == RecordMode::passive_hand) {
+    passive = start_passive_recorder(poise, dir, tag, mcap, loop, r);
+    if (!passive) return r;
+  } else if (record && !loop.recorder_cpus.empty()) {
+    progress("  note: the recorder of `poise run --record` is not pinned");
+  }
+  const auto t0 = Clock::now();
+  Child run("run_" + tag, argv, dir / "logs");
+  if (!watch_run(run, t0, tag, duration, record, r)) return r;
+  r.wall_s = seconds_since(t0);
+  r.exit_code = *run.poll();
+  if (passive) {
+    r.recorder.sample();
+    ::kill(passive->pid(), SIGINT);
+    if (!passive->wait(30)) passive->stop(3000);
+  }
+  r.tree_cpu_s = cpu_seconds(run.usage());
+  r.loop_cpu_s = r.tree_cpu_s;
+  if (mode == RecordMode::subscribing || mode == RecordMode::passive)
+    r.loop_cpu_s -= r.recorder.last_cpu;
+  if (!read_run_result(json, run, logs, r)) return r;
   if (mode == RecordMode::passive_hand) r.info = poise_info(poise, mcap, dir / "logs", tag);
   if (mode == RecordMode::subscribing || mode == RecordMode::passive) {
     if (r.result.contains("pids") && r.result["pids"].contains("recorder") &&
@@ -1051,52 +1102,94 @@ void usage() {
       "  --keep           keep the MCAP files (default: removed at the end)\n");
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  // Hidden role: the publisher child.
-  if (argc > 1 && std::string(argv[1]) == "--publisher") {
-    int domain = -1;
-    double rate = 1000, seconds = 10;
-    std::uint64_t seed = 1;
-    std::size_t pool = 256;
-    std::string out;
-    for (int i = 2; i + 1 < argc; i += 2) {
-      const std::string a = argv[i];
-      if (a == "--domain")
-        domain = std::atoi(argv[i + 1]);
-      else if (a == "--rate")
-        rate = std::atof(argv[i + 1]);
-      else if (a == "--seconds")
-        seconds = std::atof(argv[i + 1]);
-      else if (a == "--seed")
-        seed = std::strtoull(argv[i + 1], nullptr, 10);
-      else if (a == "--pool")
-        pool = std::max<std::size_t>(1, std::strtoull(argv[i + 1], nullptr, 10));
-      else if (a == "--out")
-        out = argv[i + 1];
-    }
-    if (domain < 0 || out.empty() || seconds <= 0 || seconds > 3600) {
-      std::fprintf(stderr, "publisher: --domain, --out and --seconds (0..3600] are required\n");
-      return 2;
-    }
-    try {
-      return publisher_main(domain, rate, seconds, seed, pool, out);
-    } catch (const std::exception& e) {
-      std::fprintf(stderr, "publisher: %s\n", e.what());
-      return 1;
-    }
+// The hidden role: the publisher child (--publisher --domain N --out FILE ...).
+int publisher_role(int argc, char** argv) {
+  int domain = -1;
+  double rate = 1000, seconds = 10;
+  std::uint64_t seed = 1;
+  std::size_t pool = 256;
+  std::string out;
+  for (int i = 2; i + 1 < argc; i += 2) {
+    const std::string a = argv[i];
+    if (a == "--domain")
+      domain = std::atoi(argv[i + 1]);
+    else if (a == "--rate")
+      rate = std::atof(argv[i + 1]);
+    else if (a == "--seconds")
+      seconds = std::atof(argv[i + 1]);
+    else if (a == "--seed")
+      seed = std::strtoull(argv[i + 1], nullptr, 10);
+    else if (a == "--pool")
+      pool = std::max<std::size_t>(1, std::strtoull(argv[i + 1], nullptr, 10));
+    else if (a == "--out")
+      out = argv[i + 1];
   }
+  if (domain < 0 || out.empty() || seconds <= 0 || seconds > 3600) {
+    std::fprintf(stderr, "publisher: --domain, --out and --seconds (0..3600] are required\n");
+    return 2;
+  }
+  try {
+    return publisher_main(domain, rate, seconds, seed, pool, out);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "publisher: %s\n", e.what());
+    return 1;
+  }
+}
 
+// The command line of the bench.
+struct BenchArgs {
   double seconds = 10, sat_seconds = 3, latency_duration = 10, long_minutes = 0;
   int latency_reps = 2;
   std::vector<RecordMode> latency_modes{RecordMode::none, RecordMode::subscribing};
-  if (::geteuid() == 0) latency_modes.push_back(RecordMode::passive);
   std::string loop_cpus, recorder_cpus;
   std::vector<double> ramp_rates{2000, 4000, 6000, 8000};
   std::size_t disk_mb = 256;
   bool skip_latency = false, skip_throughput = false, keep = false;
   std::string dir_arg;
+};
+
+// --latency-modes no,dds,passive,passive-hand; false (with the message) when a name is unknown
+// or the list is empty.
+bool parse_latency_modes(const std::string& text, std::vector<RecordMode>& modes) {
+  modes.clear();
+  std::stringstream list(text);
+  for (std::string m; std::getline(list, m, ',');) {
+    if (m == "no") modes.push_back(RecordMode::none);
+    else if (m == "dds") modes.push_back(RecordMode::subscribing);
+    else if (m == "passive") modes.push_back(RecordMode::passive);
+    else if (m == "passive-hand") modes.push_back(RecordMode::passive_hand);
+    else {
+      std::fprintf(stderr,
+                   "poise-bench-record: --latency-modes: '%s' is not no, dds, passive or "
+                   "passive-hand\n",
+                   m.c_str());
+      return false;
+    }
+  }
+  if (modes.empty()) {
+    std::fprintf(stderr, "poise-bench-record: --latency-modes is empty\n");
+    return false;
+  }
+  return true;
+}
+
+// --ramp R1,R2,..; false (with the message) when a rate is out of (0, 1e6].
+bool parse_ramp(const std::string& text, std::vector<double>& rates) {
+  rates.clear();
+  std::stringstream in(text);
+  for (std::string item; std::getline(in, item, ',');)
+    if (!item.empty()) rates.push_back(std::atof(item.c_str()));
+  for (double r : rates)
+    if (!(r > 0 && r <= 1e6)) {
+      std::fprintf(stderr, "poise-bench-record: --ramp takes tick rates in (0, 1e6]\n");
+      return false;
+    }
+  return true;
+}
+
+// Parses the command line into `args`; an exit code when the bench is not to run (0 after
+// --help, 2 on a bad argument).
+std::optional<int> parse_bench_args(int argc, char** argv, BenchArgs& args) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&]() -> std::string {
@@ -1110,280 +1203,319 @@ int main(int argc, char** argv) {
       usage();
       return 0;
     } else if (a == "--seconds") {
-      seconds = std::atof(value().c_str());
+      args.seconds = std::atof(value().c_str());
     } else if (a == "--saturation-seconds") {
-      sat_seconds = std::atof(value().c_str());
+      args.sat_seconds = std::atof(value().c_str());
     } else if (a == "--dir") {
-      dir_arg = value();
+      args.dir_arg = value();
     } else if (a == "--skip-latency") {
-      skip_latency = true;
+      args.skip_latency = true;
     } else if (a == "--skip-throughput") {
-      skip_throughput = true;
+      args.skip_throughput = true;
     } else if (a == "--latency-duration") {
-      latency_duration = std::atof(value().c_str());
+      args.latency_duration = std::atof(value().c_str());
     } else if (a == "--latency-modes") {
-      latency_modes.clear();
-      std::stringstream list(value());
-      for (std::string m; std::getline(list, m, ',');) {
-        if (m == "no") latency_modes.push_back(RecordMode::none);
-        else if (m == "dds") latency_modes.push_back(RecordMode::subscribing);
-        else if (m == "passive") latency_modes.push_back(RecordMode::passive);
-        else if (m == "passive-hand") latency_modes.push_back(RecordMode::passive_hand);
-        else {
-          std::fprintf(stderr,
-                       "poise-bench-record: --latency-modes: '%s' is not no, dds, passive or "
-                       "passive-hand\n",
-                       m.c_str());
-          return 2;
-        }
-      }
-      if (latency_modes.empty()) {
-        std::fprintf(stderr, "poise-bench-record: --latency-modes is empty\n");
-        return 2;
-      }
+      if (!parse_latency_modes(value(), args.latency_modes)) return 2;
     } else if (a == "--loop-cpus") {
-      loop_cpus = value();
+      args.loop_cpus = value();
     } else if (a == "--recorder-cpus") {
-      recorder_cpus = value();
+      args.recorder_cpus = value();
     } else if (a == "--latency-reps") {
-      latency_reps = std::atoi(value().c_str());
+      args.latency_reps = std::atoi(value().c_str());
     } else if (a == "--long-minutes") {
-      long_minutes = std::atof(value().c_str());
+      args.long_minutes = std::atof(value().c_str());
     } else if (a == "--disk-mb") {
-      disk_mb = std::strtoull(value().c_str(), nullptr, 10);
+      args.disk_mb = std::strtoull(value().c_str(), nullptr, 10);
     } else if (a == "--ramp") {
-      ramp_rates.clear();
-      std::stringstream in(value());
-      for (std::string item; std::getline(in, item, ',');)
-        if (!item.empty()) ramp_rates.push_back(std::atof(item.c_str()));
-      for (double r : ramp_rates)
-        if (!(r > 0 && r <= 1e6)) {
-          std::fprintf(stderr, "poise-bench-record: --ramp takes tick rates in (0, 1e6]\n");
-          return 2;
-        }
+      if (!parse_ramp(value(), args.ramp_rates)) return 2;
     } else if (a == "--keep") {
-      keep = true;
+      args.keep = true;
     } else {
       std::fprintf(stderr, "poise-bench-record: unknown argument '%s' (see --help)\n", a.c_str());
       return 2;
     }
   }
-  if (!(seconds > 0 && seconds <= 3600) || !(sat_seconds > 0 && sat_seconds <= 600) ||
-      !(latency_duration > 0 && latency_duration <= 3600) || latency_reps < 1 ||
-      latency_reps > 20 || !(long_minutes >= 0 && long_minutes <= 24 * 60) || disk_mb < 1) {
-    std::fprintf(stderr, "poise-bench-record: a value is out of range (see --help)\n");
-    return 2;
-  }
+  return std::nullopt;
+}
 
+bool bench_args_in_range(const BenchArgs& a) {
+  if (!(a.seconds > 0 && a.seconds <= 3600) || !(a.sat_seconds > 0 && a.sat_seconds <= 600) ||
+      !(a.latency_duration > 0 && a.latency_duration <= 3600) || a.latency_reps < 1 ||
+      a.latency_reps > 20 || !(a.long_minutes >= 0 && a.long_minutes <= 24 * 60) ||
+      a.disk_mb < 1) {
+    std::fprintf(stderr, "poise-bench-record: a value is out of range (see --help)\n");
+    return false;
+  }
+  return true;
+}
+
+void install_bench_signal_handlers() {
   struct sigaction sa {};
   sa.sa_handler = bench_on_signal;
   sigemptyset(&sa.sa_mask);
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
   sigaction(SIGHUP, &sa, nullptr);
+}
+
+// The first line of the figures: host, cores, CPU model, load, directory.
+void print_machine(const fs::path& dir) {
+  char host[256] = {};
+  ::gethostname(host, sizeof(host) - 1);
+  std::string cpu_model = "?";
+  {
+    std::ifstream f("/proc/cpuinfo");
+    for (std::string line; std::getline(f, line);)
+      if (line.rfind("model name", 0) == 0) {
+        cpu_model = line.substr(line.find(':') + 2);
+        break;
+      }
+  }
+  double load[3] = {};
+  ::getloadavg(load, 3);
+  std::printf("poise-bench-record: %s, %ld cores, %s; load average %.2f %.2f %.2f; dir %s\n",
+              host, ::sysconf(_SC_NPROCESSORS_ONLN), cpu_model.c_str(), load[0], load[1], load[2],
+              dir.c_str());
+  std::fflush(stdout);
+}
+
+// Where the bench runs: the `poise` beside it, the files' directory.
+struct BenchPaths {
+  fs::path self, poise, dir;
+};
+
+DiskResult run_disk(const BenchPaths& p, const BenchArgs& args) {
+  progress("disk: %zu MiB in 1 MiB blocks ...", args.disk_mb);
+  const DiskResult disk = measure_disk(p.dir, args.disk_mb);
+  std::printf(
+      "\nDISK (%s): %.0f MB/s with fdatasync at the end (%zu MiB); %.0f MB/s with fdatasync "
+      "per 1 MiB (%zu MiB, %.2f ms per block)\n",
+      p.dir.c_str(), disk.sync_end_mb_s, disk.mb_end, disk.sync_block_mb_s, disk.mb_block,
+      disk.sync_block_ms);
+  std::fflush(stdout);
+  return disk;
+}
+
+// One case per compression at `rate_hz` ticks/s (0: flat out), tagged `prefix` + compression.
+std::vector<CaseResult> run_compressions(const BenchPaths& p, const BenchArgs& args, int domain,
+                                         const char* prefix, double rate_hz, double seconds) {
+  std::vector<CaseResult> cases;
+  for (const char* c : {"zstd", "lz4", "none"}) {
+    const std::string tag = prefix + std::string(c);
+    if (rate_hz > 0)
+      progress("throughput %s: 1 kHz for %.0f s ...", c, seconds);
+    else
+      progress("saturation %s: flat out for %.0f s ...", c, seconds);
+    cases.push_back(run_case(p.poise, p.self, p.dir, domain, c, rate_hz, seconds, tag));
+    if (!cases.back().ok) progress("  FAILED: %s", cases.back().problem.c_str());
+    if (!args.keep) fs::remove(p.dir / (tag + ".mcap"));
+  }
+  return cases;
+}
+
+// Ramp: the highest paced tick rate recorded without a loss, per compression.
+std::vector<CaseResult> run_ramp(const BenchPaths& p, const BenchArgs& args, int domain) {
+  std::vector<CaseResult> ramp_cases;
+  for (const char* c : {"zstd", "lz4", "none"}) {
+    for (const double rate : args.ramp_rates) {
+      const std::string tag = "ramp" + std::to_string(static_cast<int>(rate)) + "_" + c;
+      progress("ramp %s: %.0f ticks/s for %.0f s ...", c, rate, args.sat_seconds);
+      ramp_cases.push_back(
+          run_case(p.poise, p.self, p.dir, domain, c, rate, args.sat_seconds, tag));
+      if (!args.keep) fs::remove(p.dir / (tag + ".mcap"));
+      const CaseResult& r = ramp_cases.back();
+      if (!r.ok) progress("  FAILED: %s", r.problem.c_str());
+      if (!r.ok || r.lost > 0 || r.missing_ticks > 0) break;
+    }
+  }
+  return ramp_cases;
+}
+
+// 1. disk, 2. throughput, saturation and ramp.
+void run_throughput_part(const BenchPaths& p, const BenchArgs& args) {
+  const DiskResult disk = run_disk(p, args);
+  const int domain = poise::dds::claim_free_domain();
+  progress("DDS domain %d", domain);
+  const std::vector<CaseResult> rate_cases =
+      run_compressions(p, args, domain, "tp_", 1000, args.seconds);
+  const std::vector<CaseResult> flat_cases =
+      run_compressions(p, args, domain, "sat_", 0, args.sat_seconds);
+  const std::vector<CaseResult> ramp_cases = run_ramp(p, args, domain);
+  if (rate_cases[0].ok) print_sample_sizes(rate_cases[0]);
+  print_throughput(rate_cases, disk, false);
+  print_throughput(flat_cases, disk, true);
+  print_ramp(ramp_cases);
+  std::printf(
+      "  PUB/REC[m/s] = messages published / in the file per second of publishing; LOST = "
+      "published - in file; DROPPED/DDSLOST = the recorder's own counters (metadata "
+      "poise_recorder); SEQGAP = gaps in the recorder's sequence numbers; TICKGAP = ticks "
+      "skipped within a writer's stream as the recorder saw it live (poise_recorder "
+      "total.tick_gaps: a loss the queue and DDS did not see); CPU%% = recorder, "
+      "%% of one core while the publisher published; CPU[s] = recorder's whole life; "
+      "MISSING = ticks missing in per-tick topics (poise info); RATIO = message bytes / file "
+      "bytes; STOP = SIGTERM to exit.\n");
+  std::fflush(stdout);
+}
+
+// Medians of the latency runs per recorder mode, and their ratios to the runs without one.
+void print_latency_medians(const std::vector<RunResult>& runs) {
+  auto rt = [](double a, double b) { return b > 0 ? a / b : 0.0; };
+  struct Agg {
+    std::vector<double> p50, p99, mx, cpu, loop_cpu, rec_pct, w50, w99;
+    std::uint64_t misses = 0, damping = 0;
+  };
+  std::map<RecordMode, Agg> agg;
+  for (const auto& r : runs) {
+    if (!r.ok) continue;
+    Agg& a = agg[r.mode];
+    a.p50.push_back(r.p50);
+    a.p99.push_back(r.p99);
+    a.mx.push_back(r.max);
+    a.cpu.push_back(r.tree_cpu_s);
+    a.loop_cpu.push_back(r.loop_cpu_s);
+    a.w50.push_back(r.write_p50);
+    a.w99.push_back(r.write_p99);
+    if (r.recorded) a.rec_pct.push_back(r.recorder.percent());
+    a.misses += r.deadline_misses;
+    a.damping += r.damping_ticks;
+  }
+  const Agg base = agg.count(RecordMode::none) ? agg[RecordMode::none] : Agg{};
+  for (const auto& [mode, a] : agg) {
+    std::printf("median over %zu runs, recorder %-12s: p50 %.0f p99 %.0f max %.0f us, CPU %.2f s, "
+                "loop CPU %.2f s, nodes' DDS writes p50 %.0f p99 %.0f us, recorder %.1f %% of a "
+                "core; deadline misses %llu, damping ticks %llu (sums)",
+                a.p50.size(), mode_name(mode), median(a.p50), median(a.p99), median(a.mx),
+                median(a.cpu), median(a.loop_cpu), median(a.w50), median(a.w99),
+                a.rec_pct.empty() ? 0.0 : median(a.rec_pct),
+                static_cast<unsigned long long>(a.misses),
+                static_cast<unsigned long long>(a.damping));
+    if (mode != RecordMode::none && !base.p50.empty())
+      std::printf(" | ratio to none: p50 %.2f, p99 %.2f, max %.2f, CPU of the run %.2f, loop "
+                  "CPU %.2f, DDS writes p50 %.2f p99 %.2f",
+                  rt(median(a.p50), median(base.p50)), rt(median(a.p99), median(base.p99)),
+                  rt(median(a.mx), median(base.mx)), rt(median(a.cpu), median(base.cpu)),
+                  rt(median(a.loop_cpu), median(base.loop_cpu)),
+                  rt(median(a.w50), median(base.w50)), rt(median(a.w99), median(base.w99)));
+    std::printf("\n");
+  }
+}
+
+// 3. The latency runs, alternated between the recorder modes.
+void run_latency_part(const BenchPaths& p, const BenchArgs& args) {
+  std::vector<RunResult> runs;
+  LoopSettings loop;
+  loop.loop_cpus = args.loop_cpus;
+  loop.recorder_cpus = args.recorder_cpus;
+  loop.domain = poise::dds::claim_free_domain();
+  const int n_modes = static_cast<int>(args.latency_modes.size());
+  for (int k = 0; k < n_modes * args.latency_reps; ++k) {
+    const RecordMode mode = args.latency_modes[static_cast<std::size_t>(k % n_modes)];
+    const std::string tag = "lat" + std::to_string(k + 1) + "_" + mode_name(mode);
+    progress("latency run %d/%d (recorder: %s): poise run standing --realtime --duration %.0f%s%s ...",
+             k + 1, n_modes * args.latency_reps, mode_name(mode), args.latency_duration,
+             args.loop_cpus.empty() ? "" : " --cpus ", args.loop_cpus.c_str());
+    runs.push_back(run_stack(p.poise, p.dir, tag, args.latency_duration, mode, loop));
+    if (!runs.back().ok) progress("  FAILED: %s", runs.back().problem.c_str());
+    if (!args.keep) fs::remove(p.dir / (tag + ".mcap"));
+  }
+  std::printf(
+      "\nLATENCY COST: poise run standing --realtime --duration %.0f%s%s, alternated (tick "
+      "latency = sensors k published -> command k received); recorder: no = none, dds = "
+      "`poise run --record` (a subscribing recorder), passive = `poise run --record --passive`, "
+      "passive-hand = `poise record --passive --no-passive-read` started by hand%s%s\n",
+      args.latency_duration, args.loop_cpus.empty() ? "" : " --cpus ", args.loop_cpus.c_str(),
+      args.recorder_cpus.empty() ? "" : " on CPUs ", args.recorder_cpus.c_str());
+  print_run_table(runs);
+  print_latency_medians(runs);
+  // The first recording of each kind, against the nodes' own tick counts.
+  std::set<RecordMode> shown;
+  for (const auto& r : runs)
+    if (r.ok && r.recorded && shown.insert(r.mode).second) {
+      std::printf(
+          "recording of a real run, recorder %s (recorder CPU %.1f %% of a core, peak RSS "
+          "%.0f MB):\n",
+          mode_name(r.mode), r.recorder.percent(), r.recorder.peak_mb);
+      print_recording_losses(r.info);
+      print_node_crosscheck(r.logs, r.info);
+    }
+  std::fflush(stdout);
+}
+
+// 4. The long real-time run with --record.
+void run_long_part(const BenchPaths& p, const BenchArgs& args) {
+  const double long_minutes = args.long_minutes;
+  double l0[3] = {};
+  ::getloadavg(l0, 3);
+  progress("long run: poise run standing --realtime --duration %.0f --record ... (load %.2f)",
+           long_minutes * 60, l0[0]);
+  RunResult r = run_stack(p.poise, p.dir, "long", long_minutes * 60, RecordMode::subscribing);
+  double l1[3] = {};
+  ::getloadavg(l1, 3);
+  std::printf(
+      "\nLONG RUN: poise run standing --realtime --duration %.0f --record (load average "
+      "before %.2f %.2f %.2f, after %.2f %.2f %.2f)\n",
+      long_minutes * 60, l0[0], l0[1], l0[2], l1[0], l1[1], l1[2]);
+  if (!r.ok) {
+    std::printf("FAILED: %s\n", r.problem.c_str());
+  } else {
+    std::printf(
+        "exit %d, survived %s, wall %.0f s, tick latency p50 %.0f p99 %.0f max %.0f us over "
+        "%llu ticks, deadline misses %llu, damping ticks %llu, realtime factor %.3f\n",
+        r.exit_code, r.survived ? "yes" : "NO", r.wall_s, r.p50, r.p99, r.max,
+        static_cast<unsigned long long>(r.latency_count),
+        static_cast<unsigned long long>(r.deadline_misses),
+        static_cast<unsigned long long>(r.damping_ticks), r.realtime_factor);
+    std::printf(
+        "recorder (pid %d): %.1f %% of one core over %.0f s sampled (%.1f s CPU), peak RSS "
+        "%.0f MB; whole run tree CPU %.1f s\n",
+        r.recorder.pid, r.recorder.percent(), r.recorder.window_s(),
+        r.recorder.last_cpu - r.recorder.first_cpu, r.recorder.peak_mb, r.tree_cpu_s);
+    print_recording_losses(r.info);
+    print_node_crosscheck(r.logs, r.info);
+  }
+  if (!args.keep) fs::remove(p.dir / "long.mcap");
+}
+
+// The `poise` beside this program and the files' directory (created).
+BenchPaths bench_paths(const BenchArgs& args) {
+  BenchPaths p;
+  p.self = self_exe();
+  p.poise = p.self.parent_path() / "poise";
+  if (!fs::exists(p.poise)) throw std::runtime_error(p.poise.string() + " not found");
+  p.dir = args.dir_arg.empty() ? fs::temp_directory_path() /
+                                     ("poise-bench-record-" + std::to_string(::getpid()))
+                               : fs::path(args.dir_arg);
+  fs::create_directories(p.dir / "logs");
+  progress("files in %s", p.dir.c_str());
+  return p;
+}
+
+int run_bench(const BenchArgs& args) {
+  const BenchPaths p = bench_paths(args);
+  print_machine(p.dir);
+  if (!args.skip_throughput) run_throughput_part(p, args);
+  if (!args.skip_latency) run_latency_part(p, args);
+  if (args.long_minutes > 0) run_long_part(p, args);
+  double l2[3] = {};
+  ::getloadavg(l2, 3);
+  std::printf("\nload average at the end %.2f %.2f %.2f; logs and JSON in %s\n", l2[0], l2[1],
+              l2[2], p.dir.c_str());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc > 1 && std::string(argv[1]) == "--publisher") return publisher_role(argc, argv);
+  BenchArgs args;
+  if (::geteuid() == 0) args.latency_modes.push_back(RecordMode::passive);
+  if (const auto code = parse_bench_args(argc, argv, args)) return *code;
+  if (!bench_args_in_range(args)) return 2;
+  install_bench_signal_handlers();
   // The shipped loopback configurations only.
   ::unsetenv("POISE_DDS_CONFIG");
-
   try {
-    const fs::path self = self_exe();
-    const fs::path poise = self.parent_path() / "poise";
-    if (!fs::exists(poise)) throw std::runtime_error(poise.string() + " not found");
-    const fs::path dir = dir_arg.empty() ? fs::temp_directory_path() /
-                                               ("poise-bench-record-" + std::to_string(::getpid()))
-                                         : fs::path(dir_arg);
-    fs::create_directories(dir / "logs");
-    progress("files in %s", dir.c_str());
-
-    char host[256] = {};
-    ::gethostname(host, sizeof(host) - 1);
-    std::string cpu_model = "?";
-    {
-      std::ifstream f("/proc/cpuinfo");
-      for (std::string line; std::getline(f, line);)
-        if (line.rfind("model name", 0) == 0) {
-          cpu_model = line.substr(line.find(':') + 2);
-          break;
-        }
-    }
-    double load[3] = {};
-    ::getloadavg(load, 3);
-    std::printf("poise-bench-record: %s, %ld cores, %s; load average %.2f %.2f %.2f; dir %s\n",
-                host, ::sysconf(_SC_NPROCESSORS_ONLN), cpu_model.c_str(), load[0], load[1], load[2],
-                dir.c_str());
-    std::fflush(stdout);
-
-    DiskResult disk;
-    if (!skip_throughput) {
-      progress("disk: %zu MiB in 1 MiB blocks ...", disk_mb);
-      disk = measure_disk(dir, disk_mb);
-      std::printf(
-          "\nDISK (%s): %.0f MB/s with fdatasync at the end (%zu MiB); %.0f MB/s with fdatasync "
-          "per 1 MiB (%zu MiB, %.2f ms per block)\n",
-          dir.c_str(), disk.sync_end_mb_s, disk.mb_end, disk.sync_block_mb_s, disk.mb_block,
-          disk.sync_block_ms);
-      std::fflush(stdout);
-
-      const int domain = poise::dds::claim_free_domain();
-      progress("DDS domain %d", domain);
-      std::vector<CaseResult> rate_cases, flat_cases;
-      for (const char* c : {"zstd", "lz4", "none"}) {
-        const std::string tag = "tp_" + std::string(c);
-        progress("throughput %s: 1 kHz for %.0f s ...", c, seconds);
-        rate_cases.push_back(run_case(poise, self, dir, domain, c, 1000, seconds, tag));
-        if (!rate_cases.back().ok) progress("  FAILED: %s", rate_cases.back().problem.c_str());
-        if (!keep) fs::remove(dir / (tag + ".mcap"));
-      }
-      for (const char* c : {"zstd", "lz4", "none"}) {
-        const std::string tag = "sat_" + std::string(c);
-        progress("saturation %s: flat out for %.0f s ...", c, sat_seconds);
-        flat_cases.push_back(run_case(poise, self, dir, domain, c, 0, sat_seconds, tag));
-        if (!flat_cases.back().ok) progress("  FAILED: %s", flat_cases.back().problem.c_str());
-        if (!keep) fs::remove(dir / (tag + ".mcap"));
-      }
-      // Ramp: the highest paced tick rate recorded without a loss, per compression.
-      std::vector<CaseResult> ramp_cases;
-      for (const char* c : {"zstd", "lz4", "none"}) {
-        for (const double rate : ramp_rates) {
-          const std::string tag = "ramp" + std::to_string(static_cast<int>(rate)) + "_" + c;
-          progress("ramp %s: %.0f ticks/s for %.0f s ...", c, rate, sat_seconds);
-          ramp_cases.push_back(run_case(poise, self, dir, domain, c, rate, sat_seconds, tag));
-          if (!keep) fs::remove(dir / (tag + ".mcap"));
-          const CaseResult& r = ramp_cases.back();
-          if (!r.ok) progress("  FAILED: %s", r.problem.c_str());
-          if (!r.ok || r.lost > 0 || r.missing_ticks > 0) break;
-        }
-      }
-      if (rate_cases[0].ok) print_sample_sizes(rate_cases[0]);
-      print_throughput(rate_cases, disk, false);
-      print_throughput(flat_cases, disk, true);
-      print_ramp(ramp_cases);
-      std::printf(
-          "  PUB/REC[m/s] = messages published / in the file per second of publishing; LOST = "
-          "published - in file; DROPPED/DDSLOST = the recorder's own counters (metadata "
-          "poise_recorder); SEQGAP = gaps in the recorder's sequence numbers; TICKGAP = ticks "
-          "skipped within a writer's stream as the recorder saw it live (poise_recorder "
-          "total.tick_gaps: a loss the queue and DDS did not see); CPU%% = recorder, "
-          "%% of one core while the publisher published; CPU[s] = recorder's whole life; "
-          "MISSING = ticks missing in per-tick topics (poise info); RATIO = message bytes / file "
-          "bytes; STOP = SIGTERM to exit.\n");
-      std::fflush(stdout);
-    }
-
-    if (!skip_latency) {
-      std::vector<RunResult> runs;
-      LoopSettings loop;
-      loop.loop_cpus = loop_cpus;
-      loop.recorder_cpus = recorder_cpus;
-      loop.domain = poise::dds::claim_free_domain();
-      const int n_modes = static_cast<int>(latency_modes.size());
-      for (int k = 0; k < n_modes * latency_reps; ++k) {
-        const RecordMode mode = latency_modes[static_cast<std::size_t>(k % n_modes)];
-        const std::string tag = "lat" + std::to_string(k + 1) + "_" + mode_name(mode);
-        progress("latency run %d/%d (recorder: %s): poise run standing --realtime --duration %.0f%s%s ...",
-                 k + 1, n_modes * latency_reps, mode_name(mode), latency_duration,
-                 loop_cpus.empty() ? "" : " --cpus ", loop_cpus.c_str());
-        runs.push_back(run_stack(poise, dir, tag, latency_duration, mode, loop));
-        if (!runs.back().ok) progress("  FAILED: %s", runs.back().problem.c_str());
-        if (!keep) fs::remove(dir / (tag + ".mcap"));
-      }
-      std::printf(
-          "\nLATENCY COST: poise run standing --realtime --duration %.0f%s%s, alternated (tick "
-          "latency = sensors k published -> command k received); recorder: no = none, dds = "
-          "`poise run --record` (a subscribing recorder), passive = `poise run --record --passive`, "
-          "passive-hand = `poise record --passive --no-passive-read` started by hand%s%s\n",
-          latency_duration, loop_cpus.empty() ? "" : " --cpus ", loop_cpus.c_str(),
-          recorder_cpus.empty() ? "" : " on CPUs ", recorder_cpus.c_str());
-      print_run_table(runs);
-      auto rt = [](double a, double b) { return b > 0 ? a / b : 0.0; };
-      struct Agg {
-        std::vector<double> p50, p99, mx, cpu, loop_cpu, rec_pct, w50, w99;
-        std::uint64_t misses = 0, damping = 0;
-      };
-      std::map<RecordMode, Agg> agg;
-      for (const auto& r : runs) {
-        if (!r.ok) continue;
-        Agg& a = agg[r.mode];
-        a.p50.push_back(r.p50);
-        a.p99.push_back(r.p99);
-        a.mx.push_back(r.max);
-        a.cpu.push_back(r.tree_cpu_s);
-        a.loop_cpu.push_back(r.loop_cpu_s);
-        a.w50.push_back(r.write_p50);
-        a.w99.push_back(r.write_p99);
-        if (r.recorded) a.rec_pct.push_back(r.recorder.percent());
-        a.misses += r.deadline_misses;
-        a.damping += r.damping_ticks;
-      }
-      const Agg base = agg.count(RecordMode::none) ? agg[RecordMode::none] : Agg{};
-      for (const auto& [mode, a] : agg) {
-        std::printf("median over %zu runs, recorder %-12s: p50 %.0f p99 %.0f max %.0f us, CPU %.2f s, "
-                    "loop CPU %.2f s, nodes' DDS writes p50 %.0f p99 %.0f us, recorder %.1f %% of a "
-                    "core; deadline misses %llu, damping ticks %llu (sums)",
-                    a.p50.size(), mode_name(mode), median(a.p50), median(a.p99), median(a.mx),
-                    median(a.cpu), median(a.loop_cpu), median(a.w50), median(a.w99),
-                    a.rec_pct.empty() ? 0.0 : median(a.rec_pct),
-                    static_cast<unsigned long long>(a.misses),
-                    static_cast<unsigned long long>(a.damping));
-        if (mode != RecordMode::none && !base.p50.empty())
-          std::printf(" | ratio to none: p50 %.2f, p99 %.2f, max %.2f, CPU of the run %.2f, loop "
-                      "CPU %.2f, DDS writes p50 %.2f p99 %.2f",
-                      rt(median(a.p50), median(base.p50)), rt(median(a.p99), median(base.p99)),
-                      rt(median(a.mx), median(base.mx)), rt(median(a.cpu), median(base.cpu)),
-                      rt(median(a.loop_cpu), median(base.loop_cpu)),
-                      rt(median(a.w50), median(base.w50)), rt(median(a.w99), median(base.w99)));
-        std::printf("\n");
-      }
-      // The first recording of each kind, against the nodes' own tick counts.
-      std::set<RecordMode> shown;
-      for (const auto& r : runs)
-        if (r.ok && r.recorded && shown.insert(r.mode).second) {
-          std::printf(
-              "recording of a real run, recorder %s (recorder CPU %.1f %% of a core, peak RSS "
-              "%.0f MB):\n",
-              mode_name(r.mode), r.recorder.percent(), r.recorder.peak_mb);
-          print_recording_losses(r.info);
-          print_node_crosscheck(r.logs, r.info);
-        }
-      std::fflush(stdout);
-    }
-
-    if (long_minutes > 0) {
-      double l0[3] = {};
-      ::getloadavg(l0, 3);
-      progress("long run: poise run standing --realtime --duration %.0f --record ... (load %.2f)",
-               long_minutes * 60, l0[0]);
-      RunResult r = run_stack(poise, dir, "long", long_minutes * 60, RecordMode::subscribing);
-      double l1[3] = {};
-      ::getloadavg(l1, 3);
-      std::printf(
-          "\nLONG RUN: poise run standing --realtime --duration %.0f --record (load average "
-          "before %.2f %.2f %.2f, after %.2f %.2f %.2f)\n",
-          long_minutes * 60, l0[0], l0[1], l0[2], l1[0], l1[1], l1[2]);
-      if (!r.ok) {
-        std::printf("FAILED: %s\n", r.problem.c_str());
-      } else {
-        std::printf(
-            "exit %d, survived %s, wall %.0f s, tick latency p50 %.0f p99 %.0f max %.0f us over "
-            "%llu ticks, deadline misses %llu, damping ticks %llu, realtime factor %.3f\n",
-            r.exit_code, r.survived ? "yes" : "NO", r.wall_s, r.p50, r.p99, r.max,
-            static_cast<unsigned long long>(r.latency_count),
-            static_cast<unsigned long long>(r.deadline_misses),
-            static_cast<unsigned long long>(r.damping_ticks), r.realtime_factor);
-        std::printf(
-            "recorder (pid %d): %.1f %% of one core over %.0f s sampled (%.1f s CPU), peak RSS "
-            "%.0f MB; whole run tree CPU %.1f s\n",
-            r.recorder.pid, r.recorder.percent(), r.recorder.window_s(),
-            r.recorder.last_cpu - r.recorder.first_cpu, r.recorder.peak_mb, r.tree_cpu_s);
-        print_recording_losses(r.info);
-        print_node_crosscheck(r.logs, r.info);
-      }
-      if (!keep) fs::remove(dir / "long.mcap");
-    }
-    double l2[3] = {};
-    ::getloadavg(l2, 3);
-    std::printf("\nload average at the end %.2f %.2f %.2f; logs and JSON in %s\n", l2[0], l2[1],
-                l2[2], dir.c_str());
-    return 0;
+    return run_bench(args);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "poise-bench-record: %s\n", e.what());
     return 1;

@@ -270,104 +270,132 @@ bool McapWriter::flush() {
   return write_chunk();
 }
 
+void McapWriter::append_statistics(std::vector<std::uint8_t>& out) const {
+  ByteWriter w(out);
+  const auto at = w.begin_record(Op::statistics);
+  w.u64(stats_.messages);
+  w.u16(static_cast<std::uint16_t>(schemas_.size()));
+  w.u32(static_cast<std::uint32_t>(channels_.size()));
+  w.u32(0);  // attachments
+  w.u32(static_cast<std::uint32_t>(metadata_indexes_.size()));
+  w.u32(static_cast<std::uint32_t>(stats_.chunks));
+  w.u64(stats_.messages ? stats_.first_log_time : 0);
+  w.u64(stats_.messages ? stats_.last_log_time : 0);
+  const auto map_at = w.reserve_u32();
+  for (const auto& c : channels_) {
+    w.u16(c.id);
+    w.u64(c.count);
+  }
+  w.patch_u32(map_at, static_cast<std::uint32_t>(out.size() - map_at - 4));
+  w.end_record(at);
+}
+
+void McapWriter::append_chunk_indexes(std::vector<std::uint8_t>& out) const {
+  ByteWriter w(out);
+  for (const auto& ci : chunk_indexes_) {
+    const auto at = w.begin_record(Op::chunk_index);
+    w.u64(ci.start_time);
+    w.u64(ci.end_time);
+    w.u64(ci.offset);
+    w.u64(ci.length);
+    const auto map_at = w.reserve_u32();
+    for (const auto& [channel, offset] : ci.index_offsets) {
+      w.u16(channel);
+      w.u64(offset);
+    }
+    w.patch_u32(map_at, static_cast<std::uint32_t>(out.size() - map_at - 4));
+    w.u64(ci.index_length);
+    w.string(mcap_name(options_.compression));
+    w.u64(ci.compressed_size);
+    w.u64(ci.uncompressed_size);
+    w.end_record(at);
+  }
+}
+
+void McapWriter::append_metadata_indexes(std::vector<std::uint8_t>& out) const {
+  ByteWriter w(out);
+  for (const auto& mi : metadata_indexes_) {
+    const auto at = w.begin_record(Op::metadata_index);
+    w.u64(mi.offset);
+    w.u64(mi.length);
+    w.string(mi.name);
+    w.end_record(at);
+  }
+}
+
+namespace {
+
+// A group of summary records of one opcode: its opcode, file offset and length.
+using SummaryGroup = std::tuple<Op, std::uint64_t, std::uint64_t>;
+
+// The Summary Offset records of `groups` and the footer, appended to `summary` (which starts at
+// file offset `summary_start`).
+void append_offsets_and_footer(std::vector<std::uint8_t>& summary,
+                               const std::vector<SummaryGroup>& groups,
+                               std::uint64_t summary_start) {
+  ByteWriter w(summary);
+  const std::uint64_t offsets_start = summary_start + summary.size();
+  for (const auto& [op, start, length] : groups) {
+    const auto at = w.begin_record(Op::summary_offset);
+    w.u8(static_cast<std::uint8_t>(op));
+    w.u64(start);
+    w.u64(length);
+    w.end_record(at);
+  }
+  // Footer (content: 8 + 8 + 4 bytes); its CRC covers the summary, the offsets and the footer
+  // up to the CRC field.
+  w.u8(static_cast<std::uint8_t>(Op::footer));
+  w.u64(20);
+  w.u64(summary_start);
+  w.u64(groups.empty() ? 0 : offsets_start);
+  w.u32(crc32(0, summary.data(), summary.size()));
+  w.bytes(kMagic, sizeof(kMagic));
+}
+
+}  // namespace
+
+void McapWriter::write_data_end() {
+  // DataEnd carries the CRC of everything before it.
+  ByteWriter w(scratch_);
+  const auto at = w.begin_record(Op::data_end);
+  w.u32(data_crc_);
+  w.end_record(at);
+  write_record(scratch_);
+}
+
+void McapWriter::write_summary() {
+  // Summary: records grouped by opcode, each group located by a Summary Offset record.
+  const std::uint64_t summary_start = stats_.bytes_written;
+  std::vector<std::uint8_t> summary;
+  std::vector<SummaryGroup> groups;
+  auto group = [&](Op op, auto&& append) {
+    const std::size_t before = summary.size();
+    append();
+    if (summary.size() > before)
+      groups.emplace_back(op, summary_start + before, summary.size() - before);
+  };
+  group(Op::schema, [&] {
+    for (const auto& s : schemas_)
+      append_schema(summary, s);
+  });
+  group(Op::channel, [&] {
+    for (const auto& c : channels_)
+      append_channel(summary, c);
+  });
+  group(Op::statistics, [&] { append_statistics(summary); });
+  group(Op::chunk_index, [&] { append_chunk_indexes(summary); });
+  group(Op::metadata_index, [&] { append_metadata_indexes(summary); });
+  append_offsets_and_footer(summary, groups, summary_start);
+  write_bytes(summary.data(), summary.size());
+}
+
 bool McapWriter::close() {
   if (closed_) return !failed();
   closed_ = true;
   if (fd_ < 0) return !failed();
   if (!failed()) write_chunk();
-  if (!failed()) {
-    // DataEnd carries the CRC of everything before it.
-    ByteWriter w(scratch_);
-    const auto at = w.begin_record(Op::data_end);
-    w.u32(data_crc_);
-    w.end_record(at);
-    write_record(scratch_);
-  }
-  if (!failed()) {
-    // Summary: records grouped by opcode, each group located by a Summary Offset record.
-    const std::uint64_t summary_start = stats_.bytes_written;
-    std::vector<std::uint8_t> summary;
-    std::vector<std::tuple<Op, std::uint64_t, std::uint64_t>> groups;
-    auto group = [&](Op op, auto&& append) {
-      const std::size_t before = summary.size();
-      append();
-      if (summary.size() > before)
-        groups.emplace_back(op, summary_start + before, summary.size() - before);
-    };
-    ByteWriter w(summary);
-    group(Op::schema, [&] {
-      for (const auto& s : schemas_)
-        append_schema(summary, s);
-    });
-    group(Op::channel, [&] {
-      for (const auto& c : channels_)
-        append_channel(summary, c);
-    });
-    group(Op::statistics, [&] {
-      const auto at = w.begin_record(Op::statistics);
-      w.u64(stats_.messages);
-      w.u16(static_cast<std::uint16_t>(schemas_.size()));
-      w.u32(static_cast<std::uint32_t>(channels_.size()));
-      w.u32(0);  // attachments
-      w.u32(static_cast<std::uint32_t>(metadata_indexes_.size()));
-      w.u32(static_cast<std::uint32_t>(stats_.chunks));
-      w.u64(stats_.messages ? stats_.first_log_time : 0);
-      w.u64(stats_.messages ? stats_.last_log_time : 0);
-      const auto map_at = w.reserve_u32();
-      for (const auto& c : channels_) {
-        w.u16(c.id);
-        w.u64(c.count);
-      }
-      w.patch_u32(map_at, static_cast<std::uint32_t>(summary.size() - map_at - 4));
-      w.end_record(at);
-    });
-    group(Op::chunk_index, [&] {
-      for (const auto& ci : chunk_indexes_) {
-        const auto at = w.begin_record(Op::chunk_index);
-        w.u64(ci.start_time);
-        w.u64(ci.end_time);
-        w.u64(ci.offset);
-        w.u64(ci.length);
-        const auto map_at = w.reserve_u32();
-        for (const auto& [channel, offset] : ci.index_offsets) {
-          w.u16(channel);
-          w.u64(offset);
-        }
-        w.patch_u32(map_at, static_cast<std::uint32_t>(summary.size() - map_at - 4));
-        w.u64(ci.index_length);
-        w.string(mcap_name(options_.compression));
-        w.u64(ci.compressed_size);
-        w.u64(ci.uncompressed_size);
-        w.end_record(at);
-      }
-    });
-    group(Op::metadata_index, [&] {
-      for (const auto& mi : metadata_indexes_) {
-        const auto at = w.begin_record(Op::metadata_index);
-        w.u64(mi.offset);
-        w.u64(mi.length);
-        w.string(mi.name);
-        w.end_record(at);
-      }
-    });
-    const std::uint64_t offsets_start = summary_start + summary.size();
-    for (const auto& [op, start, length] : groups) {
-      const auto at = w.begin_record(Op::summary_offset);
-      w.u8(static_cast<std::uint8_t>(op));
-      w.u64(start);
-      w.u64(length);
-      w.end_record(at);
-    }
-    // Footer (content: 8 + 8 + 4 bytes); its CRC covers the summary, the offsets and the footer
-    // up to the CRC field.
-    w.u8(static_cast<std::uint8_t>(Op::footer));
-    w.u64(20);
-    w.u64(summary_start);
-    w.u64(groups.empty() ? 0 : offsets_start);
-    w.u32(crc32(0, summary.data(), summary.size()));
-    w.bytes(kMagic, sizeof(kMagic));
-    write_bytes(summary.data(), summary.size());
-  }
+  if (!failed()) write_data_end();
+  if (!failed()) write_summary();
   if (::fsync(fd_) != 0 && errno != EINVAL && errno != EROFS && !failed()) {
     fail("fsync '" + path_ + "': " + std::strerror(errno));
   }

@@ -71,12 +71,6 @@ std::uint32_t entity_id(const std::uint8_t* p) {  // entity ids are byte arrays:
   return rd32(p, false);
 }
 
-std::int64_t realtime_ns() {
-  timespec ts{};
-  clock_gettime(CLOCK_REALTIME, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
-}
-
 /// A parameter list (9.4.2.11): calls f(pid, value, length) until the sentinel. False if it runs
 /// past the end.
 template <class F>
@@ -100,6 +94,33 @@ std::string cdr_string(const std::uint8_t* p, std::size_t n, bool little) {
   if (len == 0 || len > n - 4) return {};
   if (p[4 + len - 1] == 0) --len;  // the terminating NUL
   return std::string(reinterpret_cast<const char*>(p + 4), len);
+}
+
+// The inline QoS parameters of a DATA or DATA_FRAG submessage that matter here.
+struct InlineQos {
+  const std::uint8_t* key_hash = nullptr;
+  bool disposed = false;
+};
+
+// Reads the inline QoS parameter list at q (qn bytes to the end of the submessage); `consumed`:
+// its length up to and including the sentinel. False when it has no sentinel (malformed).
+bool read_inline_qos(const std::uint8_t* q, std::size_t qn, bool little, InlineQos& qos,
+                     std::size_t& consumed) {
+  std::size_t k = 0;
+  while (k + 4 <= qn) {
+    const std::uint16_t pid = rd16(q + k, little);
+    const std::uint16_t plen = rd16(q + k + 2, little);
+    k += 4;
+    if (pid == kPidSentinel) {
+      consumed = k;
+      return true;
+    }
+    if (k + plen > qn) break;
+    if (pid == kPidKeyHash && plen >= 16) qos.key_hash = q + k;
+    if (pid == kPidStatusInfo && plen >= 4) qos.disposed = (q[k + 3] & 0x03) != 0;
+    k += plen;
+  }
+  return false;
 }
 
 }  // namespace
@@ -316,6 +337,15 @@ struct RtpsDecoder::Impl {
     }
   }
 
+  // The fixed part of a DATA or DATA_FRAG submessage (9.4.5.3, 9.4.5.4) and whether its writer
+  // is the SEDP publications writer.
+  struct DataHeader {
+    std::uint8_t id, flags;
+    bool little, sedp;
+    std::uint64_t sn;
+    std::size_t frag_start = 0, frags_here = 0, frag_size = 0, sample_size = 0;
+  };
+
   void submessage(std::uint8_t id, std::uint8_t flags, bool little, const std::uint8_t* b,
                   std::size_t len, const std::array<std::uint8_t, 12>& prefix,
                   std::int64_t source_ns, std::int64_t receive_ns) {
@@ -323,49 +353,29 @@ struct RtpsDecoder::Impl {
     const std::uint32_t writer_id = entity_id(b + 8);
     const std::uint64_t sn = (static_cast<std::uint64_t>(rd32(b + 12, little)) << 32) |
                              rd32(b + 16, little);
+    DataHeader h{id, flags, little, writer_id == kSedpPublicationsWriter, sn};
     const std::uint8_t kind = writer_id & 0xff;
-    const bool sedp = writer_id == kSedpPublicationsWriter;
-    if ((kind & 0xc0) == 0xc0 && !sedp) return;  // other builtin endpoints
-    std::size_t qos_at = 4 + std::size_t{to_qos};
-    std::size_t frag_start = 0, frags_here = 0, frag_size = 0, sample_size = 0;
+    if ((kind & 0xc0) == 0xc0 && !h.sedp) return;  // other builtin endpoints
+    const std::size_t qos_at = 4 + std::size_t{to_qos};
     if (id == kDataFrag) {
       if (len < 32) return;
-      frag_start = rd32(b + 20, little);
-      frags_here = rd16(b + 24, little);
-      frag_size = rd16(b + 26, little);
-      sample_size = rd32(b + 28, little);
+      h.frag_start = rd32(b + 20, little);
+      h.frags_here = rd16(b + 24, little);
+      h.frag_size = rd16(b + 26, little);
+      h.sample_size = rd32(b + 28, little);
     }
     if (qos_at > len) {
       ++c.malformed;
       return;
     }
-    const std::uint8_t* key_hash = nullptr;
-    bool disposed = false;
+    InlineQos qos;
     std::size_t data_at = qos_at;
     if (flags & 0x02) {  // inline QoS
       std::size_t consumed = 0;
-      const std::uint8_t* q = b + qos_at;
-      const std::size_t qn = len - qos_at;
-      std::size_t k = 0;
-      bool ok = false;
-      while (k + 4 <= qn) {
-        const std::uint16_t pid = rd16(q + k, little);
-        const std::uint16_t plen = rd16(q + k + 2, little);
-        k += 4;
-        if (pid == kPidSentinel) {
-          ok = true;
-          break;
-        }
-        if (k + plen > qn) break;
-        if (pid == kPidKeyHash && plen >= 16) key_hash = q + k;
-        if (pid == kPidStatusInfo && plen >= 4) disposed = (q[k + 3] & 0x03) != 0;
-        k += plen;
-      }
-      if (!ok) {
+      if (!read_inline_qos(b + qos_at, len - qos_at, little, qos, consumed)) {
         ++c.malformed;
         return;
       }
-      consumed = k;
       data_at = qos_at + consumed;
     }
     Guid g;
@@ -373,72 +383,102 @@ struct RtpsDecoder::Impl {
     std::memcpy(g.b.data() + 12, b + 8, 4);
     const std::uint8_t* payload = b + data_at;
     const std::size_t payload_n = len - data_at;
-    if (id == kData) {
-      const bool has_data = flags & 0x04;
-      if (sedp) {
-        // A serialised key alone (K flag) is the writer going away (dispose / unregister).
-        const bool has_key = flags & 0x08;
-        announce(has_data || has_key ? payload : nullptr, has_data || has_key ? payload_n : 0,
-                 key_hash, disposed || (has_key && !has_data));
-        return;
-      }
-      if (!has_data) return;  // key only: dispose / unregister
-      sample(writer(g), sn, payload, payload_n, source_ns, receive_ns);
+    if (id == kData)
+      data(h, g, qos, payload, payload_n, source_ns, receive_ns);
+    else
+      data_frag(h, g, qos, payload, payload_n, source_ns, receive_ns);
+  }
+
+  // DATA: a sample, or (from the SEDP writer) a writer's announcement.
+  void data(const DataHeader& h, const Guid& g, const InlineQos& qos, const std::uint8_t* payload,
+            std::size_t payload_n, std::int64_t source_ns, std::int64_t receive_ns) {
+    const bool has_data = h.flags & 0x04;
+    if (h.sedp) {
+      // A serialised key alone (K flag) is the writer going away (dispose / unregister).
+      const bool has_key = h.flags & 0x08;
+      announce(has_data || has_key ? payload : nullptr, has_data || has_key ? payload_n : 0,
+               qos.key_hash, qos.disposed || (has_key && !has_data));
       return;
     }
-    // DATA_FRAG: collect the fragments of (writer, sn) until the sample is whole.
-    if (frag_size == 0 || sample_size == 0 || sample_size > kMaxSampleBytes || frag_start == 0) {
+    if (!has_data) return;  // key only: dispose / unregister
+    sample(writer(g), h.sn, payload, payload_n, source_ns, receive_ns);
+  }
+
+  // DATA_FRAG: collect the fragments of (writer, sn) until the sample is whole.
+  void data_frag(const DataHeader& h, const Guid& g, const InlineQos& qos,
+                 const std::uint8_t* payload, std::size_t payload_n, std::int64_t source_ns,
+                 std::int64_t receive_ns) {
+    if (h.frag_size == 0 || h.sample_size == 0 || h.sample_size > kMaxSampleBytes ||
+        h.frag_start == 0) {
       ++c.malformed;
       return;
     }
     Writer& w = writer(g);
-    if (w.any && (sn <= w.max_sn && (w.max_sn - sn >= kWindow || w.bit(sn)))) {
+    if (w.any && (h.sn <= w.max_sn && (w.max_sn - h.sn >= kWindow || w.bit(h.sn)))) {
       ++c.duplicates;  // already whole (or too old)
       return;
     }
-    const std::size_t total = (sample_size + frag_size - 1) / frag_size;
-    auto found = w.fragments.find(sn);
-    if (found == w.fragments.end()) {
-      if (fragment_bytes + sample_size > kMaxPendingBytes) {
-        ++c.malformed;  // more half-assembled samples than any sane stream has
-        return;
-      }
-      fragment_bytes += sample_size;
-      found = w.fragments.emplace(sn, Fragments{}).first;
-    }
-    Fragments& f = found->second;
-    if (f.have.empty()) {
-      f.bytes.assign(sample_size, 0);
-      f.have.assign(total, false);
-      f.missing = total;
-      f.source_ns = source_ns;
-    }
-    for (std::size_t j = 0; j < frags_here; ++j) {
-      const std::size_t num = frag_start + j;  // 1-based
-      if (num == 0 || num > total) break;
-      const std::size_t off = (num - 1) * frag_size;
-      const std::size_t n = std::min(frag_size, sample_size - off);
-      if (j * frag_size + n > payload_n) break;
-      if (f.have[num - 1]) continue;
-      std::memcpy(f.bytes.data() + off, payload + j * frag_size, n);
-      f.have[num - 1] = true;
-      --f.missing;
-    }
-    if (f.missing == 0) {
-      Fragments whole = std::move(f);
-      w.fragments.erase(sn);
-      fragment_bytes -= whole.bytes.size();
-      if (sedp)
-        announce(whole.bytes.data(), whole.bytes.size(), key_hash, disposed);
-      else
-        sample(w, sn, whole.bytes.data(), whole.bytes.size(), whole.source_ns, receive_ns);
-    }
+    const std::size_t total = (h.sample_size + h.frag_size - 1) / h.frag_size;
+    Fragments* f = fragments_of(w, h, total, source_ns);
+    if (f == nullptr) return;
+    add_fragments(*f, h, total, payload, payload_n);
+    if (f->missing == 0) complete_sample(w, h, qos, *f, receive_ns);
     // Forget samples that can no longer be completed (their sequence numbers have left the
     // window unseen: counted as lost there).
     while (!w.fragments.empty() && w.any && w.fragments.begin()->first + kWindow < w.max_sn) {
       fragment_bytes -= w.fragments.begin()->second.bytes.size();
       w.fragments.erase(w.fragments.begin());
     }
+  }
+
+  // The sample (w, h.sn) being reassembled, begun if new; null when over the memory bound.
+  Fragments* fragments_of(Writer& w, const DataHeader& h, std::size_t total,
+                          std::int64_t source_ns) {
+    auto found = w.fragments.find(h.sn);
+    if (found == w.fragments.end()) {
+      if (fragment_bytes + h.sample_size > kMaxPendingBytes) {
+        ++c.malformed;  // more half-assembled samples than any sane stream has
+        return nullptr;
+      }
+      fragment_bytes += h.sample_size;
+      found = w.fragments.emplace(h.sn, Fragments{}).first;
+    }
+    Fragments& f = found->second;
+    if (f.have.empty()) {
+      f.bytes.assign(h.sample_size, 0);
+      f.have.assign(total, false);
+      f.missing = total;
+      f.source_ns = source_ns;
+    }
+    return &f;
+  }
+
+  // Copies the fragments of this submessage not yet seen into `f`.
+  static void add_fragments(Fragments& f, const DataHeader& h, std::size_t total,
+                            const std::uint8_t* payload, std::size_t payload_n) {
+    for (std::size_t j = 0; j < h.frags_here; ++j) {
+      const std::size_t num = h.frag_start + j;  // 1-based
+      if (num == 0 || num > total) break;
+      const std::size_t off = (num - 1) * h.frag_size;
+      const std::size_t n = std::min(h.frag_size, h.sample_size - off);
+      if (j * h.frag_size + n > payload_n) break;
+      if (f.have[num - 1]) continue;
+      std::memcpy(f.bytes.data() + off, payload + j * h.frag_size, n);
+      f.have[num - 1] = true;
+      --f.missing;
+    }
+  }
+
+  // A reassembled sample: out of the writer's fragments, delivered (or announced, from SEDP).
+  void complete_sample(Writer& w, const DataHeader& h, const InlineQos& qos, Fragments& f,
+                       std::int64_t receive_ns) {
+    Fragments whole = std::move(f);
+    w.fragments.erase(h.sn);
+    fragment_bytes -= whole.bytes.size();
+    if (h.sedp)
+      announce(whole.bytes.data(), whole.bytes.size(), qos.key_hash, qos.disposed);
+    else
+      sample(w, h.sn, whole.bytes.data(), whole.bytes.size(), whole.source_ns, receive_ns);
   }
 };
 

@@ -82,6 +82,113 @@ double Trajectory::end() const {
   return e;
 }
 
+namespace {
+
+// com[i].over (right, left, between: resolved when the move starts) or com[i].shift.
+void read_com_target(const std::string& path, const std::string& key, const YAML::Node& n,
+                     ComMove& m) {
+  if (n["shift"] && n["over"]) fail(path, key + ".over", "give either shift or over, not both");
+  if (const YAML::Node o = n["over"]) {
+    const std::string name = o.IsScalar() ? o.as<std::string>() : std::string();
+    if (name == "right")
+      m.over = ComOver::kRight;
+    else if (name == "left")
+      m.over = ComOver::kLeft;
+    else if (name == "between")
+      m.over = ComOver::kBetween;
+    else
+      fail(path, key + ".over", "must be right, left or between, got '" + name + "'");
+    m.resolved = false;
+  } else {
+    const YAML::Node s = n["shift"];
+    if (!s || !s.IsSequence() || s.size() != 3)
+      fail(path, key + ".shift", "expected [x, y, z] (or over: right|left|between)");
+    for (int k = 0; k < 3; ++k)
+      m.shift[k] = number(path, key + ".shift", s[k], 0.0, true);
+  }
+}
+
+void read_com_moves(const std::string& path, const YAML::Node& com, Trajectory& t) {
+  if (!com.IsSequence()) fail(path, "com", "expected a list of moves");
+  for (std::size_t i = 0; i < com.size(); ++i) {
+    const std::string key = "com[" + std::to_string(i) + "]";
+    check_keys(path, key, com[i], {"start", "duration", "shift", "over"});
+    ComMove m;
+    m.start = number(path, key + ".start", com[i]["start"], 0.0, true);
+    m.duration = number(path, key + ".duration", com[i]["duration"], 0.0, true);
+    if (!(m.duration > 0.0)) fail(path, key + ".duration", "must be > 0");
+    read_com_target(path, key, com[i], m);
+    if (m.start < 0.0) fail(path, key + ".start", "must be >= 0");
+    if (!t.com.empty() && m.start < t.com.back().start + t.com.back().duration)
+      fail(path, key + ".start", "CoM moves must be in time order and must not overlap");
+    t.com.push_back(m);
+  }
+}
+
+void read_joint_swings(const std::string& path, const YAML::Node& joints, Trajectory& t) {
+  if (!joints.IsSequence()) fail(path, "joints", "expected a list of swings");
+  for (std::size_t i = 0; i < joints.size(); ++i) {
+    const std::string key = "joints[" + std::to_string(i) + "]";
+    check_keys(path, key, joints[i],
+               {"joint", "start", "duration", "amplitude", "frequency", "phase_deg", "fade"});
+    JointSwing s;
+    if (!joints[i]["joint"]) fail(path, key + ".joint", "missing");
+    s.joint = joints[i]["joint"].as<std::string>();
+    s.start = number(path, key + ".start", joints[i]["start"], 0.0, true);
+    s.duration = number(path, key + ".duration", joints[i]["duration"], 0.0, true);
+    s.amplitude = number(path, key + ".amplitude", joints[i]["amplitude"], 0.0, true);
+    s.frequency = number(path, key + ".frequency", joints[i]["frequency"], 1.0);
+    s.phase = number(path, key + ".phase_deg", joints[i]["phase_deg"], 0.0) * M_PI / 180.0;
+    s.fade = number(path, key + ".fade", joints[i]["fade"], 0.5);
+    if (s.start < 0.0) fail(path, key + ".start", "must be >= 0");
+    if (!(s.duration > 0.0)) fail(path, key + ".duration", "must be > 0");
+    if (s.frequency < 0.0) fail(path, key + ".frequency", "must be >= 0");
+    if (!(s.fade > 0.0) || s.fade > 0.5 * s.duration)
+      fail(path, key + ".fade", "must be in (0, duration / 2]");
+    t.joints.push_back(s);
+  }
+}
+
+// feet[i].foot: right (side 0) or left (side 1).
+void read_step_foot(const std::string& path, const std::string& key, const YAML::Node& n,
+                    FootStep& s) {
+  if (!n["foot"]) fail(path, key + ".foot", "missing (right or left)");
+  try {
+    s.foot = n["foot"].as<std::string>();
+  } catch (const YAML::Exception&) {
+    fail(path, key + ".foot", "expected right or left");
+  }
+  if (s.foot == "right")
+    s.side = 0;
+  else if (s.foot == "left")
+    s.side = 1;
+  else
+    fail(path, key + ".foot", "'" + s.foot + "': expected right or left");
+}
+
+void read_foot_steps(const std::string& path, const YAML::Node& feet, Trajectory& t) {
+  if (!feet.IsSequence()) fail(path, "feet", "expected a list of steps");
+  for (std::size_t i = 0; i < feet.size(); ++i) {
+    const std::string key = "feet[" + std::to_string(i) + "]";
+    check_keys(path, key, feet[i], {"foot", "start", "duration", "lift"});
+    FootStep s;
+    read_step_foot(path, key, feet[i], s);
+    s.start = number(path, key + ".start", feet[i]["start"], 0.0, true);
+    s.duration = number(path, key + ".duration", feet[i]["duration"], 0.0, true);
+    s.lift = number(path, key + ".lift", feet[i]["lift"], s.lift);
+    if (s.start < 0.0) fail(path, key + ".start", "must be >= 0");
+    if (!(s.duration >= 0.1) || s.duration > 10.0)
+      fail(path, key + ".duration", "must be in [0.1, 10] s");
+    if (!(s.lift > 0.0) || s.lift > 0.10) fail(path, key + ".lift", "must be in (0, 0.10] m");
+    if (!t.feet.empty() && s.start < t.feet.back().start + t.feet.back().duration)
+      fail(path, key + ".start",
+           "steps must be in time order and must not overlap (one foot in the air at a time)");
+    t.feet.push_back(s);
+  }
+}
+
+}  // namespace
+
 Trajectory load_trajectory(const std::string& path) {
   YAML::Node root;
   try {
@@ -96,95 +203,9 @@ Trajectory load_trajectory(const std::string& path) {
   if (root["description"]) t.description = root["description"].as<std::string>();
   t.lead_ticks = static_cast<int>(number(path, "lead_ticks", root["lead_ticks"], t.lead_ticks));
   if (t.lead_ticks < 1 || t.lead_ticks > 400) fail(path, "lead_ticks", "must be in 1..400");
-  if (const YAML::Node com = root["com"]) {
-    if (!com.IsSequence()) fail(path, "com", "expected a list of moves");
-    for (std::size_t i = 0; i < com.size(); ++i) {
-      const std::string key = "com[" + std::to_string(i) + "]";
-      check_keys(path, key, com[i], {"start", "duration", "shift", "over"});
-      ComMove m;
-      m.start = number(path, key + ".start", com[i]["start"], 0.0, true);
-      m.duration = number(path, key + ".duration", com[i]["duration"], 0.0, true);
-      if (!(m.duration > 0.0)) fail(path, key + ".duration", "must be > 0");
-      if (com[i]["shift"] && com[i]["over"])
-        fail(path, key + ".over", "give either shift or over, not both");
-      if (const YAML::Node o = com[i]["over"]) {
-        const std::string name = o.IsScalar() ? o.as<std::string>() : std::string();
-        if (name == "right")
-          m.over = ComOver::kRight;
-        else if (name == "left")
-          m.over = ComOver::kLeft;
-        else if (name == "between")
-          m.over = ComOver::kBetween;
-        else
-          fail(path, key + ".over", "must be right, left or between, got '" + name + "'");
-        m.resolved = false;
-      } else {
-        const YAML::Node s = com[i]["shift"];
-        if (!s || !s.IsSequence() || s.size() != 3)
-          fail(path, key + ".shift", "expected [x, y, z] (or over: right|left|between)");
-        for (int k = 0; k < 3; ++k)
-          m.shift[k] = number(path, key + ".shift", s[k], 0.0, true);
-      }
-      if (m.start < 0.0) fail(path, key + ".start", "must be >= 0");
-      if (!t.com.empty() && m.start < t.com.back().start + t.com.back().duration)
-        fail(path, key + ".start", "CoM moves must be in time order and must not overlap");
-      t.com.push_back(m);
-    }
-  }
-  if (const YAML::Node joints = root["joints"]) {
-    if (!joints.IsSequence()) fail(path, "joints", "expected a list of swings");
-    for (std::size_t i = 0; i < joints.size(); ++i) {
-      const std::string key = "joints[" + std::to_string(i) + "]";
-      check_keys(path, key, joints[i],
-                 {"joint", "start", "duration", "amplitude", "frequency", "phase_deg", "fade"});
-      JointSwing s;
-      if (!joints[i]["joint"]) fail(path, key + ".joint", "missing");
-      s.joint = joints[i]["joint"].as<std::string>();
-      s.start = number(path, key + ".start", joints[i]["start"], 0.0, true);
-      s.duration = number(path, key + ".duration", joints[i]["duration"], 0.0, true);
-      s.amplitude = number(path, key + ".amplitude", joints[i]["amplitude"], 0.0, true);
-      s.frequency = number(path, key + ".frequency", joints[i]["frequency"], 1.0);
-      s.phase = number(path, key + ".phase_deg", joints[i]["phase_deg"], 0.0) * M_PI / 180.0;
-      s.fade = number(path, key + ".fade", joints[i]["fade"], 0.5);
-      if (s.start < 0.0) fail(path, key + ".start", "must be >= 0");
-      if (!(s.duration > 0.0)) fail(path, key + ".duration", "must be > 0");
-      if (s.frequency < 0.0) fail(path, key + ".frequency", "must be >= 0");
-      if (!(s.fade > 0.0) || s.fade > 0.5 * s.duration)
-        fail(path, key + ".fade", "must be in (0, duration / 2]");
-      t.joints.push_back(s);
-    }
-  }
-  if (const YAML::Node feet = root["feet"]) {
-    if (!feet.IsSequence()) fail(path, "feet", "expected a list of steps");
-    for (std::size_t i = 0; i < feet.size(); ++i) {
-      const std::string key = "feet[" + std::to_string(i) + "]";
-      check_keys(path, key, feet[i], {"foot", "start", "duration", "lift"});
-      FootStep s;
-      if (!feet[i]["foot"]) fail(path, key + ".foot", "missing (right or left)");
-      try {
-        s.foot = feet[i]["foot"].as<std::string>();
-      } catch (const YAML::Exception&) {
-        fail(path, key + ".foot", "expected right or left");
-      }
-      if (s.foot == "right")
-        s.side = 0;
-      else if (s.foot == "left")
-        s.side = 1;
-      else
-        fail(path, key + ".foot", "'" + s.foot + "': expected right or left");
-      s.start = number(path, key + ".start", feet[i]["start"], 0.0, true);
-      s.duration = number(path, key + ".duration", feet[i]["duration"], 0.0, true);
-      s.lift = number(path, key + ".lift", feet[i]["lift"], s.lift);
-      if (s.start < 0.0) fail(path, key + ".start", "must be >= 0");
-      if (!(s.duration >= 0.1) || s.duration > 10.0)
-        fail(path, key + ".duration", "must be in [0.1, 10] s");
-      if (!(s.lift > 0.0) || s.lift > 0.10) fail(path, key + ".lift", "must be in (0, 0.10] m");
-      if (!t.feet.empty() && s.start < t.feet.back().start + t.feet.back().duration)
-        fail(path, key + ".start",
-             "steps must be in time order and must not overlap (one foot in the air at a time)");
-      t.feet.push_back(s);
-    }
-  }
+  if (const YAML::Node com = root["com"]) read_com_moves(path, com, t);
+  if (const YAML::Node joints = root["joints"]) read_joint_swings(path, joints, t);
+  if (const YAML::Node feet = root["feet"]) read_foot_steps(path, feet, t);
   if (t.com.empty() && t.joints.empty() && t.feet.empty())
     fail(path, "com", "neither CoM moves, joint swings nor steps");
   return t;

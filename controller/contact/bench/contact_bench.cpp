@@ -182,8 +182,9 @@ std::vector<double> column(const std::vector<Record>& rs, const Group& g, double
   return v;
 }
 
-void report(const std::vector<Record>& rs, int reps) {
-  const std::vector<Group> groups = {
+// The groups of problems every table has a row for.
+const std::vector<Group>& report_groups() {
+  static const std::vector<Group> groups = {
       {"all", [](const Record&) { return true; }},
       {"all, single support", [](const Record& r) { return !r.two; }},
       {"all, double support", [](const Record& r) { return r.two; }},
@@ -194,6 +195,10 @@ void report(const std::vector<Record>& rs, int reps) {
       {"recorded, single", [](const Record& r) { return r.recorded && !r.two; }},
       {"recorded, double", [](const Record& r) { return r.recorded && r.two; }},
   };
+  return groups;
+}
+
+void print_corpus(int reps) {
   std::map<std::string, int> composition;
   for (const CorpusEntry& e : g_corpus)
     ++composition[bench::to_string(e.kind)];
@@ -204,7 +209,10 @@ void report(const std::vector<Record>& rs, int reps) {
     sep = ", ";
   }
   std::printf("); timings = min of %d repetitions per problem, steady_clock\n\n", reps);
+}
 
+// Time per problem of each method and stage, median / p99, per group.
+void print_times(const std::vector<Record>& rs, const std::vector<Group>& groups) {
   struct Col {
     const char* title;
     double Record::*field;
@@ -242,6 +250,10 @@ void report(const std::vector<Record>& rs, int reps) {
     }
     std::printf(" %6.2f\n", percentile(column(rs, g, &Record::t_qp), 0.5) / percentile(seq, 0.5));
   }
+}
+
+// The sequential method's speed-up from the normal equations (double support), against the paper.
+void print_speedup(const std::vector<Record>& rs, const std::vector<Group>& groups) {
   const Group all_double = groups[2];
   const double before = percentile(column(rs, all_double, &Record::t_seq_dense), 0.5);
   const double after = percentile(column(rs, all_double, &Record::t_seq), 0.5);
@@ -252,7 +264,10 @@ void report(const std::vector<Record>& rs, int reps) {
   std::printf(
       "Paper (Core2 2.66 GHz): NNLS 9 us, BVLS 6-10 us, QP 30 us. Target: sequential median "
       "<= 2 us.\n\n");
+}
 
+// The objective gap between the methods, per group.
+void print_gaps(const std::vector<Record>& rs, const std::vector<Group>& groups) {
   std::printf(
       "Objective gap between the methods, tracking cost T = |l_dot_d - l_dot_a|^2 + w_k "
       "|k_dot_d - k_dot_a|^2,\n(T_qp - T_seq) / (m g)^2, and J_qp(qp) vs J_qp(seq) where the "
@@ -279,7 +294,10 @@ void report(const std::vector<Record>& rs, int reps) {
                 percentile(gap, 0.5), percentile(gap, 0.01), percentile(gap, 0.99), lower, higher,
                 equal, comparable, le, jgap.empty() ? 0.0 : percentile(jgap, 1.0));
   }
+}
 
+// Whole-corpus figures: round-off of the dense stages, QP clean-ups, accuracy, statuses.
+void print_totals(const std::vector<Record>& rs) {
   int qp_adjusted = 0, qp2_adjusted = 0, feasible = 0, ok_seq = 0, ok_qp = 0;
   std::vector<double> gap2, err_seq, err_qp, dense_diff;
   std::map<std::string, int> status_seq, status_qp;
@@ -320,6 +338,15 @@ void report(const std::vector<Record>& rs, int reps) {
   for (const auto& [k, v] : status_qp)
     std::printf(" %s=%d", k.c_str(), v);
   std::printf("\n\n");
+}
+
+void report(const std::vector<Record>& rs, int reps) {
+  const std::vector<Group>& groups = report_groups();
+  print_corpus(reps);
+  print_times(rs, groups);
+  print_speedup(rs, groups);
+  print_gaps(rs, groups);
+  print_totals(rs);
 }
 
 // One solve per iteration, cycling through the corpus.

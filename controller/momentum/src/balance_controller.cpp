@@ -78,6 +78,20 @@ BalanceController::BalanceController(const model::Model& model, const model::Rob
                                      const ControllerConfig& config)
     : model_(model), robot_(robot), config_(config), data_(model_) {
   config_.validate();
+  check_robot_matches_model();
+  init_joint_tables();
+  find_effort_limited_chains();
+  init_upper_body();
+  find_base_up();
+  find_leg_joints();
+  init_reference_leaks();
+  com_height_ = nominal_com_height();
+  allocate_workspace();
+  init_contact_problem();
+}
+
+// Throws ConfigError when the robot configuration is not of this model.
+void BalanceController::check_robot_matches_model() const {
   const int n = model_.njoints;
   if (n < 1) throw ConfigError("BalanceController: the model has no joints");
   if (robot_.q_nominal.size() != model_.nq)
@@ -95,8 +109,11 @@ BalanceController::BalanceController(const model::Model& model, const model::Rob
       throw ConfigError("BalanceController: foot frame '" + foot.frame +
                         "' does not match the model");
   }
-  const int nv = model_.nv;
+}
 
+// The joints' limits, efforts and gains (robot gains * gain_scale).
+void BalanceController::init_joint_tables() {
+  const int n = model_.njoints;
   q_min_.resize(n);
   q_max_.resize(n);
   effort_.resize(n);
@@ -110,6 +127,10 @@ BalanceController::BalanceController(const model::Model& model, const model::Rob
     kp_[j] = config_.feedback.gain_scale * robot_.gains[j].kp;
     kd_[j] = config_.feedback.gain_scale * robot_.gains[j].kd;
   }
+}
+
+// RobotConfig::effort_limited_sole: each foot's chain of revolute joints with a finite effort.
+void BalanceController::find_effort_limited_chains() {
   if (robot_.effort_limited_sole)
     for (int side = 0; side < kFeet; ++side) {
       const int foot_body = model_.frames[robot_.feet[side].frame_id].body;
@@ -121,37 +142,54 @@ BalanceController::BalanceController(const model::Model& model, const model::Rob
           foot_chain_[side].push_back(j);
       }
     }
+}
+
+// The upper-body joints and the nominal posture.
+void BalanceController::init_upper_body() {
+  const int n = model_.njoints;
   for (int j : robot_.upper_body_joint_indices) {
     if (j < 0 || j >= n)
       throw ConfigError("BalanceController: upper-body joint index out of range");
     is_upper_[j] = 1.0;
   }
   q_nominal_ = robot_.q_nominal.tail(n);
-  {
-    // MomentumGains::upright_pitch_rate: the base's up = the soles' normal (the foot frames'
-    // z, eq (36)'s convention) in the base frame, in the nominal posture.
-    model::forward_kinematics(model_, data_, robot_.q_nominal);
-    model::update_frame_placements(model_, data_);
-    const model::SE3 X_WB = model::base_pose(robot_.q_nominal);
-    Eigen::Vector3d up = Eigen::Vector3d::Zero();
-    for (int side = 0; side < kFeet; ++side)
-      up += X_WB.R.transpose() *
-            model::frame_placement(model_, data_, robot_.feet[side].frame_id).R.col(2);
-    if (up.norm() > 1e-9) base_up_B_ = up.normalized();
-  }
+}
+
+// MomentumGains::upright_pitch_rate: the base's up = the soles' normal (the foot frames'
+// z, eq (36)'s convention) in the base frame, in the nominal posture.
+void BalanceController::find_base_up() {
+  model::forward_kinematics(model_, data_, robot_.q_nominal);
+  model::update_frame_placements(model_, data_);
+  const model::SE3 X_WB = model::base_pose(robot_.q_nominal);
+  Eigen::Vector3d up = Eigen::Vector3d::Zero();
+  for (int side = 0; side < kFeet; ++side)
+    up += X_WB.R.transpose() *
+          model::frame_placement(model_, data_, robot_.feet[side].frame_id).R.col(2);
+  if (up.norm() > 1e-9) base_up_B_ = up.normalized();
+}
+
+// The joints between the base and each foot.
+void BalanceController::find_leg_joints() {
   for (int side = 0; side < kFeet; ++side) {
     leg_joints_[side].clear();
     const int body = model_.frames[robot_.feet[side].frame_id].body;
     for (int v : model_.support[body])
       if (v >= 6) leg_joints_[side].push_back(v - 6);
   }
+}
+
+// The per-tick factors with which the integrated references (34)-(35) leak towards the measured
+// joints (FeedbackConfig), and the internal-force split's metrics and workspace.
+void BalanceController::init_reference_leaks() {
+  const int n = model_.njoints;
   // FeedbackConfig::support_leg_leak_hz: the per-tick factor of a leg joint's reference error
   // while both feet are loaded (1 = the paper's integration; every other joint keeps 1).
   leg_keep_ = Eigen::VectorXd::Ones(n);
   if (config_.feedback.support_leg_leak_hz > 0.0) {
     const double keep = std::exp(-2.0 * M_PI * config_.feedback.support_leg_leak_hz * config_.dt);
     for (const auto& leg : leg_joints_)
-      for (int j : leg) leg_keep_[j] = keep;
+      for (int j : leg)
+        leg_keep_[j] = keep;
   }
   velocity_keep_ = config_.feedback.velocity_leak_hz > 0.0
                        ? std::exp(-2.0 * M_PI * config_.feedback.velocity_leak_hz * config_.dt)
@@ -176,23 +214,27 @@ BalanceController::BalanceController(const model::Model& model, const model::Rob
   weighted_basis_.setZero(n, 6);
   base_map_.setZero();
   internal_rhs_.setZero();
+}
 
-  // Desired CoM height above the soles in the nominal posture (Sec. 4.2 target when no CoM target).
-  if (config_.com_height > 0.0) {
-    com_height_ = config_.com_height;
-  } else {
-    model::center_of_mass(model_, data_, robot_.q_nominal);
-    double sole_z = 0.0;
-    for (int side = 0; side < kFeet; ++side)
-      sole_z +=
-          0.5 * sole_center_W(model::frame_placement(model_, data_, robot_.feet[side].frame_id),
-                              robot_.feet[side].sole)
-                    .z();
-    com_height_ = data_.com.z() - sole_z;
-    if (!(com_height_ > 0.0))
-      throw ConfigError("BalanceController: the nominal CoM is not above the soles");
-  }
+// Desired CoM height above the soles in the nominal posture (Sec. 4.2 target when no CoM target).
+double BalanceController::nominal_com_height() {
+  if (config_.com_height > 0.0) return config_.com_height;
+  model::center_of_mass(model_, data_, robot_.q_nominal);
+  double sole_z = 0.0;
+  for (int side = 0; side < kFeet; ++side)
+    sole_z += 0.5 * sole_center_W(model::frame_placement(model_, data_, robot_.feet[side].frame_id),
+                                  robot_.feet[side].sole)
+                        .z();
+  const double height = data_.com.z() - sole_z;
+  if (!(height > 0.0))
+    throw ConfigError("BalanceController: the nominal CoM is not above the soles");
+  return height;
+}
 
+// Every per-tick vector and matrix at its size (the tick allocates nothing).
+void BalanceController::allocate_workspace() {
+  const int n = model_.njoints;
+  const int nv = model_.nv;
   solver_.resize(nv, 6 * kFeet);
   q_.setZero(model_.nq);
   v_.setZero(nv);
@@ -218,7 +260,10 @@ BalanceController::BalanceController(const model::Model& model, const model::Rob
     V.setZero();
   for (auto& A : A_WF_filtered_)
     A.setZero();
+}
 
+// The contact problem's fields fixed per robot: soles, friction, weights, mass.
+void BalanceController::init_contact_problem() {
   problem_.gravity = model_.gravity;
   for (int side = 0; side < kFeet; ++side) {
     const auto& foot = robot_.feet[side];
@@ -282,26 +327,71 @@ void BalanceController::reset() noexcept {
 
 void BalanceController::prepare(const RobotState& state, const BalanceReference& reference,
                                 contact::ContactProblem& problem) noexcept {
-  const int n = model_.njoints;
   diag_.tick = state.tick;
-  state_ok_ = state.q.size() == n && state.qd.size() == n && state.q.allFinite() &&
-              state.qd.allFinite() && state.X_WB.R.allFinite() && state.X_WB.p.allFinite() &&
-              finite3(state.v_WB) && finite3(state.omega_WB) &&
-              reference.upper_body_qdd.size() == n && reference.upper_body_q.size() == n &&
-              reference.upper_body_qd.size() == n && reference.upper_body_qd.allFinite() &&
-              reference.upper_body_qdd.allFinite() && reference.upper_body_q.allFinite() &&
-              reference.com_W.allFinite() && reference.com_velocity_W.allFinite() &&
-              reference.k_W.allFinite();
-  for (const auto& f : state.feet)
-    state_ok_ = state_ok_ && f.cop_W.allFinite();
+  state_ok_ = inputs_usable(state, reference);
   if (!state_ok_) {
     // Keep the previous problem but with no support: the answer is not used anyway.
-    problem = problem_;
-    for (auto& f : problem.feet)
-      f.in_contact = false;
+    problem_without_support(problem);
+    return;
+  }
+  const Eigen::Matrix3d R_WB = set_model_state(state);
+  const double mass = data_.mass;
+
+  // ---- a fallen robot (FallConfig): damping from here on, no contact problem ----------------
+  if (!diag_.fallen) detect_fall(R_WB);
+  if (diag_.fallen) {
+    problem_without_support(problem);
     return;
   }
 
+  // ---- feet: kinematics, supports, Sec. 4.2 resting rule, eq (36) -------------------------------
+  const SupportSums supports = plan_feet(state, reference, mass * model_.gravity.norm());
+  filter_support_acceleration(supports);
+  observe_com_offset(state, supports.count, supports.velocity);
+  const Eigen::Vector3d com = data_.com + com_offset_.offset();  // the robot's CoM, as estimated
+
+  desired_com(reference, supports);
+  desired_momentum_rate_eqs_10_11(reference, R_WB, com, mass);
+  blend_ankle_first(com, mass, supports.count);
+  diag_.hdot_desired.tail<3>() += mass * diag_.support_acceleration_W;
+  upper_body_objective(reference);
+
+  problem_.mass = mass;
+  problem_.gravity = model_.gravity;
+  problem_.com = com;
+  problem_.k_dot_desired = diag_.hdot_desired.head<3>();
+  problem_.l_dot_desired = diag_.hdot_desired.tail<3>();
+  problem = problem_;
+}
+
+// The state and the reference have this robot's sizes and finite numbers.
+bool BalanceController::inputs_usable(const RobotState& state,
+                                      const BalanceReference& reference) const noexcept {
+  const int n = model_.njoints;
+  bool ok = state.q.size() == n && state.qd.size() == n && state.q.allFinite() &&
+            state.qd.allFinite() && state.X_WB.R.allFinite() && state.X_WB.p.allFinite() &&
+            finite3(state.v_WB) && finite3(state.omega_WB) &&
+            reference.upper_body_qdd.size() == n && reference.upper_body_q.size() == n &&
+            reference.upper_body_qd.size() == n && reference.upper_body_qd.allFinite() &&
+            reference.upper_body_qdd.allFinite() && reference.upper_body_q.allFinite() &&
+            reference.com_W.allFinite() && reference.com_velocity_W.allFinite() &&
+            reference.k_W.allFinite();
+  for (const auto& f : state.feet)
+    ok = ok && f.cop_W.allFinite();
+  return ok;
+}
+
+// The previous problem with no foot in contact (its answer is not used).
+void BalanceController::problem_without_support(contact::ContactProblem& problem) const noexcept {
+  problem = problem_;
+  for (auto& f : problem.feet)
+    f.in_contact = false;
+}
+
+// The model at the measured state: q_, v_, then A, A_dot qd, CoM, momentum, joint Jacobians and
+// FK with velocities. Returns the base's orientation R_WB.
+Eigen::Matrix3d BalanceController::set_model_state(const RobotState& state) noexcept {
+  const int n = model_.njoints;
   // ---- generalized coordinates (model conventions, see model.hpp) ------------------------------
   model::set_base_pose(state.X_WB, q_);
   q_.tail(n) = state.q;
@@ -312,225 +402,266 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
 
   // A, A_dot qd, CoM, momentum, joint Jacobians and FK with velocities.
   model::centroidal_momentum_matrix(model_, data_, q_, v_);
-  const double mass = data_.mass;
   diag_.com_W = data_.com;
   diag_.com_velocity_W = data_.vcom;
   diag_.h_W = data_.hg;
+  return R_WB;
+}
 
-  // ---- a fallen robot (FallConfig): damping from here on, no contact problem ----------------
-  if (!diag_.fallen) detect_fall(R_WB);
-  if (diag_.fallen) {
-    problem = problem_;
-    for (auto& f : problem.feet)
-      f.in_contact = false;
-    return;
-  }
-
-  // ---- feet: kinematics, supports, Sec. 4.2 resting rule, eq (36) -------------------------------
-  const double weight = mass * model_.gravity.norm();
-  int num_support = 0;
-  Eigen::Vector3d sole_mean = Eigen::Vector3d::Zero();
-  Eigen::Vector3d foot_vel_mean = Eigen::Vector3d::Zero();
-  Eigen::Vector3d foot_acc_sum = Eigen::Vector3d::Zero();  // support feet, differenced
+// Both feet: kinematics, support, Sec. 4.2 resting rule, eq (36) row, contact problem entry.
+// `weight` = m |g|. Returns the support feet's sums.
+BalanceController::SupportSums BalanceController::plan_feet(const RobotState& state,
+                                                            const BalanceReference& reference,
+                                                            double weight) noexcept {
+  SupportSums sums;
   std::array<bool, kFeet> bears_load{false, false};  // support carrying support_force_fraction
   for (int i = 0; i < kFeet; ++i) {
-    const auto& foot = robot_.feet[i];
     const auto& meas = state.feet[i];
     const auto& ref = reference.feet[i];
-    X_WF_[i] = model::frame_placement(model_, data_, foot.frame_id);
-    V_WF_[i] = model::frame_velocity(model_, data_, foot.frame_id);
-    model::frame_jacobian(model_, data_, foot.frame_id, J_foot_);
-    C_.middleRows<6>(6 * i) = J_foot_;
-    jdot_v_.segment<6>(6 * i) = model::frame_jdot_v(model_, data_, foot.frame_id);
-    if (!have_hold_[i]) {
-      X_WF_hold_[i] = X_WF_[i];
-      have_hold_[i] = true;
-    }
-    // Measured foot acceleration: velocity differenced over the tick, first-order low-pass.
-    if (have_foot_velocity_ && config_.foot.support_acceleration_tau > 0.0) {
-      const double alpha = config_.dt / (config_.foot.support_acceleration_tau + config_.dt);
-      A_WF_filtered_[i] +=
-          alpha * ((V_WF_[i] - V_WF_previous_[i]) / config_.dt - A_WF_filtered_[i]);
-    } else {
-      A_WF_filtered_[i].setZero();
-    }
-    // Clamped per axis at 3 g: a support that accelerates more is out of reach anyway, and a
-    // contact transient (a foot settling, an impact) is not a support's motion.
-    const double acc_max = 3.0 * model_.gravity.norm();
-    const Eigen::Vector3d foot_acc =
-        have_foot_velocity_
-            ? Eigen::Vector3d(((V_WF_[i].head<3>() - V_WF_previous_[i].head<3>()) / config_.dt)
-                                  .cwiseMax(-acc_max)
-                                  .cwiseMin(acc_max))
-            : Eigen::Vector3d::Zero();
-    V_WF_previous_[i] = V_WF_[i];
-
-    bool support = false;
-    switch (ref.mode) {
-      case FootMode::kAuto:
-        planned_off_time_[i] = 0.0;
-        support = meas.in_contact || (config_.support_force_fraction > 0.0 &&
-                                      meas.normal_force > config_.support_force_fraction * weight);
-        break;
-      case FootMode::kSupport: {
-        // Planned, but a push may lift it: measured off the ground for planned_support_release,
-        // it leaves the contact problem until it touches again. Off the ground: no contact
-        // flag, no load, and the foot risen from where it last rested (a foot the weight went
-        // off rests on the ground with a load below the flag's 1 %).
-        const bool risen = have_hold_seen_ && X_WF_[i].p.z() - X_WF_hold_[i].p.z() >
-                                                  config_.planned_support_release_height;
-        const bool touching = meas.in_contact || !risen ||
-                              meas.normal_force > config_.support_force_fraction * weight;
-        planned_off_time_[i] = touching ? 0.0 : planned_off_time_[i] + config_.dt;
-        support = !(config_.planned_support_release > 0.0) ||
-                  planned_off_time_[i] < config_.planned_support_release - 1e-9;
-        break;
-      }
-      case FootMode::kSwing:
-        planned_off_time_[i] = 0.0;
-        support = false;
-        break;
-    }
-    // Sec. 4.2: a support foot rests when its measured CoP is inside the safe region. The CoP of
-    // a foot that carries no load means nothing (the simulator's truth puts it at the foot
-    // origin, the estimator at zero; from a load within the F/T noise it is noise), so a foot
-    // rests only with a measured load, not on its contact flag (which means "touching": a foot
-    // resting on the ground with 0-5 N keeps it). A planned support that is not (or no longer)
-    // loaded -- a foot tipped up by the other, a stepping foot just before it lands or after
-    // the weight went over the other foot -- is held where it last rested instead of following
-    // its own velocity, which let it drift (a step in place: up 0.32 m, or 18-24 mm of slip with
-    // the flag of a touching foot taken for a load).
-    // A foot back from the air (flag off for resting_touchdown_air_time since it last rested)
-    // comes down with its swing's velocity: it rests only once it carries
-    // resting_touchdown_force_fraction, then down to resting_force_fraction.
-    flag_off_time_[i] = meas.in_contact ? 0.0 : flag_off_time_[i] + config_.dt;
-    if (flag_off_time_[i] > config_.resting_touchdown_air_time + 1e-9) rested_on_ground_[i] = false;
-    const double rest_fraction = rested_on_ground_[i] ? config_.resting_force_fraction
-                                                      : config_.resting_touchdown_force_fraction;
-    const bool loaded = meas.normal_force > rest_fraction * weight;
-    const bool resting =
-        support && loaded &&
-        cop_in_safe_region(X_WF_[i], meas.cop_W, foot.sole,
-                           robot_.safety_margin + config_.resting_extra_margin);
-    // Touch-down of a planned support (a swing foot set down, a support flag that comes back):
-    // the leg's integrated references theta*, theta_dot* (34)-(35) ran ahead of the foot while
-    // it moved and would press it into the ground through the joint PD with a load the contact
-    // problem does not know of (a step in place: 90-170 N on the landed foot, planned 0, which
-    // tipped the stance foot). finish() restarts them from the measured joints.
-    touch_down_[i] = support && !diag_.support[i] && have_hold_seen_;
-    diag_.support[i] = support;
-    diag_.resting[i] = resting;
-    if (resting) rested_on_ground_[i] = true;
+    foot_kinematics(i);
+    const Eigen::Vector3d foot_acc = measured_foot_acceleration(i);
+    const bool support = foot_is_support(i, meas, ref.mode, weight);
+    bool loaded = false;
+    const bool resting = apply_resting_rule(i, meas, support, weight, loaded);
     bears_load[i] = support && meas.normal_force > config_.support_force_fraction * weight;
-
-    model::SE3 X_d = X_WF_hold_[i];
-    model::Motion V_d = model::Motion::Zero();
-    model::Motion a_support = model::Motion::Zero();
-    if (ref.has_target) {
-      X_d = ref.X_WF_target;
-      V_d = ref.V_WF_target;
-      X_WF_hold_[i] = ref.X_WF_target;  // where the foot stays when the target is dropped
-      placed_[i] = true;
-    } else if (resting || (support && !placed_[i])) {
-      // Resting, or a support that has never rested nor been placed (released in the air:
-      // no pose to hold yet, it moves with the body until it lands).
-      placed_[i] = placed_[i] || resting;
-      // Resting on a (possibly moving) support: follow it (v_d = v, T_d = T).
-      X_d = X_WF_[i];
-      V_d = V_WF_[i];
-      X_WF_hold_[i] = X_WF_[i];
-      a_support = A_WF_filtered_[i];  // shared with its support; zero when the filter is off
-    }
-    // A held foot back from the air (its flag off for more than resting_touchdown_air_time
-    // since it last rested) and without load carries none of the contact forces: only its own
-    // gains keep it where it stood (FootGains::unloaded_kp). A foot that touches, or lost its
-    // flag for a few ticks only, keeps kp, kd: the ground holds it, and stiffer gains there pull
-    // it against its support (a light foot on an accelerating platform).
-    // Horizontally only: how the foot comes down (its height, its tilt) stays (36)'s with kp,
-    // kd, so a foot set down by a swing lands as before (a stiffer vertical hold at the swing's
-    // end pose left the step in place's landing touching with < 1 % of the weight and bouncing).
-    model::Motion a_d = foot_acceleration(config_.foot, X_WF_[i], V_WF_[i], X_d, V_d) + a_support;
-    if (!ref.has_target && !loaded && !rested_on_ground_[i]) {
-      FootGains held;
-      held.kp = config_.foot.unloaded_kp;
-      held.kd = config_.foot.unloaded_kd;
-      a_d.head<2>() = foot_acceleration(held, X_WF_[i], V_WF_[i], X_d, V_d).head<2>() +
-                      a_support.head<2>();
-    }
-    diag_.foot_acceleration_desired[i] = a_d;
-    d_.segment<6>(6 * i) = a_d - jdot_v_.segment<6>(6 * i);
-
+    foot_motion_row_eq_36(i, ref, support, resting, loaded);
     if (support) {
-      ++num_support;
-      sole_mean += stand_point_W(X_WF_[i], foot);
-      foot_vel_mean += V_WF_[i].head<3>();
-      foot_acc_sum += foot_acc;
+      ++sums.count;
+      sums.stand_point += stand_point_W(X_WF_[i], robot_.feet[i]);
+      sums.velocity += V_WF_[i].head<3>();
+      sums.acceleration += foot_acc;
     }
-
-    auto& pf = problem_.feet[i];
-    pf.in_contact = support;
-    pf.R_WF = X_WF_[i].R;
-    pf.p_WF = X_WF_[i].p;
-    if (robot_.effort_limited_sole) {
-      pf.sole = {foot.sole.x_min, foot.sole.x_max, foot.sole.y_min, foot.sole.y_max};
-      limit_sole_by_effort(i, meas.normal_force, foot.sole.height, pf.sole);
-    }
+    contact_problem_foot(i, support, meas.normal_force);
   }
   have_foot_velocity_ = true;
   have_hold_seen_ = true;
   // The legs and the ground close a loop (FeedbackConfig::support_leg_leak_hz).
   both_feet_loaded_ = bears_load[0] && bears_load[1];
+  return sums;
+}
 
-  // The supports' acceleration (MomentumGains::support_acceleration_hz): three first-order
-  // stages, whose last is a_s and whose difference gives its rate without differencing noise;
-  // it decays to zero without a support.
+// Foot i's pose, velocity, Jacobian rows of C_ and J_dot qd; its held pose at the first tick.
+void BalanceController::foot_kinematics(int i) noexcept {
+  const auto& foot = robot_.feet[i];
+  X_WF_[i] = model::frame_placement(model_, data_, foot.frame_id);
+  V_WF_[i] = model::frame_velocity(model_, data_, foot.frame_id);
+  model::frame_jacobian(model_, data_, foot.frame_id, J_foot_);
+  C_.middleRows<6>(6 * i) = J_foot_;
+  jdot_v_.segment<6>(6 * i) = model::frame_jdot_v(model_, data_, foot.frame_id);
+  if (!have_hold_[i]) {
+    X_WF_hold_[i] = X_WF_[i];
+    have_hold_[i] = true;
+  }
+}
+
+// Foot i's measured acceleration: A_WF_filtered_[i] (FootGains::support_acceleration_tau) and,
+// returned, its linear part differenced over the tick and clamped (support_acceleration_hz).
+Eigen::Vector3d BalanceController::measured_foot_acceleration(int i) noexcept {
+  // Measured foot acceleration: velocity differenced over the tick, first-order low-pass.
+  if (have_foot_velocity_ && config_.foot.support_acceleration_tau > 0.0) {
+    const double alpha = config_.dt / (config_.foot.support_acceleration_tau + config_.dt);
+    A_WF_filtered_[i] += alpha * ((V_WF_[i] - V_WF_previous_[i]) / config_.dt - A_WF_filtered_[i]);
+  } else {
+    A_WF_filtered_[i].setZero();
+  }
+  // Clamped per axis at 3 g: a support that accelerates more is out of reach anyway, and a
+  // contact transient (a foot settling, an impact) is not a support's motion.
+  const double acc_max = 3.0 * model_.gravity.norm();
+  const Eigen::Vector3d foot_acc =
+      have_foot_velocity_
+          ? Eigen::Vector3d(((V_WF_[i].head<3>() - V_WF_previous_[i].head<3>()) / config_.dt)
+                                .cwiseMax(-acc_max)
+                                .cwiseMin(acc_max))
+          : Eigen::Vector3d::Zero();
+  V_WF_previous_[i] = V_WF_[i];
+  return foot_acc;
+}
+
+// Whether foot i is a support this tick, from its reference mode (kAuto: its contact flag or
+// measured load).
+bool BalanceController::foot_is_support(int i, const FootMeasurement& meas, FootMode mode,
+                                        double weight) noexcept {
+  bool support = false;
+  switch (mode) {
+    case FootMode::kAuto:
+      planned_off_time_[i] = 0.0;
+      support = meas.in_contact || (config_.support_force_fraction > 0.0 &&
+                                    meas.normal_force > config_.support_force_fraction * weight);
+      break;
+    case FootMode::kSupport: {
+      // Planned, but a push may lift it: measured off the ground for planned_support_release,
+      // it leaves the contact problem until it touches again. Off the ground: no contact
+      // flag, no load, and the foot risen from where it last rested (a foot the weight went
+      // off rests on the ground with a load below the flag's 1 %).
+      const bool risen = have_hold_seen_ && X_WF_[i].p.z() - X_WF_hold_[i].p.z() >
+                                                config_.planned_support_release_height;
+      const bool touching =
+          meas.in_contact || !risen || meas.normal_force > config_.support_force_fraction * weight;
+      planned_off_time_[i] = touching ? 0.0 : planned_off_time_[i] + config_.dt;
+      support = !(config_.planned_support_release > 0.0) ||
+                planned_off_time_[i] < config_.planned_support_release - 1e-9;
+      break;
+    }
+    case FootMode::kSwing:
+      planned_off_time_[i] = 0.0;
+      support = false;
+      break;
+  }
+  return support;
+}
+
+// Sec. 4.2's resting rule for foot i; records its support, rest and touch-down of this tick.
+// Returns whether it rests; `loaded`: it carries its resting load.
+bool BalanceController::apply_resting_rule(int i, const FootMeasurement& meas, bool support,
+                                           double weight, bool& loaded) noexcept {
+  const auto& foot = robot_.feet[i];
+  // Sec. 4.2: a support foot rests when its measured CoP is inside the safe region. The CoP of
+  // a foot that carries no load means nothing (the simulator's truth puts it at the foot
+  // origin, the estimator at zero; from a load within the F/T noise it is noise), so a foot
+  // rests only with a measured load, not on its contact flag (which means "touching": a foot
+  // resting on the ground with 0-5 N keeps it). A planned support that is not (or no longer)
+  // loaded -- a foot tipped up by the other, a stepping foot just before it lands or after
+  // the weight went over the other foot -- is held where it last rested instead of following
+  // its own velocity, which let it drift (a step in place: up 0.32 m, or 18-24 mm of slip with
+  // the flag of a touching foot taken for a load).
+  // A foot back from the air (flag off for resting_touchdown_air_time since it last rested)
+  // comes down with its swing's velocity: it rests only once it carries
+  // resting_touchdown_force_fraction, then down to resting_force_fraction.
+  flag_off_time_[i] = meas.in_contact ? 0.0 : flag_off_time_[i] + config_.dt;
+  if (flag_off_time_[i] > config_.resting_touchdown_air_time + 1e-9) rested_on_ground_[i] = false;
+  const double rest_fraction = rested_on_ground_[i] ? config_.resting_force_fraction
+                                                    : config_.resting_touchdown_force_fraction;
+  loaded = meas.normal_force > rest_fraction * weight;
+  const bool resting = support && loaded &&
+                       cop_in_safe_region(X_WF_[i], meas.cop_W, foot.sole,
+                                          robot_.safety_margin + config_.resting_extra_margin);
+  // Touch-down of a planned support (a swing foot set down, a support flag that comes back):
+  // the leg's integrated references theta*, theta_dot* (34)-(35) ran ahead of the foot while
+  // it moved and would press it into the ground through the joint PD with a load the contact
+  // problem does not know of (a step in place: 90-170 N on the landed foot, planned 0, which
+  // tipped the stance foot). finish() restarts them from the measured joints.
+  touch_down_[i] = support && !diag_.support[i] && have_hold_seen_;
+  diag_.support[i] = support;
+  diag_.resting[i] = resting;
+  if (resting) rested_on_ground_[i] = true;
+  return resting;
+}
+
+// Eq (36): foot i's desired acceleration a_d towards its desired pose and velocity (a
+// reference's target, its own when resting, else where it last rested), and its row of the
+// foot-motion constraint, d_ = a_d - J_dot qd.
+void BalanceController::foot_motion_row_eq_36(int i, const FootReference& ref, bool support,
+                                              bool resting, bool loaded) noexcept {
+  model::SE3 X_d = X_WF_hold_[i];
+  model::Motion V_d = model::Motion::Zero();
+  model::Motion a_support = model::Motion::Zero();
+  if (ref.has_target) {
+    X_d = ref.X_WF_target;
+    V_d = ref.V_WF_target;
+    X_WF_hold_[i] = ref.X_WF_target;  // where the foot stays when the target is dropped
+    placed_[i] = true;
+  } else if (resting || (support && !placed_[i])) {
+    // Resting, or a support that has never rested nor been placed (released in the air:
+    // no pose to hold yet, it moves with the body until it lands).
+    placed_[i] = placed_[i] || resting;
+    // Resting on a (possibly moving) support: follow it (v_d = v, T_d = T).
+    X_d = X_WF_[i];
+    V_d = V_WF_[i];
+    X_WF_hold_[i] = X_WF_[i];
+    a_support = A_WF_filtered_[i];  // shared with its support; zero when the filter is off
+  }
+  // A held foot back from the air (its flag off for more than resting_touchdown_air_time
+  // since it last rested) and without load carries none of the contact forces: only its own
+  // gains keep it where it stood (FootGains::unloaded_kp). A foot that touches, or lost its
+  // flag for a few ticks only, keeps kp, kd: the ground holds it, and stiffer gains there pull
+  // it against its support (a light foot on an accelerating platform).
+  // Horizontally only: how the foot comes down (its height, its tilt) stays (36)'s with kp,
+  // kd, so a foot set down by a swing lands as before (a stiffer vertical hold at the swing's
+  // end pose left the step in place's landing touching with < 1 % of the weight and bouncing).
+  model::Motion a_d = foot_acceleration(config_.foot, X_WF_[i], V_WF_[i], X_d, V_d) + a_support;
+  if (!ref.has_target && !loaded && !rested_on_ground_[i]) {
+    FootGains held;
+    held.kp = config_.foot.unloaded_kp;
+    held.kd = config_.foot.unloaded_kd;
+    a_d.head<2>() =
+        foot_acceleration(held, X_WF_[i], V_WF_[i], X_d, V_d).head<2>() + a_support.head<2>();
+  }
+  diag_.foot_acceleration_desired[i] = a_d;
+  d_.segment<6>(6 * i) = a_d - jdot_v_.segment<6>(6 * i);
+}
+
+// Foot i in the contact problem: in contact when a support, its pose, and its sole
+// (RobotConfig::effort_limited_sole: where the leg's joints can hold the measured load).
+void BalanceController::contact_problem_foot(int i, bool support, double normal_force) noexcept {
+  const auto& foot = robot_.feet[i];
+  auto& pf = problem_.feet[i];
+  pf.in_contact = support;
+  pf.R_WF = X_WF_[i].R;
+  pf.p_WF = X_WF_[i].p;
+  if (robot_.effort_limited_sole) {
+    pf.sole = {foot.sole.x_min, foot.sole.x_max, foot.sole.y_min, foot.sole.y_max};
+    limit_sole_by_effort(i, normal_force, foot.sole.height, pf.sole);
+  }
+}
+
+// The supports' acceleration (MomentumGains::support_acceleration_hz): three first-order
+// stages, whose last is a_s and whose difference gives its rate without differencing noise;
+// it decays to zero without a support.
+void BalanceController::filter_support_acceleration(const SupportSums& supports) noexcept {
   const double support_w = 2.0 * M_PI * config_.momentum.support_acceleration_hz;  // [rad/s]
   if (support_w > 0.0) {
     const double a = config_.dt / (config_.dt + 1.0 / support_w);
     auto& st = support_acc_stage_;
-    const Eigen::Vector3d raw =
-        num_support > 0 ? Eigen::Vector3d(foot_acc_sum / num_support) : Eigen::Vector3d::Zero();
+    const Eigen::Vector3d raw = supports.count > 0
+                                    ? Eigen::Vector3d(supports.acceleration / supports.count)
+                                    : Eigen::Vector3d::Zero();
     st[0] += a * (raw - st[0]);
     st[1] += a * (st[0] - st[1]);
     st[2] += a * (st[1] - st[2]);
   }
+}
 
-  observe_com_offset(state, num_support, foot_vel_mean);
-  const Eigen::Vector3d com = data_.com + com_offset_.offset();  // the robot's CoM, as estimated
-
-  // ---- desired CoM (reference, or Sec. 4.2: above the mid-point of the supports) ---------------
-  // The supports' points are their stand points: the sole centres as in the paper, unless
-  // robot.yaml puts the robot's weight elsewhere on the soles (FootConfig::stand_point).
+// ---- desired CoM (reference, or Sec. 4.2: above the mid-point of the supports) ---------------
+// The supports' points are their stand points: the sole centres as in the paper, unless
+// robot.yaml puts the robot's weight elsewhere on the soles (FootConfig::stand_point).
+void BalanceController::desired_com(const BalanceReference& reference,
+                                    const SupportSums& supports) noexcept {
   diag_.support_acceleration_W.setZero();
   if (reference.has_com_target) {
     diag_.com_target_W = reference.com_W;
     diag_.com_velocity_target_W = reference.com_velocity_W;
-  } else {
-    if (num_support == 0) {
-      // No support (flight, or contact not detected yet): the rule over both feet.
-      for (int i = 0; i < kFeet; ++i) {
-        sole_mean += stand_point_W(X_WF_[i], robot_.feet[i]);
-        foot_vel_mean += V_WF_[i].head<3>();
-      }
-    }
-    const double count = num_support > 0 ? num_support : kFeet;
-    diag_.com_target_W = sole_mean / count + Eigen::Vector3d(0.0, 0.0, com_height_);
-    diag_.com_velocity_target_W = foot_vel_mean / count;
-    // Accelerating supports (MomentumGains::support_acceleration_hz): the target leans into
-    // their acceleration, d = k a_s, and its velocity target gets d's rate.
-    if (support_w > 0.0) {
-      const auto& st = support_acc_stage_;
-      const double g_eff =
-          std::max(0.1 * model_.gravity.norm(), model_.gravity.norm() + st[2].z());
-      const double k = com_height_ / g_eff;
-      diag_.com_target_W.head<2>() += k * st[2].head<2>();
-      diag_.com_velocity_target_W.head<2>() += k * support_w * (st[1] - st[2]).head<2>();
-      diag_.support_acceleration_W = st[2];
+    return;
+  }
+  Eigen::Vector3d sole_mean = supports.stand_point;
+  Eigen::Vector3d foot_vel_mean = supports.velocity;
+  if (supports.count == 0) {
+    // No support (flight, or contact not detected yet): the rule over both feet.
+    for (int i = 0; i < kFeet; ++i) {
+      sole_mean += stand_point_W(X_WF_[i], robot_.feet[i]);
+      foot_vel_mean += V_WF_[i].head<3>();
     }
   }
+  const double count = supports.count > 0 ? supports.count : kFeet;
+  diag_.com_target_W = sole_mean / count + Eigen::Vector3d(0.0, 0.0, com_height_);
+  diag_.com_velocity_target_W = foot_vel_mean / count;
+  // Accelerating supports (MomentumGains::support_acceleration_hz): the target leans into
+  // their acceleration, d = k a_s, and its velocity target gets d's rate.
+  const double support_w = 2.0 * M_PI * config_.momentum.support_acceleration_hz;  // [rad/s]
+  if (support_w > 0.0) {
+    const auto& st = support_acc_stage_;
+    const double g_eff = std::max(0.1 * model_.gravity.norm(), model_.gravity.norm() + st[2].z());
+    const double k = com_height_ / g_eff;
+    diag_.com_target_W.head<2>() += k * st[2].head<2>();
+    diag_.com_velocity_target_W.head<2>() += k * support_w * (st[1] - st[2]).head<2>();
+    diag_.support_acceleration_W = st[2];
+  }
+}
 
-  // ---- eqs (10)-(11)
-  // ------------------------------------------------------------------------------
+// ---- eqs (10)-(11): the desired centroidal momentum rate (diag_.hdot_desired) -------------------
+void BalanceController::desired_momentum_rate_eqs_10_11(const BalanceReference& reference,
+                                                        const Eigen::Matrix3d& R_WB,
+                                                        const Eigen::Vector3d& com,
+                                                        double mass) noexcept {
   // MomentumGains::feedback_filter_hz: y += a (x - y), a = dt / (dt + 1 / (2 pi f)); exact at
   // the first tick after a reset.
   const double fc = config_.momentum.feedback_filter_hz;
@@ -553,9 +684,13 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
                                     -model_.gravity.normalized(), data_.Ag.block<3, 3>(0, 3),
                                     r_pitch, r_roll);
   diag_.hdot_desired =
-      desired_momentum_rate(config_.momentum, mass, k_filtered_, k_d, com,
-                            diag_.com_target_W, Eigen::Vector3d::Zero(), vcom_error_filtered_);
-  // MomentumGains::ankle_first_blend (support_polygon.hpp): the ankle strategy before the hip's.
+      desired_momentum_rate(config_.momentum, mass, k_filtered_, k_d, com, diag_.com_target_W,
+                            Eigen::Vector3d::Zero(), vcom_error_filtered_);
+}
+
+// MomentumGains::ankle_first_blend (support_polygon.hpp): the ankle strategy before the hip's.
+void BalanceController::blend_ankle_first(const Eigen::Vector3d& com, double mass,
+                                          int num_support) noexcept {
   diag_.ankle_first_beta = 1.0;
   if (config_.momentum.ankle_first_blend > 0.0 && num_support > 0) {
     polygon_.clear();
@@ -569,15 +704,16 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
     }
     polygon_.hull();
     const double omega = std::sqrt(model_.gravity.norm() / com_height_);
-    const AnkleFirstRate r = ankle_first_rate(
-        diag_.hdot_desired.segment<2>(3) / mass, com.head<2>(),
-        vcom_error_filtered_.head<2>(), omega, polygon_, config_.momentum.ankle_first_blend);
+    const AnkleFirstRate r = ankle_first_rate(diag_.hdot_desired.segment<2>(3) / mass,
+                                              com.head<2>(), vcom_error_filtered_.head<2>(), omega,
+                                              polygon_, config_.momentum.ankle_first_blend);
     diag_.hdot_desired.segment<2>(3) = mass * r.acceleration;
     diag_.ankle_first_beta = r.beta;
   }
-  diag_.hdot_desired.tail<3>() += mass * diag_.support_acceleration_W;
+}
 
-  // Upper-body objective of this tick.
+// Upper-body objective of this tick.
+void BalanceController::upper_body_objective(const BalanceReference& reference) noexcept {
   qdd_u_ref_ = reference.upper_body_qdd;
   if (reference.has_upper_body_q) {
     q_u_target_ = reference.upper_body_q;
@@ -586,13 +722,6 @@ void BalanceController::prepare(const RobotState& state, const BalanceReference&
     q_u_target_ = q_nominal_;
     qd_u_target_.setZero();
   }
-
-  problem_.mass = mass;
-  problem_.gravity = model_.gravity;
-  problem_.com = com;
-  problem_.k_dot_desired = diag_.hdot_desired.head<3>();
-  problem_.l_dot_desired = diag_.hdot_desired.tail<3>();
-  problem = problem_;
 }
 
 // ControllerConfig::com_offset (com_offset_observer.hpp): the supports' force-weighted measured
@@ -754,9 +883,24 @@ void BalanceController::command_damping(JointCommand& command) noexcept {
 
 void BalanceController::finish_with(const contact::ContactSolution& solution, ContactSource source,
                                     JointCommand& command) noexcept {
-  const int n = model_.njoints;
-  const int nv = model_.nv;
-  const double dt = config_.dt;
+  record_applied_wrenches(solution, source);
+  joint_accelerations_eq_33();
+  inverse_dynamics_torques(solution, command);
+  joint_references_eqs_34_35(solution);
+
+  command.tick = diag_.tick;
+  command.mode = CommandMode::kTorque;
+  command.q_ref = q_ref_;
+  command.qd_ref = qd_ref_;
+  command.kp = kp_;
+  command.kd = kd_;
+  ++diag_.ticks;
+}
+
+// The wrenches applied this tick: kept for a later fallback (a fresh solution or the gravity
+// distribution), their admissible momentum rate and the feet's wrenches in the diagnostics.
+void BalanceController::record_applied_wrenches(const contact::ContactSolution& solution,
+                                                ContactSource source) noexcept {
   diag_.contact_source = source;
   if (source == ContactSource::kSolution || source == ContactSource::kGravityDistribution) {
     previous_solution_ = solution;
@@ -774,28 +918,15 @@ void BalanceController::finish_with(const contact::ContactSolution& solution, Co
       diag_.foot_wrench_W[i].setZero();
     }
   }
+}
 
-  // ---- eq (33) ----------------------------------------------------------------------------------
+// ---- eq (33) ----------------------------------------------------------------------------------
+// The joint accelerations qdd_: the admissible momentum rate, the feet's motion rows (36), the
+// posture and upper-body objectives, within the joints' acceleration bounds.
+void BalanceController::joint_accelerations_eq_33() noexcept {
+  const int n = model_.njoints;
   const auto& acfg = config_.acceleration;
-  const double w_u = 1.0 - acfg.w_b;
-  const double w_p = acfg.posture_weight;
-  // Base: posture prior = damping of the base velocity.
-  w_.head<6>().setConstant(w_p);
-  t_.head<6>() = -acfg.posture_kd * v_.head<6>();
-  for (int j = 0; j < n; ++j) {
-    const double q = q_[7 + j];
-    const double qd = v_[6 + j];
-    const double t_post = acfg.posture_kp * (q_nominal_[j] - q) - acfg.posture_kd * qd;
-    if (is_upper_[j] > 0.0) {
-      const double t_u = qdd_u_ref_[j] + acfg.upper_body_kp * (q_u_target_[j] - q) +
-                         acfg.upper_body_kd * (qd_u_target_[j] - qd);
-      w_[6 + j] = w_u + w_p;
-      t_[6 + j] = (w_u * t_u + w_p * t_post) / (w_u + w_p);
-    } else {
-      w_[6 + j] = w_p;
-      t_[6 + j] = t_post;
-    }
-  }
+  posture_objective();
   joint_acceleration_bounds(q_.tail(n), v_.tail(n), q_min_, q_max_, acfg.limit_horizon,
                             acfg.max_joint_acceleration, lo_, hi_);
   model::Vector6 b = diag_.hdot_admissible - data_.dAg_v;
@@ -817,9 +948,38 @@ void BalanceController::finish_with(const contact::ContactSolution& solution, Co
   for (int row = 0; row < 6 * kFeet; ++row)
     cres = std::max(cres, std::abs(C_.row(row).dot(qdd_) - d_[row]));
   diag_.constraint_residual = cres;
+}
 
-  // ---- feed-forward torques: inverse dynamics with the admissible wrenches
-  // -----------------------
+// Eq (33)'s weights w_ and targets t_: the posture prior everywhere, blended with the upper-body
+// objective on the upper-body joints.
+void BalanceController::posture_objective() noexcept {
+  const int n = model_.njoints;
+  const auto& acfg = config_.acceleration;
+  const double w_u = 1.0 - acfg.w_b;
+  const double w_p = acfg.posture_weight;
+  // Base: posture prior = damping of the base velocity.
+  w_.head<6>().setConstant(w_p);
+  t_.head<6>() = -acfg.posture_kd * v_.head<6>();
+  for (int j = 0; j < n; ++j) {
+    const double q = q_[7 + j];
+    const double qd = v_[6 + j];
+    const double t_post = acfg.posture_kp * (q_nominal_[j] - q) - acfg.posture_kd * qd;
+    if (is_upper_[j] > 0.0) {
+      const double t_u = qdd_u_ref_[j] + acfg.upper_body_kp * (q_u_target_[j] - q) +
+                         acfg.upper_body_kd * (qd_u_target_[j] - qd);
+      w_[6 + j] = w_u + w_p;
+      t_[6 + j] = (w_u * t_u + w_p * t_post) / (w_u + w_p);
+    } else {
+      w_[6 + j] = w_p;
+      t_[6 + j] = t_post;
+    }
+  }
+}
+
+// ---- feed-forward torques: inverse dynamics with the admissible wrenches -----------------------
+void BalanceController::inverse_dynamics_torques(const contact::ContactSolution& solution,
+                                                 JointCommand& command) noexcept {
+  const int n = model_.njoints;
   model::clear_external_forces(data_);
   for (int i = 0; i < kFeet; ++i) {
     if (!problem_.feet[i].in_contact) continue;
@@ -838,11 +998,21 @@ void BalanceController::finish_with(const contact::ContactSolution& solution, Co
     command.tau_ff[j] = tau;
   }
   diag_.torque_saturations = sat;
+}
 
-  // ---- theta*, theta_dot* integrated from qdd_a (34)-(35)
-  // ----------------------------------------
-  const auto& fb = config_.feedback;
-  int clamps = 0;
+// ---- theta*, theta_dot* integrated from qdd_a (34)-(35) ----------------------------------------
+void BalanceController::joint_references_eqs_34_35(
+    const contact::ContactSolution& solution) noexcept {
+  restart_references();
+  internal_reference_errors();
+  diag_.reference_clamps = integrate_references();
+  follow_touched_down_legs(solution);
+}
+
+// The references restart from the measured joints: at the first tick, and on a touched-down
+// foot's leg.
+void BalanceController::restart_references() noexcept {
+  const int n = model_.njoints;
   if (!have_references_) {
     q_ref_ = q_.tail(n);
     qd_ref_ = qd_joint_;
@@ -855,9 +1025,13 @@ void BalanceController::finish_with(const contact::ContactSolution& solution, Co
       qd_ref_[j] = 0.0;  // the ground stops the foot: not the leg's velocity at the impact
     }
   }
-  // FeedbackConfig::internal_force_leak_hz: the internal parts of the reference errors, from
-  // this tick's foot Jacobians (before this tick's integration; zero when off or not both
-  // feet bear load, or when the split is not solvable).
+}
+
+// FeedbackConfig::internal_force_leak_hz: the internal parts of the reference errors, from
+// this tick's foot Jacobians (before this tick's integration; zero when off or not both
+// feet bear load, or when the split is not solvable).
+void BalanceController::internal_reference_errors() noexcept {
+  const int n = model_.njoints;
   internal_q_.setZero();
   internal_qd_.setZero();
   if (internal_drop_ > 0.0 && both_feet_loaded_ && internal_split_basis()) {
@@ -866,6 +1040,16 @@ void BalanceController::finish_with(const contact::ContactSolution& solution, Co
     error_scratch_ = qd_ref_ - qd_joint_;
     if (!internal_part(error_scratch_, inv_kd_, internal_qd_)) internal_qd_.setZero();
   }
+}
+
+// Eqs (34)-(35): theta_dot* += qdd dt, theta* += theta_dot* dt (with the leaks of
+// FeedbackConfig), clamped around the measured joints and to the joint limits. Returns the
+// number of clamps.
+int BalanceController::integrate_references() noexcept {
+  const int n = model_.njoints;
+  const double dt = config_.dt;
+  const auto& fb = config_.feedback;
+  int clamps = 0;
   for (int j = 0; j < n; ++j) {
     const double q = q_[7 + j];
     const double qd = qd_joint_[j];
@@ -897,9 +1081,14 @@ void BalanceController::finish_with(const contact::ContactSolution& solution, Co
     qd_ref_[j] = vr;
     q_ref_[j] = pr;
   }
-  // FeedbackConfig::touchdown_follow_fraction: a support touched down and not planned a load
-  // yet keeps its leg's references on the measured joints (after the integration, which the
-  // other joints keep), so the leg's PD presses the foot with nothing the plan does not know.
+  return clamps;
+}
+
+// FeedbackConfig::touchdown_follow_fraction: a support touched down and not planned a load
+// yet keeps its leg's references on the measured joints (after the integration, which the
+// other joints keep), so the leg's PD presses the foot with nothing the plan does not know.
+void BalanceController::follow_touched_down_legs(
+    const contact::ContactSolution& solution) noexcept {
   const double follow_load =
       config_.feedback.touchdown_follow_fraction * problem_.mass * model_.gravity.norm();
   for (int i = 0; i < kFeet; ++i) {
@@ -917,16 +1106,6 @@ void BalanceController::finish_with(const contact::ContactSolution& solution, Co
       qd_ref_[j] = qd_joint_[j] + keep * (qd_ref_[j] - qd_joint_[j]);
     }
   }
-  diag_.reference_clamps = clamps;
-  (void)nv;
-
-  command.tick = diag_.tick;
-  command.mode = CommandMode::kTorque;
-  command.q_ref = q_ref_;
-  command.qd_ref = qd_ref_;
-  command.kp = kp_;
-  command.kd = kd_;
-  ++diag_.ticks;
 }
 
 // The legs' internal-force split (FeedbackConfig::internal_force_leak_hz). A torque t (dim n) is

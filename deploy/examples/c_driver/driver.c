@@ -480,6 +480,317 @@ static void set_mode(driver_mode *mode, driver_mode next, int64_t t, const char 
   *mode = next;
 }
 
+/* Everything the loop keeps from tick to tick (one, static: large). */
+typedef struct driver {
+  const options *o;
+  const driver_robot *robot;
+  dds_handles *h;
+  int n; /* joints */
+  robot_state s;
+  double hold_target[DRIVER_MAX_JOINTS];
+  poise_msg_JointCommand cmd, active; /* newest taken, newest obeyed */
+  poise_msg_EStop estop;
+  poise_msg_Sensors sensors;
+  counters c;
+  driver_mode mode;
+  int have_command;
+  uint64_t first_command_tick;
+  int64_t last_fresh_ns, hold_since_ns;
+  int64_t watchdog_ns, hold_ns;
+  uint64_t tick;
+  dds_instance_handle_t owner; /* the commanding writer of poise/joint_command */
+  int64_t owner_seen_ns;
+} driver;
+
+static void driver_init(driver *d, const options *o, const driver_robot *robot, dds_handles *h) {
+  d->o = o;
+  d->robot = robot;
+  d->h = h;
+  d->n = robot->joint_count;
+  for (int i = 0; i < d->n; ++i)
+    d->s.q[i] = robot->joints[i].q_initial;
+  memcpy(d->hold_target, d->s.q, sizeof d->hold_target);
+  memset(&d->c, 0, sizeof d->c);
+  d->mode = DRIVER_STARTUP;
+  d->watchdog_ns = (int64_t)(o->watchdog_ms * 1e6);
+  d->hold_ns = (int64_t)(o->hold_ms * 1e6);
+}
+
+/* One commanding writer: the first whose command comes. Another is refused while the
+ * commanding one is alive (sent within 100 ms, or still matched with it); a restarted
+ * controller is adopted once the old writer is gone. Returns 1 when the command is from the
+ * commanding writer (now). */
+static int from_commanding_writer(driver *d, const dds_sample_info_t *info, int64_t t) {
+  if (d->owner == 0 || info->publication_handle == d->owner) {
+    d->owner = info->publication_handle;
+    d->owner_seen_ns = t;
+    return 1;
+  }
+  /* Another writer: how many are matched is read only now, not for every command. */
+  dds_subscription_matched_status_t st;
+  const int writers = dds_get_subscription_matched_status(d->h->command_reader, &st) == 0
+                          ? (int)st.current_count
+                          : 1;
+  if (writers <= 1 || t - d->owner_seen_ns >= 100000000LL) {
+    logf_("poise/joint_command: a new writer %016llx replaces %016llx (a restarted controller)",
+          (unsigned long long)info->publication_handle, (unsigned long long)d->owner);
+    d->owner = info->publication_handle;
+    d->owner_seen_ns = t;
+    return 1;
+  }
+  if (d->c.foreign_commands++ < 5 || d->c.foreign_commands % 1000 == 0)
+    logf_("FAULT poise/joint_command: command from a second writer %016llx refused "
+          "(%llu so far); writer %016llx commands the robot",
+          (unsigned long long)info->publication_handle,
+          (unsigned long long)d->c.foreign_commands, (unsigned long long)d->owner);
+  return 0;
+}
+
+/* Checks the command just taken (d->cmd): refused with the field logged, or counted late, or
+ * obeyed from now on. */
+static void take_command(driver *d, int64_t t) {
+  counters *c = &d->c;
+  const poise_msg_JointCommand *cmd = &d->cmd;
+  c->commands++;
+  char field[160];
+  const driver_reject why = driver_check_command(cmd, d->n, field, sizeof field);
+  if (why != REJECT_NONE) {
+    c->rejected++;
+    c->non_finite += why == REJECT_NON_FINITE;
+    c->bad_joint_count += why == REJECT_JOINT_COUNT;
+    c->negative_gain += why == REJECT_NEGATIVE_GAIN;
+    c->bad_mode += why == REJECT_MODE;
+    if (c->rejected <= 20 || c->rejected % 1000 == 0)
+      logf_("poise/joint_command tick %llu rejected (%llu so far): %s",
+            (unsigned long long)cmd->header.tick, (unsigned long long)c->rejected, field);
+    return;
+  }
+  if (d->have_command && cmd->header.tick <= d->active.header.tick) {
+    c->late_commands++; /* not newer than what is obeyed: not fresh */
+    return;
+  }
+  if (cmd->header.tick == d->tick && d->tick > 0) c->answered++;
+  if (cmd->header.tick < d->tick) {
+    const uint64_t a = d->tick - cmd->header.tick; /* 0: answers the frame just published */
+    c->age[a >= 4 ? 4 : a]++;
+  } else {
+    c->age[0]++;
+  }
+  if (!d->have_command) {
+    /* The gantry carries the load the controller asks for (see the README): with
+     * --load first, the first command's feed-forward for the whole run. */
+    for (int i = 0; i < d->n; ++i)
+      d->s.tau_load[i] = cmd->mode == poise_msg_COMMAND_TORQUE ? cmd->tau_ff[i] : 0.0;
+    d->first_command_tick = cmd->header.tick;
+    d->have_command = 1;
+  }
+  d->active = *cmd;
+  if (d->o->load_each_command && cmd->mode == poise_msg_COMMAND_TORQUE)
+    for (int i = 0; i < d->n; ++i)
+      d->s.tau_load[i] = cmd->tau_ff[i]; /* kept through HOLD, DAMP and non-torque modes */
+  d->last_fresh_ns = t;
+}
+
+/* 1. Commands: the answer to the frame published last tick should be here now. */
+static void take_commands(driver *d, int64_t t) {
+  for (;;) {
+    void *buf[1] = {&d->cmd};
+    dds_sample_info_t info;
+    const dds_return_t got = dds_take(d->h->command_reader, buf, &info, 1, 1);
+    if (got <= 0) break;
+    if (!info.valid_data) continue;
+    if (!from_commanding_writer(d, &info, t)) continue;
+    take_command(d, t);
+  }
+}
+
+/* The e-stop sample just taken (d->estop): the mode it asks for. */
+static void apply_estop(driver *d, int64_t t) {
+  const poise_msg_EStop *estop = &d->estop;
+  /* A damping stop takes over from anything; a protective one (hold the posture) from
+   * anything but a damping stop, which is never eased into a hold. */
+  const int protective = estop->kind == poise_msg_STOP_PROTECTIVE_HOLD;
+  char why[200];
+  snprintf(why, sizeof why, "%s from '%s': %s", protective ? "protective stop" : "e-stop",
+           estop->source, estop->reason);
+  if (estop->engaged && !protective && d->mode != DRIVER_ESTOP) {
+    d->c.estops++;
+    set_mode(&d->mode, DRIVER_ESTOP, t, why);
+  } else if (estop->engaged && protective && d->mode == DRIVER_ESTOP) {
+    logf_("%s refused: the e-stop is damping (release it first)", why);
+  } else if (estop->engaged && protective && d->mode != DRIVER_PROTECTIVE) {
+    d->c.protective_stops++;
+    for (int i = 0; i < d->n; ++i)
+      d->hold_target[i] = d->s.q[i];
+    set_mode(&d->mode, DRIVER_PROTECTIVE, t, why);
+  } else if (!estop->engaged && d->mode == DRIVER_ESTOP) {
+    set_mode(&d->mode, DRIVER_DAMP, t, "e-stop released: damping until fresh commands come");
+  } else if (!estop->engaged && d->mode == DRIVER_PROTECTIVE) {
+    d->hold_since_ns = t;
+    set_mode(&d->mode, DRIVER_HOLD, t, "protective stop released: holding until fresh commands");
+  }
+}
+
+/* Acknowledge: the request id echoed with the stop as now held. */
+static void acknowledge_estop(driver *d) {
+  poise_msg_EStopState *st = &d->h->estop_state;
+  st->header.tick = d->tick;
+  st->engaged = d->mode == DRIVER_ESTOP || d->mode == DRIVER_PROTECTIVE;
+  st->kind =
+      d->mode == DRIVER_PROTECTIVE ? poise_msg_STOP_PROTECTIVE_HOLD : poise_msg_STOP_EMERGENCY_DAMP;
+  st->request = d->estop.request;
+  snprintf(st->source, sizeof st->source, "%s", d->estop.source);
+  if (dds_write(d->h->estop_state_writer, st) < 0)
+    fprintf(stderr, "driver: cannot acknowledge the e-stop on poise/estop_state\n");
+}
+
+static void take_estops(driver *d, int64_t t) {
+  for (;;) {
+    void *buf[1] = {&d->estop};
+    dds_sample_info_t info;
+    const dds_return_t got = dds_take(d->h->estop_reader, buf, &info, 1, 1);
+    if (got <= 0) break;
+    if (!info.valid_data) continue;
+    apply_estop(d, t);
+    acknowledge_estop(d);
+  }
+}
+
+/* 2. Watchdog: no fresh command for --watchdog-ms -> HOLD, then after --hold-ms DAMP. */
+static void watchdog(driver *d, int64_t t) {
+  if (d->mode == DRIVER_ESTOP || d->mode == DRIVER_PROTECTIVE || !d->have_command) return;
+  const int fresh = t - d->last_fresh_ns < d->watchdog_ns;
+  if (fresh) {
+    set_mode(&d->mode, DRIVER_CONTROL, t,
+             d->mode == DRIVER_STARTUP ? "first command" : "control RESUMED");
+  } else if (d->mode == DRIVER_CONTROL || d->mode == DRIVER_STARTUP) {
+    d->c.watchdog_events++;
+    d->c.holds++;
+    d->hold_since_ns = t;
+    for (int i = 0; i < d->n; ++i)
+      d->hold_target[i] =
+          d->active.mode == poise_msg_COMMAND_TORQUE ? d->active.q_ref[i] : d->s.q[i];
+    char why[200];
+    snprintf(why, sizeof why,
+             "no fresh command for %.2f ms (last: tick %llu at t_ns=%lld); holding the last "
+             "targets with the robot.yaml PD gains for %.0f ms",
+             (double)(t - d->last_fresh_ns) * 1e-6, (unsigned long long)d->active.header.tick,
+             (long long)d->last_fresh_ns, d->o->hold_ms);
+    set_mode(&d->mode, DRIVER_HOLD, t, why);
+  } else if (d->mode == DRIVER_HOLD && t - d->hold_since_ns >= d->hold_ns) {
+    d->c.damps++;
+    char why[120];
+    snprintf(why, sizeof why, "held %.1f ms without a fresh command: damping",
+             (double)(t - d->hold_since_ns) * 1e-6);
+    set_mode(&d->mode, DRIVER_DAMP, t, why);
+  }
+}
+
+/* 3. Torques and one period of the joints per elapsed tick. */
+static void step_joints(driver *d, uint64_t steps) {
+  const driver_robot *robot = d->robot;
+  robot_state *s = &d->s;
+  for (uint64_t k = 0; k < steps; ++k) {
+    switch (d->mode) {
+      case DRIVER_CONTROL: driver_command_torques(&d->active, robot, s->q, s->qd, s->tau); break;
+      case DRIVER_STARTUP:
+      case DRIVER_HOLD:
+      case DRIVER_PROTECTIVE:
+        driver_hold_torques(robot, d->hold_target, s->q, s->qd, s->tau);
+        break;
+      case DRIVER_DAMP:
+      case DRIVER_ESTOP: driver_damp_torques(robot, s->qd, s->tau); break;
+    }
+    integrate(robot, d->o->inertia, s, (double)PERIOD_NS * 1e-9);
+  }
+  for (int i = 0; i < d->n; ++i) {
+    const double dev = fabs(s->q[i] - robot->joints[i].q_initial);
+    if (dev > d->c.max_deviation) {
+      d->c.max_deviation = dev;
+      d->c.max_deviation_joint = i;
+    }
+  }
+}
+
+/* 4. Sensors of the new tick. */
+static void publish_sensors(driver *d, uint64_t steps) {
+  if (d->have_command && d->tick > 0) d->c.answerable++;
+  d->tick += steps;
+  fill_sensors(d->robot, &d->s, d->tick, now_ns(), &d->sensors);
+  if (dds_write(d->h->sensors_writer, &d->sensors) < 0) d->c.publish_failures++;
+  d->c.ticks++;
+}
+
+/* The 1 kHz loop, until --duration or SIGINT/SIGTERM. */
+static void run_loop(driver *d) {
+  const int64_t start = now_ns();
+  const int64_t end = d->o->duration_s > 0 ? start + (int64_t)(d->o->duration_s * 1e9) : INT64_MAX;
+  int64_t next = start;
+  while (!g_stop) {
+    next += PERIOD_NS;
+    sleep_until(next);
+    int64_t t = now_ns();
+    if (g_stop || t >= end) break;
+    uint64_t steps = 1;
+    if (t - next >= PERIOD_NS) { /* overran: skip the missed ticks, never compress time */
+      const int64_t missed = (t - next) / PERIOD_NS;
+      next += missed * PERIOD_NS;
+      steps += (uint64_t)missed;
+      d->c.skipped_ticks += (uint64_t)missed;
+      d->c.deadline_misses++;
+    }
+    take_commands(d, t);
+    take_estops(d, t);
+    watchdog(d, t);
+    step_joints(d, steps);
+    publish_sensors(d, steps);
+  }
+}
+
+static void print_summary(const driver *d) {
+  const counters *c = &d->c;
+  const double pct = c->answerable ? 100.0 * (double)c->answered / (double)c->answerable : 0.0;
+  printf("poise-example-c-driver summary: ticks=%llu last_tick=%llu commands=%llu rejected=%llu "
+         "non_finite=%llu bad_joint_count=%llu negative_gain=%llu late_commands=%llu "
+         "first_command_tick=%llu answered_within_1_tick=%llu answerable=%llu answered_pct=%.2f "
+         "watchdog_events=%llu holds=%llu damps=%llu estops=%llu protective_stops=%llu "
+         "foreign_commands=%llu "
+         "deadline_misses=%llu "
+         "skipped_ticks=%llu publish_failures=%llu command_age_ticks=%llu/%llu/%llu/%llu/%llu "
+         "max_joint_deviation=%.4f (%s) final_mode=%s\n",
+         (unsigned long long)c->ticks, (unsigned long long)d->tick, (unsigned long long)c->commands,
+         (unsigned long long)c->rejected, (unsigned long long)c->non_finite,
+         (unsigned long long)c->bad_joint_count, (unsigned long long)c->negative_gain,
+         (unsigned long long)c->late_commands, (unsigned long long)d->first_command_tick,
+         (unsigned long long)c->answered, (unsigned long long)c->answerable, pct,
+         (unsigned long long)c->watchdog_events, (unsigned long long)c->holds,
+         (unsigned long long)c->damps, (unsigned long long)c->estops,
+         (unsigned long long)c->protective_stops,
+         (unsigned long long)c->foreign_commands, (unsigned long long)c->deadline_misses,
+         (unsigned long long)c->skipped_ticks,
+         (unsigned long long)c->publish_failures, (unsigned long long)c->age[0],
+         (unsigned long long)c->age[1], (unsigned long long)c->age[2],
+         (unsigned long long)c->age[3], (unsigned long long)c->age[4], c->max_deviation,
+         d->robot->joints[c->max_deviation_joint].name, driver_mode_name(d->mode));
+}
+
+static void install_signal_handlers(void) {
+  struct sigaction sa;
+  memset(&sa, 0, sizeof sa);
+  sa.sa_handler = on_signal;
+  sigaction(SIGINT, &sa, NULL);
+  sigaction(SIGTERM, &sa, NULL);
+}
+
+/* --priority: SCHED_FIFO and locked memory, or a warning and normal scheduling. */
+static void set_realtime_priority(const options *o) {
+  if (o->priority <= 0) return;
+  struct sched_param sp = {.sched_priority = o->priority};
+  if (sched_setscheduler(0, SCHED_FIFO, &sp) != 0 || mlockall(MCL_CURRENT | MCL_FUTURE) != 0)
+    logf_("warning: --priority %d: %s (running with normal scheduling)", o->priority,
+          strerror(errno));
+}
+
 int main(int argc, char **argv) {
   setvbuf(stdout, NULL, _IOLBF, 0);
   options o;
@@ -491,13 +802,7 @@ int main(int argc, char **argv) {
     fprintf(stderr, "poise-example-c-driver: %s\n", err);
     return 2;
   }
-  const int n = robot.joint_count;
-
-  struct sigaction sa;
-  memset(&sa, 0, sizeof sa);
-  sa.sa_handler = on_signal;
-  sigaction(SIGINT, &sa, NULL);
-  sigaction(SIGTERM, &sa, NULL);
+  install_signal_handlers();
 
   dds_handles h;
   memset(&h, 0, sizeof h);
@@ -509,240 +814,14 @@ int main(int argc, char **argv) {
   if (!o.quiet)
     logf_("%s: %d joints, %.2f kg, imu %s; domain %d, %s; watchdog %.1f ms, hold %.0f ms, J %.3f "
           "kg m^2",
-          robot.name, n, robot.mass, robot.imu_frame, o.domain, o.dds_config, o.watchdog_ms,
-          o.hold_ms, o.inertia);
+          robot.name, robot.joint_count, robot.mass, robot.imu_frame, o.domain, o.dds_config,
+          o.watchdog_ms, o.hold_ms, o.inertia);
+  set_realtime_priority(&o);
 
-  if (o.priority > 0) {
-    struct sched_param sp = {.sched_priority = o.priority};
-    if (sched_setscheduler(0, SCHED_FIFO, &sp) != 0 || mlockall(MCL_CURRENT | MCL_FUTURE) != 0)
-      logf_("warning: --priority %d: %s (running with normal scheduling)", o.priority,
-            strerror(errno));
-  }
-
-  static robot_state s;
-  for (int i = 0; i < n; ++i)
-    s.q[i] = robot.joints[i].q_initial;
-  double hold_target[DRIVER_MAX_JOINTS];
-  memcpy(hold_target, s.q, sizeof hold_target);
-
-  static poise_msg_JointCommand cmd, active; /* newest taken, newest obeyed */
-  static poise_msg_EStop estop;
-  static poise_msg_Sensors sensors;
-  counters c;
-  memset(&c, 0, sizeof c);
-  driver_mode mode = DRIVER_STARTUP;
-  int have_command = 0;
-  uint64_t first_command_tick = 0;
-  int64_t last_fresh_ns = 0, hold_since_ns = 0;
-  const int64_t watchdog_ns = (int64_t)(o.watchdog_ms * 1e6);
-  const int64_t hold_ns = (int64_t)(o.hold_ms * 1e6);
-
-  const int64_t start = now_ns();
-  const int64_t end = o.duration_s > 0 ? start + (int64_t)(o.duration_s * 1e9) : INT64_MAX;
-  int64_t next = start;
-  uint64_t tick = 0;
-  dds_instance_handle_t owner = 0; /* the commanding writer of poise/joint_command */
-  int64_t owner_seen_ns = 0;
-  while (!g_stop) {
-    next += PERIOD_NS;
-    sleep_until(next);
-    int64_t t = now_ns();
-    if (g_stop || t >= end) break;
-    uint64_t steps = 1;
-    if (t - next >= PERIOD_NS) { /* overran: skip the missed ticks, never compress time */
-      const int64_t missed = (t - next) / PERIOD_NS;
-      next += missed * PERIOD_NS;
-      steps += (uint64_t)missed;
-      c.skipped_ticks += (uint64_t)missed;
-      c.deadline_misses++;
-    }
-
-    /* 1. Commands: the answer to the frame published last tick should be here now. */
-    for (;;) {
-      void *buf[1] = {&cmd};
-      dds_sample_info_t info;
-      const dds_return_t got = dds_take(h.command_reader, buf, &info, 1, 1);
-      if (got <= 0) break;
-      if (!info.valid_data) continue;
-      /* One commanding writer: the first whose command comes. Another is refused while the
-       * commanding one is alive (sent within 100 ms, or still matched with it); a restarted
-       * controller is adopted once the old writer is gone. */
-      if (owner == 0 || info.publication_handle == owner) {
-        owner = info.publication_handle;
-        owner_seen_ns = t;
-      } else {
-        /* Another writer: how many are matched is read only now, not for every command. */
-        dds_subscription_matched_status_t st;
-        const int writers =
-            dds_get_subscription_matched_status(h.command_reader, &st) == 0 ? (int)st.current_count : 1;
-        if (writers <= 1 || t - owner_seen_ns >= 100000000LL) {
-          logf_("poise/joint_command: a new writer %016llx replaces %016llx (a restarted controller)",
-                (unsigned long long)info.publication_handle, (unsigned long long)owner);
-          owner = info.publication_handle;
-          owner_seen_ns = t;
-        } else {
-          if (c.foreign_commands++ < 5 || c.foreign_commands % 1000 == 0)
-            logf_("FAULT poise/joint_command: command from a second writer %016llx refused "
-                  "(%llu so far); writer %016llx commands the robot",
-                  (unsigned long long)info.publication_handle,
-                  (unsigned long long)c.foreign_commands, (unsigned long long)owner);
-          continue;
-        }
-      }
-      c.commands++;
-      char field[160];
-      const driver_reject why = driver_check_command(&cmd, n, field, sizeof field);
-      if (why != REJECT_NONE) {
-        c.rejected++;
-        c.non_finite += why == REJECT_NON_FINITE;
-        c.bad_joint_count += why == REJECT_JOINT_COUNT;
-        c.negative_gain += why == REJECT_NEGATIVE_GAIN;
-        c.bad_mode += why == REJECT_MODE;
-        if (c.rejected <= 20 || c.rejected % 1000 == 0)
-          logf_("poise/joint_command tick %llu rejected (%llu so far): %s",
-                (unsigned long long)cmd.header.tick, (unsigned long long)c.rejected, field);
-        continue;
-      }
-      if (have_command && cmd.header.tick <= active.header.tick) {
-        c.late_commands++; /* not newer than what is obeyed: not fresh */
-        continue;
-      }
-      if (cmd.header.tick == tick && tick > 0) c.answered++;
-      if (cmd.header.tick < tick) {
-        const uint64_t a = tick - cmd.header.tick; /* 0: answers the frame just published */
-        c.age[a >= 4 ? 4 : a]++;
-      } else {
-        c.age[0]++;
-      }
-      if (!have_command) {
-        /* The gantry carries the load the controller asks for (see the README): with
-         * --load first, the first command's feed-forward for the whole run. */
-        for (int i = 0; i < n; ++i)
-          s.tau_load[i] = cmd.mode == poise_msg_COMMAND_TORQUE ? cmd.tau_ff[i] : 0.0;
-        first_command_tick = cmd.header.tick;
-        have_command = 1;
-      }
-      active = cmd;
-      if (o.load_each_command && cmd.mode == poise_msg_COMMAND_TORQUE)
-        for (int i = 0; i < n; ++i)
-          s.tau_load[i] = cmd.tau_ff[i]; /* kept through HOLD, DAMP and non-torque modes */
-      last_fresh_ns = t;
-    }
-    for (;;) {
-      void *buf[1] = {&estop};
-      dds_sample_info_t info;
-      const dds_return_t got = dds_take(h.estop_reader, buf, &info, 1, 1);
-      if (got <= 0) break;
-      if (!info.valid_data) continue;
-      /* A damping stop takes over from anything; a protective one (hold the posture) from
-       * anything but a damping stop, which is never eased into a hold. */
-      const int protective = estop.kind == poise_msg_STOP_PROTECTIVE_HOLD;
-      char why[200];
-      snprintf(why, sizeof why, "%s from '%s': %s", protective ? "protective stop" : "e-stop",
-               estop.source, estop.reason);
-      if (estop.engaged && !protective && mode != DRIVER_ESTOP) {
-        c.estops++;
-        set_mode(&mode, DRIVER_ESTOP, t, why);
-      } else if (estop.engaged && protective && mode == DRIVER_ESTOP) {
-        logf_("%s refused: the e-stop is damping (release it first)", why);
-      } else if (estop.engaged && protective && mode != DRIVER_PROTECTIVE) {
-        c.protective_stops++;
-        for (int i = 0; i < n; ++i)
-          hold_target[i] = s.q[i];
-        set_mode(&mode, DRIVER_PROTECTIVE, t, why);
-      } else if (!estop.engaged && mode == DRIVER_ESTOP) {
-        set_mode(&mode, DRIVER_DAMP, t, "e-stop released: damping until fresh commands come");
-      } else if (!estop.engaged && mode == DRIVER_PROTECTIVE) {
-        hold_since_ns = t;
-        set_mode(&mode, DRIVER_HOLD, t, "protective stop released: holding until fresh commands");
-      }
-      /* Acknowledge: the request id echoed with the stop as now held. */
-      h.estop_state.header.tick = tick;
-      h.estop_state.engaged = mode == DRIVER_ESTOP || mode == DRIVER_PROTECTIVE;
-      h.estop_state.kind =
-          mode == DRIVER_PROTECTIVE ? poise_msg_STOP_PROTECTIVE_HOLD : poise_msg_STOP_EMERGENCY_DAMP;
-      h.estop_state.request = estop.request;
-      snprintf(h.estop_state.source, sizeof h.estop_state.source, "%s", estop.source);
-      if (dds_write(h.estop_state_writer, &h.estop_state) < 0)
-        fprintf(stderr, "driver: cannot acknowledge the e-stop on poise/estop_state\n");
-    }
-
-    /* 2. Watchdog. */
-    if (mode != DRIVER_ESTOP && mode != DRIVER_PROTECTIVE && have_command) {
-      const int fresh = t - last_fresh_ns < watchdog_ns;
-      if (fresh) {
-        set_mode(&mode, DRIVER_CONTROL, t, mode == DRIVER_STARTUP ? "first command" : "control RESUMED");
-      } else if (mode == DRIVER_CONTROL || mode == DRIVER_STARTUP) {
-        c.watchdog_events++;
-        c.holds++;
-        hold_since_ns = t;
-        for (int i = 0; i < n; ++i)
-          hold_target[i] = active.mode == poise_msg_COMMAND_TORQUE ? active.q_ref[i] : s.q[i];
-        char why[200];
-        snprintf(why, sizeof why,
-                 "no fresh command for %.2f ms (last: tick %llu at t_ns=%lld); holding the last "
-                 "targets with the robot.yaml PD gains for %.0f ms",
-                 (double)(t - last_fresh_ns) * 1e-6, (unsigned long long)active.header.tick,
-                 (long long)last_fresh_ns, o.hold_ms);
-        set_mode(&mode, DRIVER_HOLD, t, why);
-      } else if (mode == DRIVER_HOLD && t - hold_since_ns >= hold_ns) {
-        c.damps++;
-        char why[120];
-        snprintf(why, sizeof why, "held %.1f ms without a fresh command: damping",
-                 (double)(t - hold_since_ns) * 1e-6);
-        set_mode(&mode, DRIVER_DAMP, t, why);
-      }
-    }
-
-    /* 3. Torques and one period of the joints per elapsed tick. */
-    for (uint64_t k = 0; k < steps; ++k) {
-      switch (mode) {
-        case DRIVER_CONTROL: driver_command_torques(&active, &robot, s.q, s.qd, s.tau); break;
-        case DRIVER_STARTUP:
-        case DRIVER_HOLD:
-        case DRIVER_PROTECTIVE: driver_hold_torques(&robot, hold_target, s.q, s.qd, s.tau); break;
-        case DRIVER_DAMP:
-        case DRIVER_ESTOP: driver_damp_torques(&robot, s.qd, s.tau); break;
-      }
-      integrate(&robot, o.inertia, &s, (double)PERIOD_NS * 1e-9);
-    }
-    for (int i = 0; i < n; ++i) {
-      const double dev = fabs(s.q[i] - robot.joints[i].q_initial);
-      if (dev > c.max_deviation) {
-        c.max_deviation = dev;
-        c.max_deviation_joint = i;
-      }
-    }
-
-    /* 4. Sensors of the new tick. */
-    if (have_command && tick > 0) c.answerable++;
-    tick += steps;
-    fill_sensors(&robot, &s, tick, now_ns(), &sensors);
-    if (dds_write(h.sensors_writer, &sensors) < 0) c.publish_failures++;
-    c.ticks++;
-  }
-  const double pct = c.answerable ? 100.0 * (double)c.answered / (double)c.answerable : 0.0;
-  printf("poise-example-c-driver summary: ticks=%llu last_tick=%llu commands=%llu rejected=%llu "
-         "non_finite=%llu bad_joint_count=%llu negative_gain=%llu late_commands=%llu "
-         "first_command_tick=%llu answered_within_1_tick=%llu answerable=%llu answered_pct=%.2f "
-         "watchdog_events=%llu holds=%llu damps=%llu estops=%llu protective_stops=%llu "
-         "foreign_commands=%llu "
-         "deadline_misses=%llu "
-         "skipped_ticks=%llu publish_failures=%llu command_age_ticks=%llu/%llu/%llu/%llu/%llu "
-         "max_joint_deviation=%.4f (%s) final_mode=%s\n",
-         (unsigned long long)c.ticks, (unsigned long long)tick, (unsigned long long)c.commands,
-         (unsigned long long)c.rejected, (unsigned long long)c.non_finite,
-         (unsigned long long)c.bad_joint_count, (unsigned long long)c.negative_gain,
-         (unsigned long long)c.late_commands, (unsigned long long)first_command_tick,
-         (unsigned long long)c.answered, (unsigned long long)c.answerable, pct,
-         (unsigned long long)c.watchdog_events, (unsigned long long)c.holds,
-         (unsigned long long)c.damps, (unsigned long long)c.estops,
-         (unsigned long long)c.protective_stops,
-         (unsigned long long)c.foreign_commands, (unsigned long long)c.deadline_misses, (unsigned long long)c.skipped_ticks,
-         (unsigned long long)c.publish_failures, (unsigned long long)c.age[0],
-         (unsigned long long)c.age[1], (unsigned long long)c.age[2], (unsigned long long)c.age[3],
-         (unsigned long long)c.age[4], c.max_deviation, robot.joints[c.max_deviation_joint].name,
-         driver_mode_name(mode));
+  static driver d; /* large: keep it off the stack */
+  driver_init(&d, &o, &robot, &h);
+  run_loop(&d);
+  print_summary(&d);
   dds_delete(h.domain);
   driver_robot_free(&robot);
   return 0;

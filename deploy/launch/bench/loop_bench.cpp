@@ -95,49 +95,71 @@ void spin_us(double us) {
   }
 }
 
-InProcessResult run_in_process(const std::string& file, double duration, bool verbose,
-                               int settle_ticks, bool profile, double add_work_us) {
-  const sim::World sc = sim::load_world(file);
-  sim::Simulator sim(sc.sim);
-  const auto feet = sim_node::foot_order(sim);
-  const model::RobotConfig robot = model::load_robot_config(
-      sc.robot_config.empty() ? node::default_robot_config() : sc.robot_config.string());
-  const model::Model model = model::load_robot_model(robot);
-  const std::vector<int> map = node::model_to_wire_map(sim.joint_names(), model.joint_names);
+// The in-process loop's pieces, built from a scenario as the nodes build theirs, and the messages
+// between them (the same IDL conversions as the nodes, no DDS).
+struct InProcessStack {
+  sim::World world;
+  sim::Simulator simulator;
+  sim_node::FootOrder feet;
+  model::RobotConfig robot;
+  model::Model robot_model;
+  std::vector<int> map;
 
-  estimator::Estimator est(model, robot);
-  estimator::SensorFrame frame = est.make_sensor_frame();
-  estimator::EstimatorState est_state = est.make_state();
-  controller::BalanceController ctrl(model, robot, controller::ControllerConfig{});
-  controller::RobotState state = ctrl.make_state();
-  const controller::BalanceReference reference = ctrl.make_reference();
-  controller::JointCommand command = ctrl.make_command();
+  estimator::Estimator est;
+  estimator::SensorFrame frame;
+  estimator::EstimatorState est_state;
+  controller::BalanceController ctrl;
+  controller::RobotState state;
+  controller::BalanceReference reference;
+  controller::JointCommand command;
   contact::ContactOptimizer optimizer;
   contact::ContactProblem problem, problem_in;
   contact::ContactSolution solution, solution_in;
 
-  sim::ScenarioMonitor monitor(sc, sim::platforms_of_feet(sc));
-  sim_node::SlipTracker slip(sim::platforms_of_feet(sc));
-  sim::SensorFrame sensors = sim.make_sensor_frame();
-  sim::GroundTruth truth = sim.make_ground_truth();
-  sim::JointCommand sim_cmd = sim.make_command();
-  sim_node::settle(sim, settle_ticks, sensors, truth);
-  monitor.update(truth);
+  sim::ScenarioMonitor monitor;
+  sim_node::SlipTracker slip;
+  sim::SensorFrame sensors;
+  sim::GroundTruth truth;
+  sim::JointCommand sim_cmd;
 
-  auto m_sensors = std::make_unique<msg::Sensors>();
-  auto m_state = std::make_unique<msg::State>();
-  auto m_problem = std::make_unique<msg::ContactProblem>();
-  auto m_solution = std::make_unique<msg::ContactSolution>();
-  auto m_command = std::make_unique<msg::JointCommand>();
+  std::unique_ptr<msg::Sensors> m_sensors;
+  std::unique_ptr<msg::State> m_state;
+  std::unique_ptr<msg::ContactProblem> m_problem;
+  std::unique_ptr<msg::ContactSolution> m_solution;
+  std::unique_ptr<msg::JointCommand> m_command;
 
-  const auto steps = static_cast<long>(duration / sim.dt() + 0.5);
-  std::array<std::int64_t, kPhases> phase_ns{};
-  std::unique_ptr<sim::BulletProfile> zones;
-  if (profile) zones = std::make_unique<sim::BulletProfile>();
-  sim.reset_step_times();
-  const std::int64_t t0 = node::now_ns();
-  PhaseClock clock(phase_ns);
-  for (long i = 0; i < steps; ++i) {
+  InProcessStack(const std::string& file, int settle_ticks)
+      : world(sim::load_world(file)),
+        simulator(world.sim),
+        feet(sim_node::foot_order(simulator)),
+        robot(model::load_robot_config(world.robot_config.empty()
+                                           ? node::default_robot_config()
+                                           : world.robot_config.string())),
+        robot_model(model::load_robot_model(robot)),
+        map(node::model_to_wire_map(simulator.joint_names(), robot_model.joint_names)),
+        est(robot_model, robot),
+        frame(est.make_sensor_frame()),
+        est_state(est.make_state()),
+        ctrl(robot_model, robot, controller::ControllerConfig{}),
+        state(ctrl.make_state()),
+        reference(ctrl.make_reference()),
+        command(ctrl.make_command()),
+        monitor(world, sim::platforms_of_feet(world)),
+        slip(sim::platforms_of_feet(world)),
+        sensors(simulator.make_sensor_frame()),
+        truth(simulator.make_ground_truth()),
+        sim_cmd(simulator.make_command()) {
+    sim_node::settle(simulator, settle_ticks, sensors, truth);
+    monitor.update(truth);
+    m_sensors = std::make_unique<msg::Sensors>();
+    m_state = std::make_unique<msg::State>();
+    m_problem = std::make_unique<msg::ContactProblem>();
+    m_solution = std::make_unique<msg::ContactSolution>();
+    m_command = std::make_unique<msg::JointCommand>();
+  }
+
+  // One tick, each phase's time added to `clock`.
+  void tick(PhaseClock& clock) {
     sim_node::to_msg(sensors, feet, *m_sensors);
     estimator_node::from_msg(*m_sensors, map, frame);
     clock.mark(kSensorsToState);
@@ -163,12 +185,15 @@ InProcessResult run_in_process(const std::string& file, double duration, bool ve
     controller_node::to_msg(command, m_state->header(), map, *m_command);
     sim_node::from_msg(*m_command, sim_cmd);
     clock.mark(kCommandWire);
-    sim.step(sim_cmd, sensors, truth);
+    simulator.step(sim_cmd, sensors, truth);
     clock.mark(kSimStep);
     monitor.update(truth);
     clock.mark(kMonitor);
-    if (add_work_us > 0.0) spin_us(add_work_us);
-    if (verbose && i < 40)
+  }
+
+  // --verbose: contact and support of the first 40 ticks, base and CoM every 100.
+  void print_verbose(long i) const {
+    if (i < 40)
       std::printf(
           "k=%ld Fz_meas R %.1f L %.1f | contact est %d %d | support %d %d | mode %d | "
           "contact status %s | tau_ff max %.1f | truth contact %d %d\n",
@@ -177,13 +202,30 @@ InProcessResult run_in_process(const std::string& file, double duration, bool ve
           ctrl.diagnostics().support[1], static_cast<int>(command.mode),
           contact::to_string(solution.status), command.tau_ff.cwiseAbs().maxCoeff(),
           truth.feet[feet[0]].in_contact, truth.feet[feet[1]].in_contact);
-    if (verbose && i % 100 == 0)
+    if (i % 100 == 0)
       std::printf(
           "t=%.2f base z true %.4f est %.4f | vz true %.4f est %.4f | pitch-ish true "
           "%.4f est %.4f | com z true %.4f est %.4f | flags %u\n",
           truth.time, truth.X_WB.translation().z(), est_state.X_WB.p.z(), truth.v_WB.z(),
           est_state.v_WB.z(), truth.X_WB.linear()(0, 2), est_state.X_WB.R(0, 2), truth.com_W.z(),
           est_state.com_W.z(), est_state.status_flags);
+  }
+};
+
+InProcessResult run_in_process(const std::string& file, double duration, bool verbose,
+                               int settle_ticks, bool profile, double add_work_us) {
+  InProcessStack s(file, settle_ticks);
+  const auto steps = static_cast<long>(duration / s.simulator.dt() + 0.5);
+  std::array<std::int64_t, kPhases> phase_ns{};
+  std::unique_ptr<sim::BulletProfile> zones;
+  if (profile) zones = std::make_unique<sim::BulletProfile>();
+  s.simulator.reset_step_times();
+  const std::int64_t t0 = node::now_ns();
+  PhaseClock clock(phase_ns);
+  for (long i = 0; i < steps; ++i) {
+    s.tick(clock);
+    if (add_work_us > 0.0) spin_us(add_work_us);
+    if (verbose) s.print_verbose(i);
   }
   const double wall = static_cast<double>(node::now_ns() - t0) * 1e-9;
   InProcessResult r;
@@ -192,11 +234,11 @@ InProcessResult run_in_process(const std::string& file, double duration, bool ve
     r.phase_us[static_cast<std::size_t>(p)] =
         1e-3 * static_cast<double>(phase_ns[static_cast<std::size_t>(p)]) /
         static_cast<double>(std::max(1L, steps));
-  r.step = sim.step_times();
+  r.step = s.simulator.step_times();
   if (zones) r.zones = zones->zones();
-  r.realtime_factor = static_cast<double>(steps) * sim.dt() / wall;
+  r.realtime_factor = static_cast<double>(steps) * s.simulator.dt() / wall;
   r.us_per_tick = wall * 1e6 / static_cast<double>(steps);
-  const auto m = monitor.result();
+  const auto m = s.monitor.result();
   r.survived = m.survived;
   r.com_error_max = m.com_error_max_m;
   return r;

@@ -22,6 +22,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -162,10 +163,9 @@ std::uint64_t u64(const Json& j, const char* key) {
   return j.is_object() && j.contains(key) && j[key].is_number() ? j[key].get<std::uint64_t>() : 0;
 }
 
-}  // namespace
-
-int run_realtime_bench(int argc, char** argv, const fs::path& bin_dir) {
-  Options o;
+/// Parses the command line into `o`; 0 after --help (nothing to run), else nullopt. Throws
+/// std::invalid_argument on a bad option or value.
+std::optional<int> parse_options(int argc, char** argv, Options& o) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&](const char* name) -> std::string {
@@ -195,13 +195,12 @@ int run_realtime_bench(int argc, char** argv, const fs::path& bin_dir) {
   if (o.hogs < 0 || o.hogs > 64) throw std::invalid_argument("--hog must be 0..64");
   if (o.rt_priority < 0 || o.rt_priority > 99)
     throw std::invalid_argument("--rt-priority must be 0..99");
+  return std::nullopt;
+}
 
-  const fs::path dir = o.keep_dir.empty() ? fs::temp_directory_path() /
-                                                ("poise-bench-rt-" + std::to_string(::getpid()))
-                                          : fs::path(o.keep_dir);
-  fs::create_directories(dir);
-  const fs::path scenario = dir / "realtime_bench.yaml", result = dir / "result.json";
-  write_scenario(scenario, o);
+/// The poise-launch command line of the run; prints it with the run's settings.
+std::string launch_command(const fs::path& bin_dir, const fs::path& scenario,
+                           const fs::path& result, const fs::path& dir, const Options& o) {
   std::string cmd = (bin_dir / "poise-launch").string() + " " + scenario.string() +
                     " --realtime --dds " + o.dds + " --output " + result.string() +
                     " --log-dir " + (dir / "logs").string();
@@ -215,7 +214,11 @@ int run_realtime_bench(int argc, char** argv, const fs::path& bin_dir) {
                                 : "normal scheduling",
               o.lock_memory ? "memory locked" : "memory not locked", cmd.c_str());
   std::fflush(stdout);
-  const std::vector<pid_t> hogs = start_hogs(o.hogs);
+  return cmd;
+}
+
+/// The platform's floor (--floor), printed; null when skipped.
+Json run_floor(const Options& o) {
   Json floor;
   if (o.floor_s > 0) {
     floor = measure_floor(o.floor_s, o.rt_priority, o.cpus);
@@ -226,37 +229,48 @@ int run_realtime_bench(int argc, char** argv, const fs::path& bin_dir) {
                 static_cast<unsigned long long>(floor.value("later_than_1ms", 0)));
     std::fflush(stdout);
   }
-  const int code = std::system(cmd.c_str());
-  stop_hogs(hogs);
-  std::ifstream f(result);
-  if (!f) {
-    std::fprintf(stderr, "the run wrote no result (exit %d): see %s\n", code, dir.c_str());
-    return 1;
-  }
-  const Json r = Json::parse(f);
+  return floor;
+}
+
+/// The figures the targets are about.
+struct Figures {
+  double ticks = 0, p99 = 0, miss_pct = 0;
+  std::uint64_t damping = 0, overruns = 0, deadline = 0;
+};
+
+/// Outcome, every kind of miss and the tick latency of the run's result `r`.
+Figures print_misses(const Json& r) {
   const Json& m = r["misses"];
-  const double ticks = r.value("sim_time_s", 0.0) * 1000.0;
-  const std::uint64_t damping = u64(m, "robot_damping_ticks"), overruns = u64(m, "sim_overruns");
-  const std::uint64_t deadline = u64(m, "controller_contact_wait");
+  Figures fig;
+  fig.ticks = r.value("sim_time_s", 0.0) * 1000.0;
+  fig.damping = u64(m, "robot_damping_ticks");
+  fig.overruns = u64(m, "sim_overruns");
+  fig.deadline = u64(m, "controller_contact_wait");
   const Json& lat = r["tick_latency_us"];
-  const double p99 = lat.value("p99", 0.0);
-  const double miss_pct = ticks > 0 ? 100.0 * static_cast<double>(deadline) / ticks : 100.0;
+  fig.p99 = lat.value("p99", 0.0);
+  fig.miss_pct = fig.ticks > 0 ? 100.0 * static_cast<double>(fig.deadline) / fig.ticks : 100.0;
   std::printf("\nticks %.0f, %s (CoM error max %.3f m, foot slip %.1f mm, base height min %.3f m)\n",
-              ticks, r.value("survived", false) ? "SURVIVED" : "FAILED",
+              fig.ticks, r.value("survived", false) ? "SURVIVED" : "FAILED",
               r.value("com_error_max_m", 0.0), r.value("foot_slip_max_m", 0.0) * 1e3,
               r.value("min_base_height_m", 0.0));
   std::printf("misses: contact wait %llu, commands withheld %llu, sim overruns %llu, hold ticks "
               "%llu, damping ticks %llu, late commands %llu, refused commands %llu, dropped "
               "frames %llu, out of sequence %llu, rejected samples %llu\n",
-              (unsigned long long)deadline, (unsigned long long)u64(m, "controller_commands_withheld"),
-              (unsigned long long)overruns, (unsigned long long)u64(m, "robot_hold_ticks"),
-              (unsigned long long)damping, (unsigned long long)u64(m, "robot_late_commands"),
+              (unsigned long long)fig.deadline,
+              (unsigned long long)u64(m, "controller_commands_withheld"),
+              (unsigned long long)fig.overruns, (unsigned long long)u64(m, "robot_hold_ticks"),
+              (unsigned long long)fig.damping, (unsigned long long)u64(m, "robot_late_commands"),
               (unsigned long long)u64(m, "robot_refused_commands"),
               (unsigned long long)u64(m, "estimator_dropped_frames"),
               (unsigned long long)u64(m, "out_of_sequence"),
               (unsigned long long)u64(m, "samples_rejected"));
   std::printf("tick latency p50/p99/max %.0f/%.0f/%.0f us over %d ticks\n", lat.value("p50", 0.0),
-              p99, lat.value("max", 0.0), lat.value("count", 0));
+              fig.p99, lat.value("max", 0.0), lat.value("count", 0));
+  return fig;
+}
+
+/// Each node's compute split and the page faults of each process's loop.
+void print_nodes(const Json& r) {
   for (const char* n : {"estimator", "controller", "contact"}) {
     if (!r["library_us"].contains(n)) continue;
     std::printf("  %-10s compute p50/p99 %.1f/%.1f us = library %.1f/%.1f + node %.1f/%.1f", n,
@@ -275,25 +289,59 @@ int run_realtime_bench(int argc, char** argv, const fs::path& bin_dir) {
                 it.value().value("refused", Json::array()).empty() ? ""
                                                                    : " (real-time settings refused)");
   }
+}
+
+void print_targets(const Figures& fig) {
   auto target = [](bool ok, const char* what) {
     std::printf("  %-4s %s\n", ok ? "MET" : "MISS", what);
   };
   std::printf("targets:\n");
-  target(damping == 0, "0 watchdog damping ticks");
-  target(overruns == 0, "0 simulator overruns");
-  target(miss_pct <= 0.01, ("deadline misses <= 0.01 % of ticks (" + std::to_string(miss_pct) +
-                            " %)").c_str());
-  target(p99 <= 250.0, "tick latency p99 <= 250 us (idle machine)");
-  if (!o.output.empty()) {
-    Json out = r;
-    out["bench"] = {{"duration_s", o.duration},  {"push_every_s", o.push_every},
-                    {"push_force_n", o.push_force}, {"hogs", o.hogs},
-                    {"rt_priority", o.rt_priority}, {"lock_memory", o.lock_memory},
-                    {"cpus", o.cpus},               {"platform_floor", floor},
-                    {"ticks", ticks},              {"deadline_miss_pct", miss_pct},
-                    {"command", cmd}};
-    std::ofstream(o.output) << out.dump(2) << "\n";
+  target(fig.damping == 0, "0 watchdog damping ticks");
+  target(fig.overruns == 0, "0 simulator overruns");
+  target(fig.miss_pct <= 0.01, ("deadline misses <= 0.01 % of ticks (" +
+                                std::to_string(fig.miss_pct) + " %)").c_str());
+  target(fig.p99 <= 250.0, "tick latency p99 <= 250 us (idle machine)");
+}
+
+/// --output: the run's result with the bench's settings and figures.
+void write_output(const Options& o, const Json& r, const Json& floor, const Figures& fig,
+                  const std::string& cmd) {
+  Json out = r;
+  out["bench"] = {{"duration_s", o.duration},  {"push_every_s", o.push_every},
+                  {"push_force_n", o.push_force}, {"hogs", o.hogs},
+                  {"rt_priority", o.rt_priority}, {"lock_memory", o.lock_memory},
+                  {"cpus", o.cpus},               {"platform_floor", floor},
+                  {"ticks", fig.ticks},          {"deadline_miss_pct", fig.miss_pct},
+                  {"command", cmd}};
+  std::ofstream(o.output) << out.dump(2) << "\n";
+}
+
+}  // namespace
+
+int run_realtime_bench(int argc, char** argv, const fs::path& bin_dir) {
+  Options o;
+  if (const auto code = parse_options(argc, argv, o)) return *code;
+  const fs::path dir = o.keep_dir.empty() ? fs::temp_directory_path() /
+                                                ("poise-bench-rt-" + std::to_string(::getpid()))
+                                          : fs::path(o.keep_dir);
+  fs::create_directories(dir);
+  const fs::path scenario = dir / "realtime_bench.yaml", result = dir / "result.json";
+  write_scenario(scenario, o);
+  const std::string cmd = launch_command(bin_dir, scenario, result, dir, o);
+  const std::vector<pid_t> hogs = start_hogs(o.hogs);
+  const Json floor = run_floor(o);
+  const int code = std::system(cmd.c_str());
+  stop_hogs(hogs);
+  std::ifstream f(result);
+  if (!f) {
+    std::fprintf(stderr, "the run wrote no result (exit %d): see %s\n", code, dir.c_str());
+    return 1;
   }
+  const Json r = Json::parse(f);
+  const Figures fig = print_misses(r);
+  print_nodes(r);
+  print_targets(fig);
+  if (!o.output.empty()) write_output(o, r, floor, fig, cmd);
   if (o.keep_dir.empty()) fs::remove_all(dir);
   return r.value("survived", false) ? 0 : 1;
 }

@@ -177,10 +177,10 @@ void read_scenario_hints(const std::string& path, Deployment& d, Problems& p) {
   }
 }
 
-Deployment load_deployment(const fs::path& file, const std::string& host) {
-  Deployment d;
-  d.file = file;
-  Problems p(file);
+namespace {
+
+/// The deployment file's YAML, a map. Throws DeploymentError.
+YAML::Node read_deployment_yaml(const fs::path& file) {
   YAML::Node root;
   try {
     root = YAML::LoadFile(file.string());
@@ -190,11 +190,12 @@ Deployment load_deployment(const fs::path& file, const std::string& host) {
     throw DeploymentError("deployment file " + file.string() + ": not valid YAML: " + e.what());
   }
   if (!root.IsMap()) throw DeploymentError("deployment file " + file.string() + ": not a map");
-  // The file's directory, "." for a bare name (`poise launch one.yaml`: fs::absolute("") throws).
-  const fs::path base = file.has_parent_path() ? file.parent_path() : fs::path(".");
-  allowed_keys(root, "",
-               {"name", "domain", "scenario", "robot", "mode", "security", "hosts", "components"},
-               p);
+  return root;
+}
+
+/// The deployment's own settings: name, domain, mode, security, robot.
+void read_settings(const YAML::Node& root, const fs::path& file, const fs::path& base,
+                   Deployment& d, Problems& p) {
   d.name = file.stem().string();
   if (root["name"]) scalar(root["name"], "name", d.name, p);
   // It names files under results/ (result, logs, recording): the scenario format's rule.
@@ -222,163 +223,205 @@ Deployment load_deployment(const fs::path& file, const std::string& host) {
     d.robot = resolve_path(d.robot, base);
     if (!fs::exists(d.robot)) p.add("robot", "no such file: " + d.robot);
   }
+}
 
-  // Hosts.
-  const YAML::Node hosts = root["hosts"];
+/// hosts: name -> {address: IPv4}, each address once, loopback only for a single host.
+void read_hosts(const YAML::Node& hosts, Deployment& d, Problems& p) {
   if (!hosts || !hosts.IsMap() || hosts.size() == 0) {
     p.add("hosts", "missing: a map of host name -> {address: IPv4}");
-  } else {
-    std::set<std::string> addresses;
-    for (const auto& kv : hosts) {
-      Host h;
-      h.name = kv.first.as<std::string>();
-      const std::string where = "hosts." + h.name;
-      allowed_keys(kv.second, where, {"address"}, p);
-      if (!kv.second.IsMap() || !kv.second["address"]) {
-        p.add(where, "missing address (this host's IPv4 address on the DDS network)");
-        continue;
-      }
-      scalar(kv.second["address"], where + ".address", h.address, p);
-      in_addr a{};
-      if (::inet_pton(AF_INET, h.address.c_str(), &a) != 1)
-        p.add(where + ".address", "'" + h.address + "' is not an IPv4 address");
-      else if (!addresses.insert(h.address).second)
-        p.add(where + ".address", h.address + " is used by another host");
-      d.hosts.push_back(h);
-    }
-    const bool loopback = std::any_of(d.hosts.begin(), d.hosts.end(), [](const Host& h) {
-      return h.address.rfind("127.", 0) == 0;
-    });
-    if (loopback && d.hosts.size() > 1)
-      p.add("hosts", "a loopback address (127.x) cannot be one of several hosts");
+    return;
   }
+  std::set<std::string> addresses;
+  for (const auto& kv : hosts) {
+    Host h;
+    h.name = kv.first.as<std::string>();
+    const std::string where = "hosts." + h.name;
+    allowed_keys(kv.second, where, {"address"}, p);
+    if (!kv.second.IsMap() || !kv.second["address"]) {
+      p.add(where, "missing address (this host's IPv4 address on the DDS network)");
+      continue;
+    }
+    scalar(kv.second["address"], where + ".address", h.address, p);
+    in_addr a{};
+    if (::inet_pton(AF_INET, h.address.c_str(), &a) != 1)
+      p.add(where + ".address", "'" + h.address + "' is not an IPv4 address");
+    else if (!addresses.insert(h.address).second)
+      p.add(where + ".address", h.address + " is used by another host");
+    d.hosts.push_back(h);
+  }
+  const bool loopback = std::any_of(d.hosts.begin(), d.hosts.end(), [](const Host& h) {
+    return h.address.rfind("127.", 0) == 0;
+  });
+  if (loopback && d.hosts.size() > 1)
+    p.add("hosts", "a loopback address (127.x) cannot be one of several hosts");
+}
 
-  // Components.
+/// A component's kind (its name's when it names one), host, DDS vendor, options and command.
+void read_component_what_and_where(const YAML::Node& n, const std::string& where,
+                                   const YAML::Node& hosts, const Deployment& d,
+                                   std::map<std::string, int>& per_kind, Component& c,
+                                   Problems& p) {
+  c.kind = kKinds.count(c.name) ? c.name : "";
+  if (n["kind"]) scalar(n["kind"], where + ".kind", c.kind, p);
+  if (c.kind.empty()) {
+    p.add(where, "say its kind (sim, estimator, controller, contact, recorder, command)");
+  } else if (!kKinds.count(c.kind)) {
+    p.add(where + ".kind", "'" + c.kind +
+                               "' is not one of sim, estimator, controller, contact, "
+                               "recorder, command");
+  }
+  ++per_kind[c.kind];
+  if (!n["host"]) {
+    p.add(where, "missing host");
+  } else if (scalar(n["host"], where + ".host", c.host, p) && !d.find_host(c.host) &&
+             hosts && hosts.IsMap()) {
+    p.add(where + ".host", "'" + c.host + "' is not among the hosts");
+  }
+  c.dds = "cyclone";
+  if (n["dds"]) scalar(n["dds"], where + ".dds", c.dds, p);
+  if (c.dds == "cyclonedds") c.dds = "cyclone";  // one vendor, two spellings
+  if (c.dds != "cyclone" && c.dds != "fastdds")
+    p.add(where + ".dds", "'" + c.dds + "' is not cyclone (cyclonedds) or fastdds");
+  c.options = strings(n["options"], where + ".options", p);
+  c.command = strings(n["command"], where + ".command", p);
+  if (c.kind == "command" && c.command.empty())
+    p.add(where + ".command", "a command component needs its program: [program, args...]");
+  if (c.kind != "command" && !c.command.empty())
+    p.add(where + ".command", "only for kind command; use options for extra arguments");
+  if (n["output"]) {
+    scalar(n["output"], where + ".output", c.output, p);
+    if (c.kind != "recorder") p.add(where + ".output", "only for kind recorder");
+  }
+  if (c.kind == "recorder" && c.output.empty()) c.output = "results/" + d.name + ".mcap";
+}
+
+/// A component's CPUs, priority and restart policy.
+void read_component_scheduling(const YAML::Node& n, const std::string& where, long ncpu,
+                               Component& c, Problems& p) {
+  if (n["cpu"]) {
+    const YAML::Node cpu = n["cpu"];
+    if (!cpu.IsSequence()) {
+      p.add(where + ".cpu", "must be a list of CPU numbers, e.g. [1]");
+    } else {
+      for (std::size_t i = 0; i < cpu.size(); ++i) {
+        int k = -1;
+        if (!scalar(cpu[i], where + ".cpu", k, p)) continue;
+        if (k < 0 || k >= ncpu)
+          p.add(where + ".cpu", "CPU " + std::to_string(k) + " does not exist (this machine: 0.." +
+                                    std::to_string(ncpu - 1) + ")");
+        else
+          c.cpus.push_back(k);
+      }
+    }
+  }
+  if (n["priority"] && scalar(n["priority"], where + ".priority", c.priority, p) &&
+      (c.priority < 0 || c.priority > 99))
+    p.add(where + ".priority", "SCHED_FIFO priority must be 1..99 (0: normal scheduling)");
+  if (n["restart"]) {
+    std::string r;
+    scalar(n["restart"], where + ".restart", r, p);
+    if (r == "never")
+      c.restart = Restart::never;
+    else if (r == "on-failure")
+      c.restart = Restart::on_failure;
+    else if (r == "always")
+      c.restart = Restart::always;
+    else
+      p.add(where + ".restart", "'" + r + "' is not never, on-failure or always");
+  }
+  if (n["max_restarts"] && scalar(n["max_restarts"], where + ".max_restarts",
+                                  c.max_restarts, p) &&
+      c.max_restarts < 0)
+    p.add(where + ".max_restarts", "must be >= 0");
+  if (c.kind == "sim" && c.restart != Restart::never)
+    p.add(where + ".restart", "the simulator is the run: it is never restarted");
+}
+
+/// components: name -> {kind, host, dds, options, command, output, cpu, priority, restart,
+/// max_restarts}; at most one of each kind of the loop.
+void read_components(const YAML::Node& comps, const YAML::Node& hosts, Deployment& d,
+                     std::map<std::string, int>& per_kind, Problems& p) {
+  const long ncpu = ::sysconf(_SC_NPROCESSORS_CONF);
+  for (const auto& kv : comps) {
+    Component c;
+    c.name = kv.first.as<std::string>();
+    const std::string where = "components." + c.name;
+    const YAML::Node n = kv.second;
+    if (!n.IsMap()) {
+      p.add(where, "must be a map with at least a host");
+      continue;
+    }
+    allowed_keys(n,
+                 where,
+                 {"kind", "host", "dds", "options", "command", "output", "cpu", "priority",
+                  "restart", "max_restarts"},
+                 p);
+    read_component_what_and_where(n, where, hosts, d, per_kind, c, p);
+    read_component_scheduling(n, where, ncpu, c, p);
+    d.components.push_back(std::move(c));
+  }
+  for (const char* k : {"sim", "estimator", "controller", "contact"})
+    if (per_kind[k] > 1)
+      p.add("components", std::string("more than one ") + k +
+                              " (two writers on one topic break the loop)");
+}
+
+/// The simulator's scenario: loaded when the simulator runs on `host` (or no host is named),
+/// else read for its hints only (no robot loaded).
+void read_scenario(const YAML::Node& root, const std::string& host, const fs::path& base,
+                   Deployment& d, Problems& p) {
+  if (!root["scenario"]) {
+    p.add("scenario", "missing: the simulator needs a scenario (a file or a name)");
+    return;
+  }
+  std::string s;
+  scalar(root["scenario"], "scenario", s, p);
+  d.scenario = resolve_scenario(s, base);
+  if (!fs::exists(d.scenario)) {
+    p.add("scenario", "no such file or scenario name: " + s);
+    return;
+  }
+  bool sim_here = host.empty();
+  for (const auto& c : d.components)
+    sim_here = sim_here || (c.kind == "sim" && c.host == host);
+  if (!sim_here) {
+    read_scenario_hints(d.scenario, d, p);
+    return;
+  }
+  try {
+    const scenario::Scenario sc = scenario::load_scenario(d.scenario);
+    d.estimator_supports = sc.estimator.supports;
+    d.estimator_args = estimator_scenario_args(sc);
+    set_controller_section(sc.controller_yaml, d.scenario, d, p);
+    d.contact_method = sc.contact_method;
+    d.planned_support = sc.support;
+  } catch (const std::exception& e) {
+    p.add("scenario", e.what());
+  }
+}
+
+}  // namespace
+
+Deployment load_deployment(const fs::path& file, const std::string& host) {
+  Deployment d;
+  d.file = file;
+  Problems p(file);
+  const YAML::Node root = read_deployment_yaml(file);
+  // The file's directory, "." for a bare name (`poise launch one.yaml`: fs::absolute("") throws).
+  const fs::path base = file.has_parent_path() ? file.parent_path() : fs::path(".");
+  allowed_keys(root, "",
+               {"name", "domain", "scenario", "robot", "mode", "security", "hosts", "components"},
+               p);
+  read_settings(root, file, base, d, p);
+  const YAML::Node hosts = root["hosts"];
+  read_hosts(hosts, d, p);
   const YAML::Node comps = root["components"];
   if (!comps || !comps.IsMap() || comps.size() == 0) {
     p.add("components", "missing: a map of component name -> {host: ...}");
   } else {
-    const long ncpu = ::sysconf(_SC_NPROCESSORS_CONF);
     std::map<std::string, int> per_kind;
-    for (const auto& kv : comps) {
-      Component c;
-      c.name = kv.first.as<std::string>();
-      const std::string where = "components." + c.name;
-      const YAML::Node n = kv.second;
-      if (!n.IsMap()) {
-        p.add(where, "must be a map with at least a host");
-        continue;
-      }
-      allowed_keys(n,
-                   where,
-                   {"kind", "host", "dds", "options", "command", "output", "cpu", "priority",
-                    "restart", "max_restarts"},
-                   p);
-      c.kind = kKinds.count(c.name) ? c.name : "";
-      if (n["kind"]) scalar(n["kind"], where + ".kind", c.kind, p);
-      if (c.kind.empty()) {
-        p.add(where, "say its kind (sim, estimator, controller, contact, recorder, command)");
-      } else if (!kKinds.count(c.kind)) {
-        p.add(where + ".kind", "'" + c.kind +
-                                   "' is not one of sim, estimator, controller, contact, "
-                                   "recorder, command");
-      }
-      ++per_kind[c.kind];
-      if (!n["host"]) {
-        p.add(where, "missing host");
-      } else if (scalar(n["host"], where + ".host", c.host, p) && !d.find_host(c.host) &&
-                 hosts && hosts.IsMap()) {
-        p.add(where + ".host", "'" + c.host + "' is not among the hosts");
-      }
-      c.dds = "cyclone";
-      if (n["dds"]) scalar(n["dds"], where + ".dds", c.dds, p);
-      if (c.dds == "cyclonedds") c.dds = "cyclone";  // one vendor, two spellings
-      if (c.dds != "cyclone" && c.dds != "fastdds")
-        p.add(where + ".dds", "'" + c.dds + "' is not cyclone (cyclonedds) or fastdds");
-      c.options = strings(n["options"], where + ".options", p);
-      c.command = strings(n["command"], where + ".command", p);
-      if (c.kind == "command" && c.command.empty())
-        p.add(where + ".command", "a command component needs its program: [program, args...]");
-      if (c.kind != "command" && !c.command.empty())
-        p.add(where + ".command", "only for kind command; use options for extra arguments");
-      if (n["output"]) {
-        scalar(n["output"], where + ".output", c.output, p);
-        if (c.kind != "recorder") p.add(where + ".output", "only for kind recorder");
-      }
-      if (c.kind == "recorder" && c.output.empty()) c.output = "results/" + d.name + ".mcap";
-      if (n["cpu"]) {
-        const YAML::Node cpu = n["cpu"];
-        if (!cpu.IsSequence()) {
-          p.add(where + ".cpu", "must be a list of CPU numbers, e.g. [1]");
-        } else {
-          for (std::size_t i = 0; i < cpu.size(); ++i) {
-            int k = -1;
-            if (!scalar(cpu[i], where + ".cpu", k, p)) continue;
-            if (k < 0 || k >= ncpu)
-              p.add(where + ".cpu", "CPU " + std::to_string(k) + " does not exist (this machine: 0.." +
-                                        std::to_string(ncpu - 1) + ")");
-            else
-              c.cpus.push_back(k);
-          }
-        }
-      }
-      if (n["priority"] && scalar(n["priority"], where + ".priority", c.priority, p) &&
-          (c.priority < 0 || c.priority > 99))
-        p.add(where + ".priority", "SCHED_FIFO priority must be 1..99 (0: normal scheduling)");
-      if (n["restart"]) {
-        std::string r;
-        scalar(n["restart"], where + ".restart", r, p);
-        if (r == "never")
-          c.restart = Restart::never;
-        else if (r == "on-failure")
-          c.restart = Restart::on_failure;
-        else if (r == "always")
-          c.restart = Restart::always;
-        else
-          p.add(where + ".restart", "'" + r + "' is not never, on-failure or always");
-      }
-      if (n["max_restarts"] && scalar(n["max_restarts"], where + ".max_restarts",
-                                      c.max_restarts, p) &&
-          c.max_restarts < 0)
-        p.add(where + ".max_restarts", "must be >= 0");
-      if (c.kind == "sim" && c.restart != Restart::never)
-        p.add(where + ".restart", "the simulator is the run: it is never restarted");
-      d.components.push_back(std::move(c));
-    }
-    for (const char* k : {"sim", "estimator", "controller", "contact"})
-      if (per_kind[k] > 1)
-        p.add("components", std::string("more than one ") + k +
-                                " (two writers on one topic break the loop)");
-    if (per_kind["sim"] == 1) {
-      if (!root["scenario"]) {
-        p.add("scenario", "missing: the simulator needs a scenario (a file or a name)");
-      } else {
-        std::string s;
-        scalar(root["scenario"], "scenario", s, p);
-        d.scenario = resolve_scenario(s, base);
-        if (!fs::exists(d.scenario)) {
-          p.add("scenario", "no such file or scenario name: " + s);
-        } else {
-          bool sim_here = host.empty();
-          for (const auto& c : d.components)
-            sim_here = sim_here || (c.kind == "sim" && c.host == host);
-          if (sim_here) {
-            try {
-              const scenario::Scenario sc = scenario::load_scenario(d.scenario);
-              d.estimator_supports = sc.estimator.supports;
-              d.estimator_args = estimator_scenario_args(sc);
-              set_controller_section(sc.controller_yaml, d.scenario, d, p);
-              d.contact_method = sc.contact_method;
-              d.planned_support = sc.support;
-            } catch (const std::exception& e) {
-              p.add("scenario", e.what());
-            }
-          } else {
-            read_scenario_hints(d.scenario, d, p);
-          }
-        }
-      }
-    }
+    read_components(comps, hosts, d, per_kind, p);
+    if (per_kind["sim"] == 1) read_scenario(root, host, base, d, p);
   }
   p.throw_if_any();
   std::stable_sort(d.components.begin(), d.components.end(),

@@ -59,13 +59,17 @@ std::uint64_t fresh_request_id() {
   return id == 0 ? 1 : id;
 }
 
-}  // namespace
-
-int estop_main(int argc, char** argv) {
+/// `poise estop`'s command line.
+struct EStopArgs {
   dds::DdsOptions options = dds::dds_options_from_env();
   bool release = false, hold = false, protective = false;
   std::string reason = "poise estop";
   int wait_ms = 5000, discover_ms = 500;
+};
+
+/// Parses `poise estop`'s command line into `a`. Returns the exit status when the command line
+/// ends the verb (0 after --help, 2 for a usage error), else -1.
+int parse_estop_args(int argc, char** argv, EStopArgs& a) {
   CLI::App app{
       "Engage the robot's e-stop (poise/estop): its safety layer damps every joint and ignores "
       "joint commands until released with --release (a standing humanoid falls). With "
@@ -75,133 +79,191 @@ int estop_main(int argc, char** argv) {
       "names the ones that did not and exits 1."};
   app.name(argc > 0 ? argv[0] : "poise estop");
   auto* release_flag =
-      app.add_flag("--release", release, "release the stop (the robot then holds its posture "
-                                         "until a fresh joint command)");
-  app.add_flag("--protective", protective,
+      app.add_flag("--release", a.release, "release the stop (the robot then holds its posture "
+                                           "until a fresh joint command)");
+  app.add_flag("--protective", a.protective,
                "a protective stop (category 2): hold the posture at the stop with power on "
                "instead of damping. Refused by a robot side whose e-stop is damping (release "
                "that first)")
       ->excludes(release_flag);
-  app.add_option("--reason", reason, "why (shown in the robot's log and diagnostics)")
+  app.add_option("--reason", a.reason, "why (shown in the robot's log and diagnostics)")
       ->capture_default_str()
       ->check([](const std::string& s) {
         return s.size() <= 128 ? std::string() : std::string("at most 128 characters");
       });
-  app.add_flag("--hold", hold,
+  app.add_flag("--hold", a.hold,
                "stay on the domain until Ctrl-C, so that a robot side that starts later still "
                "gets the (latched) e-stop; each acknowledgement is printed as it comes");
-  app.add_option("--wait-ms", wait_ms,
+  app.add_option("--wait-ms", a.wait_ms,
                  "how long to wait for a robot side to appear, and then for the acknowledgements")
       ->capture_default_str()
       ->check(CLI::Range(0, 600000));
-  app.add_option("--discover-ms", discover_ms,
+  app.add_option("--discover-ms", a.discover_ms,
                  "after the first robot side appears, how long to look for more before sending")
       ->capture_default_str()
       ->check(CLI::Range(0, 60000));
-  dds::add_dds_options(app, options);
+  dds::add_dds_options(app, a.options);
   POISE_CLI_PARSE(app, argc, argv);
-  const bool engage = !release;
-  const msg::StopKind kind = protective ? msg::STOP_PROTECTIVE_HOLD : msg::STOP_EMERGENCY_DAMP;
-  const char* verb = engage ? "ENGAGED" : "RELEASED";
-  const char* what = engage ? describe(kind) : "stop";
-  try {
-    options.participant_name = "poise/estop";
-    dds::Participant participant(options);
-    dds::Subscriber<msg::EStopState> states(participant);
-    dds::Publisher<msg::EStop> pub(participant);
-    std::map<std::string, RobotSide> robots;
+  return -1;
+}
 
-    // 1. The robot sides: their latched states arrive on matching.
+/// One stop (or release): the robot sides found, the stop sent, their acknowledgements.
+class EStopCommand {
+ public:
+  explicit EStopCommand(const EStopArgs& a)
+      : a_(a),
+        engage_(!a.release),
+        kind_(a.protective ? msg::STOP_PROTECTIVE_HOLD : msg::STOP_EMERGENCY_DAMP),
+        verb_(engage_ ? "ENGAGED" : "RELEASED"),
+        what_(engage_ ? describe(kind_) : "stop"),
+        participant_(a.options),
+        states_(participant_),
+        pub_(participant_) {}
+
+  /// 1. The robot sides: their latched states arrive on matching. False (said) when none
+  /// appeared and the stop is not held on the domain.
+  bool discover() {
     const auto start = Clock::now();
-    const auto give_up = start + std::chrono::milliseconds(wait_ms);
-    while (robots.empty() && Clock::now() < give_up) {
-      take_states(states, robots);
+    const auto give_up = start + std::chrono::milliseconds(a_.wait_ms);
+    while (robots_.empty() && Clock::now() < give_up) {
+      take_states(states_, robots_);
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
-    if (robots.empty() && !hold) {
+    if (robots_.empty() && !a_.hold) {
       std::fprintf(stderr,
                    "poise estop: no robot side published poise/estop_state on domain %d (%s) "
                    "within %d ms: nothing sent (%d other reader(s) of poise/estop, such as "
                    "recorders, are not robots)\n",
-                   options.domain_id, std::string(dds::to_string(options.vendor)).c_str(), wait_ms,
-                   pub.matched());
-      return 1;
+                   a_.options.domain_id, std::string(dds::to_string(a_.options.vendor)).c_str(),
+                   a_.wait_ms, pub_.matched());
+      return false;
     }
-    const auto discovered = Clock::now() + std::chrono::milliseconds(discover_ms);
+    const auto discovered = Clock::now() + std::chrono::milliseconds(a_.discover_ms);
     while (Clock::now() < discovered) {
-      take_states(states, robots);
+      take_states(states_, robots_);
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
+    return true;
+  }
 
-    // 2. The stop, latched, with a request id the robot sides echo.
-    const std::uint64_t request = fresh_request_id();
+  /// 2. The stop, latched, with a request id the robot sides echo. False (said) when it could not
+  /// be published.
+  bool send() {
+    request_ = fresh_request_id();
     msg::EStop e;
-    e.engaged(engage);
+    e.engaged(engage_);
     e.source("poise estop");
-    e.reason(reason);
-    e.request(request);
-    e.kind(kind);
-    if (!pub.publish(e)) {
+    e.reason(a_.reason);
+    e.request(request_);
+    e.kind(kind_);
+    if (!pub_.publish(e)) {
       std::fprintf(stderr, "poise estop: publish failed\n");
-      return 1;
+      return false;
     }
+    return true;
+  }
 
-    // 3. Every robot side known (including any that appears meanwhile) echoes the request.
-    const auto report = [&] {
-      for (auto& [name, r] : robots)
-        if (!r.reported && acknowledged(r, request, engage, kind)) {
-          r.reported = true;
-          std::printf("  %s: %s %s (robot tick %llu)\n", name.c_str(), what, verb,
-                      static_cast<unsigned long long>(r.state.header().tick()));
-        }
-      std::fflush(stdout);
-    };
-    const auto all_acknowledged = [&] {
-      for (const auto& [name, r] : robots)
-        if (!acknowledged(r, request, engage, kind)) return false;
-      return !robots.empty();
-    };
-    const auto ack_deadline = Clock::now() + std::chrono::milliseconds(wait_ms);
+  /// 3. Every robot side known (including any that appears meanwhile) echoes the request, within
+  /// --wait-ms. Returns how many did not (each named).
+  int wait_for_acknowledgements() {
+    const auto ack_deadline = Clock::now() + std::chrono::milliseconds(a_.wait_ms);
     while (!all_acknowledged() && Clock::now() < ack_deadline) {
-      take_states(states, robots);
+      take_states(states_, robots_);
       report();
       std::this_thread::sleep_for(std::chrono::milliseconds(2));
     }
-    take_states(states, robots);
+    take_states(states_, robots_);
     report();
     int missing = 0;
-    for (const auto& [name, r] : robots)
-      if (!acknowledged(r, request, engage, kind)) {
+    for (const auto& [name, r] : robots_)
+      if (!acknowledged(r, request_, engage_, kind_)) {
         ++missing;
-        if (r.state.request() == request && r.state.engaged() && engage)
-          std::fprintf(stderr,
-                       "poise estop: %s answered the %s but holds an %s: release that first\n",
-                       name.c_str(), what, describe(r.state.kind()));
-        else
-          std::fprintf(stderr,
-                       "poise estop: %s did not acknowledge the %s within %d ms (its state: %s, "
-                       "request %llu)\n",
-                       name.c_str(), engage ? what : "release", wait_ms,
-                       r.state.engaged() ? describe(r.state.kind()) : "released",
-                       static_cast<unsigned long long>(r.state.request()));
+        report_missing(name, r);
       }
-    if (missing == 0 && !robots.empty())
-      std::printf("%s %s (%s) on domain %d: acknowledged by %zu robot side(s)\n", what, verb,
-                  reason.c_str(), options.domain_id, robots.size());
-    else if (!hold)
+    return missing;
+  }
+
+  /// The final line: acknowledged by every robot side, or not.
+  void print_verdict(int missing) const {
+    if (missing == 0 && !robots_.empty())
+      std::printf("%s %s (%s) on domain %d: acknowledged by %zu robot side(s)\n", what_, verb_,
+                  a_.reason.c_str(), a_.options.domain_id, robots_.size());
+    else if (!a_.hold)
       std::printf("%s NOT %s everywhere on domain %d: %d of %zu robot side(s) did not "
                   "acknowledge\n",
-                  what, verb, options.domain_id, missing, robots.size());
+                  what_, verb_, a_.options.domain_id, missing, robots_.size());
     std::fflush(stdout);
-    if (hold) {
-      std::printf("holding the e-stop on domain %d until Ctrl-C\n", options.domain_id);
-      std::fflush(stdout);
-      node::install_shutdown_handlers();
-      while (!node::shutdown_requested()) {
-        take_states(states, robots);
-        report();
-        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+
+  /// --hold: stays on the domain until Ctrl-C, printing each acknowledgement as it comes.
+  void hold() {
+    std::printf("holding the e-stop on domain %d until Ctrl-C\n", a_.options.domain_id);
+    std::fflush(stdout);
+    node::install_shutdown_handlers();
+    while (!node::shutdown_requested()) {
+      take_states(states_, robots_);
+      report();
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  }
+
+ private:
+  /// Each new acknowledgement, once.
+  void report() {
+    for (auto& [name, r] : robots_)
+      if (!r.reported && acknowledged(r, request_, engage_, kind_)) {
+        r.reported = true;
+        std::printf("  %s: %s %s (robot tick %llu)\n", name.c_str(), what_, verb_,
+                    static_cast<unsigned long long>(r.state.header().tick()));
       }
+    std::fflush(stdout);
+  }
+
+  bool all_acknowledged() const {
+    for (const auto& [name, r] : robots_)
+      if (!acknowledged(r, request_, engage_, kind_)) return false;
+    return !robots_.empty();
+  }
+
+  void report_missing(const std::string& name, const RobotSide& r) const {
+    if (r.state.request() == request_ && r.state.engaged() && engage_)
+      std::fprintf(stderr,
+                   "poise estop: %s answered the %s but holds an %s: release that first\n",
+                   name.c_str(), what_, describe(r.state.kind()));
+    else
+      std::fprintf(stderr,
+                   "poise estop: %s did not acknowledge the %s within %d ms (its state: %s, "
+                   "request %llu)\n",
+                   name.c_str(), engage_ ? what_ : "release", a_.wait_ms,
+                   r.state.engaged() ? describe(r.state.kind()) : "released",
+                   static_cast<unsigned long long>(r.state.request()));
+  }
+
+  const EStopArgs& a_;
+  const bool engage_;
+  const msg::StopKind kind_;
+  const char* const verb_;
+  const char* const what_;
+  dds::Participant participant_;
+  dds::Subscriber<msg::EStopState> states_;
+  dds::Publisher<msg::EStop> pub_;
+  std::map<std::string, RobotSide> robots_;
+  std::uint64_t request_ = 0;
+};
+
+}  // namespace
+
+int estop_main(int argc, char** argv) {
+  EStopArgs a;
+  if (const int status = parse_estop_args(argc, argv, a); status >= 0) return status;
+  try {
+    a.options.participant_name = "poise/estop";
+    EStopCommand command(a);
+    if (!command.discover() || !command.send()) return 1;
+    const int missing = command.wait_for_acknowledgements();
+    command.print_verdict(missing);
+    if (a.hold) {
+      command.hold();
       return 0;
     }
     return missing == 0 ? 0 : 1;

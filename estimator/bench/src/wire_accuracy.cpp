@@ -70,6 +70,196 @@ bool decode(const record::MessageView& m, T& out) {
                                                          sizeof(why));
 }
 
+// Velocities of the true feet: central differences over +-kHalf ticks (the encoders' qd is the
+// drive's filtered velocity: using it would put the filter's lag into the truth).
+constexpr int kHalf = 5;
+
+// What the analysis takes from a recording, by tick.
+struct Recording {
+  std::vector<std::string> wire_joints;
+  std::map<std::uint64_t, StateSample> states;
+  std::map<std::uint64_t, TruthSample> truths;
+};
+
+StateSample state_sample(const msg::State& st) {
+  StateSample s;
+  s.flags = st.status_flags();
+  s.p = v3(st.base_W().position());
+  s.q = quat(st.base_W().orientation_wxyz());
+  s.v = v3(st.base_velocity_W().linear());
+  s.com = v3(st.com_W());
+  s.vcom = v3(st.com_velocity_W());
+  for (int f = 0; f < 2; ++f) {
+    s.foot_p[f] = v3(st.feet()[f].pose_W().position());
+    s.foot_v[f] = v3(st.feet()[f].velocity_W().linear());
+  }
+  s.joints_q.assign(st.q().begin(), st.q().begin() + st.joint_count());
+  s.joints_qd.assign(st.qd().begin(), st.qd().begin() + st.joint_count());
+  return s;
+}
+
+TruthSample truth_sample(const msg::GroundTruth& gt) {
+  TruthSample t;
+  t.p = v3(gt.base_W().position());
+  t.q = quat(gt.base_W().orientation_wxyz());
+  t.v = v3(gt.base_velocity_W().linear());
+  t.w = v3(gt.base_velocity_W().angular());
+  t.com = v3(gt.com_W());
+  t.vcom = v3(gt.com_velocity_W());
+  for (int f = 0; f < 2; ++f)
+    t.contact[f] = gt.feet()[f].in_contact();
+  t.stamp_s = 1e-9 * static_cast<double>(gt.header().stamp_ns());
+  t.other_contact = gt.other_contact_count() > 0;
+  return t;
+}
+
+// poise/state, poise/ground_truth and the first poise/robot_description of the file into `rec`.
+record::ScanResult read_recording(const std::string& mcap, Recording& rec) {
+  std::map<std::uint16_t, std::string> topic_of;
+  msg::State st;
+  msg::GroundTruth gt;
+  msg::RobotDescription desc;
+  record::ScanHandlers h;
+  h.on_channel = [&](const record::ChannelRecord& c) { topic_of[c.id] = c.topic; };
+  h.on_message = [&](const record::MessageView& m) {
+    const std::string& topic = topic_of[m.channel_id];
+    if (topic == "poise/state") {
+      if (!decode(m, st)) return true;
+      rec.states[st.header().tick()] = state_sample(st);
+    } else if (topic == "poise/ground_truth") {
+      if (!decode(m, gt)) return true;
+      rec.truths[gt.header().tick()] = truth_sample(gt);
+    } else if (topic == "poise/robot_description" && rec.wire_joints.empty()) {
+      if (decode(m, desc))
+        rec.wire_joints.assign(desc.joint_names().begin(), desc.joint_names().end());
+    }
+    return true;
+  };
+  return record::scan(mcap, h);
+}
+
+// Wire index of each model joint; "" or the error (a model joint missing from the wire).
+std::string wire_indices(const model::Model& model, const std::vector<std::string>& wire_joints,
+                         std::vector<int>& wire_of) {
+  wire_of.assign(model.joint_names.size(), -1);
+  for (std::size_t j = 0; j < model.joint_names.size(); ++j)
+    for (std::size_t w = 0; w < wire_joints.size(); ++w)
+      if (wire_joints[w] == model.joint_names[j]) wire_of[j] = static_cast<int>(w);
+  for (std::size_t j = 0; j < wire_of.size(); ++j)
+    if (wire_of[j] < 0)
+      return "joint '" + model.joint_names[j] + "' is not in the robot description";
+  return "";
+}
+
+// True foot positions of every tick with both topics: forward kinematics with the base at
+// identity and the encoders' q, then the true base pose.
+std::map<std::uint64_t, std::array<Vector3d, 2>> true_foot_positions(
+    const model::Model& model, const model::RobotConfig& robot, const Recording& rec,
+    const std::vector<int>& wire_of) {
+  model::Data data(model);
+  const std::array<int, 2> foot_frame{model.frame_id(robot.feet[0].frame),
+                                      model.frame_id(robot.feet[1].frame)};
+  Eigen::VectorXd q = model.neutral(), v = Eigen::VectorXd::Zero(model.nv);
+  std::map<std::uint64_t, std::array<Vector3d, 2>> true_feet;
+  for (const auto& [tick, s] : rec.states) {
+    const auto it = rec.truths.find(tick);
+    if (it == rec.truths.end() || s.joints_q.size() != rec.wire_joints.size()) continue;
+    for (std::size_t j = 0; j < wire_of.size(); ++j)
+      q[7 + static_cast<Eigen::Index>(j)] = s.joints_q[static_cast<std::size_t>(wire_of[j])];
+    model::forward_kinematics(model, data, q, v);
+    std::array<Vector3d, 2> p;
+    for (int f = 0; f < 2; ++f)
+      p[f] = it->second.p + it->second.q * model::frame_placement(model, data, foot_frame[f]).p;
+    true_feet[tick] = p;
+  }
+  return true_feet;
+}
+
+// Errors in the world frame of one tick, `time` s into the run; the drift at the next of
+// acc.drift_t once reached.
+void add_world_errors(Accuracy& acc, const StateSample& s, const TruthSample& t, double time,
+                      int& next_drift) {
+  acc.base_pos.add((s.p - t.p).norm());
+  if (time < 2.0) acc.base_pos_early.add((s.p - t.p).norm());
+  acc.base_vel.add((s.v - t.v).norm());
+  acc.com_pos.add((s.com - t.com).norm());
+  acc.com_vel.add((s.vcom - t.vcom).norm());
+  const Matrix3d R_est = s.q.toRotationMatrix(), R_true = t.q.toRotationMatrix();
+  acc.attitude_deg.add(Eigen::AngleAxisd(R_est.transpose() * R_true).angle() * kRadToDeg);
+  const double c = std::clamp(R_est.col(2).dot(R_true.col(2)), -1.0, 1.0);
+  acc.tilt_deg.add(std::acos(c) * kRadToDeg);
+  // (a run of D s ends at its tick D/dt - 1: 5 ms of tolerance)
+  while (next_drift < 3 && time >= acc.drift_t[next_drift] - 0.005) {
+    acc.base_drift[next_drift] = (s.p - t.p).norm();
+    acc.com_drift[next_drift] = (s.com - t.com).norm();
+    ++next_drift;
+  }
+}
+
+// Errors relative to the supporting feet (truth's contact flags) of one tick with support.
+void add_relative_errors(Accuracy& acc, const StateSample& s, const TruthSample& t,
+                         std::uint64_t tick, const Recording& rec,
+                         std::map<std::uint64_t, std::array<Vector3d, 2>>& true_feet) {
+  const auto before = true_feet.find(tick - kHalf), after = true_feet.find(tick + kHalf);
+  if (before == true_feet.end() || after == true_feet.end()) return;  // run's ends
+  const double span = rec.truths.at(tick + kHalf).stamp_s - rec.truths.at(tick - kHalf).stamp_s;
+  if (!(span > 0.0)) return;
+  Vector3d sup_est = Vector3d::Zero(), sup_vest = Vector3d::Zero();
+  Vector3d sup_true = Vector3d::Zero(), sup_vtrue = Vector3d::Zero();
+  int n = 0;
+  for (int f = 0; f < 2; ++f) {
+    if (!t.contact[f]) continue;
+    sup_true += true_feet[tick][f];
+    sup_vtrue += (after->second[f] - before->second[f]) / span;
+    sup_est += s.foot_p[f];
+    sup_vest += s.foot_v[f];
+    ++n;
+  }
+  sup_est /= n;
+  sup_vest /= n;
+  sup_true /= n;
+  sup_vtrue /= n;
+  acc.rel_com_pos.add(((s.com - sup_est) - (t.com - sup_true)).norm());
+  acc.rel_com_vel.add(((s.vcom - sup_vest) - (t.vcom - sup_vtrue)).norm());
+  acc.rel_base_pos.add(((s.p - sup_est) - (t.p - sup_true)).norm());
+  acc.rel_base_vel.add(((s.v - sup_vest) - (t.v - sup_vtrue)).norm());
+}
+
+// Every tick with both topics, from the first, until a link other than the feet touches
+// something (a fall).
+void compare_to_truth(Accuracy& acc, const Recording& rec,
+                      std::map<std::uint64_t, std::array<Vector3d, 2>>& true_feet) {
+  bool have_t0 = false;
+  double t0 = 0.0;
+  int next_drift = 0;
+  for (int i = 0; i < 3; ++i)
+    acc.base_drift[i] = acc.com_drift[i] = kNaN;
+  for (const auto& [tick, s] : rec.states) {
+    const auto it = rec.truths.find(tick);
+    if (it == rec.truths.end()) continue;
+    const TruthSample& t = it->second;
+    if (!have_t0) {
+      t0 = t.stamp_s;
+      have_t0 = true;
+    }
+    if (s.flags & 16u) continue;  // STATE_INITIALIZING
+    if (s.joints_q.size() != rec.wire_joints.size()) continue;
+    const double time = t.stamp_s - t0;
+    if (t.other_contact) {
+      acc.fell_at_s = time;
+      break;
+    }
+    ++acc.matched_ticks;
+    acc.duration_s = time;
+    add_world_errors(acc, s, t, time, next_drift);
+    if (!t.contact[0] && !t.contact[1]) {
+      ++acc.no_support_ticks;
+      continue;
+    }
+    add_relative_errors(acc, s, t, tick, rec, true_feet);
+  }
+}
+
 }  // namespace
 
 Accuracy analyse_recording(const std::string& mcap, const std::string& scenario_file) {
@@ -82,164 +272,25 @@ Accuracy analyse_recording(const std::string& mcap, const std::string& scenario_
   }
   const model::RobotConfig robot = model::load_robot_config(scenario.robot_config);
   const model::Model model = model::load_robot_model(robot);
-  model::Data data(model);
-  std::array<int, 2> foot_frame{model.frame_id(robot.feet[0].frame),
-                                model.frame_id(robot.feet[1].frame)};
 
-  std::map<std::uint16_t, std::string> topic_of;
-  std::vector<std::string> wire_joints;
-  std::map<std::uint64_t, StateSample> states;
-  std::map<std::uint64_t, TruthSample> truths;
-  msg::State st;
-  msg::GroundTruth gt;
-  msg::RobotDescription desc;
-  record::ScanHandlers h;
-  h.on_channel = [&](const record::ChannelRecord& c) { topic_of[c.id] = c.topic; };
-  h.on_message = [&](const record::MessageView& m) {
-    const std::string& topic = topic_of[m.channel_id];
-    if (topic == "poise/state") {
-      if (!decode(m, st)) return true;
-      StateSample s;
-      s.flags = st.status_flags();
-      s.p = v3(st.base_W().position());
-      s.q = quat(st.base_W().orientation_wxyz());
-      s.v = v3(st.base_velocity_W().linear());
-      s.com = v3(st.com_W());
-      s.vcom = v3(st.com_velocity_W());
-      for (int f = 0; f < 2; ++f) {
-        s.foot_p[f] = v3(st.feet()[f].pose_W().position());
-        s.foot_v[f] = v3(st.feet()[f].velocity_W().linear());
-      }
-      s.joints_q.assign(st.q().begin(), st.q().begin() + st.joint_count());
-      s.joints_qd.assign(st.qd().begin(), st.qd().begin() + st.joint_count());
-      states[st.header().tick()] = std::move(s);
-    } else if (topic == "poise/ground_truth") {
-      if (!decode(m, gt)) return true;
-      TruthSample t;
-      t.p = v3(gt.base_W().position());
-      t.q = quat(gt.base_W().orientation_wxyz());
-      t.v = v3(gt.base_velocity_W().linear());
-      t.w = v3(gt.base_velocity_W().angular());
-      t.com = v3(gt.com_W());
-      t.vcom = v3(gt.com_velocity_W());
-      for (int f = 0; f < 2; ++f)
-        t.contact[f] = gt.feet()[f].in_contact();
-      t.stamp_s = 1e-9 * static_cast<double>(gt.header().stamp_ns());
-      t.other_contact = gt.other_contact_count() > 0;
-      truths[gt.header().tick()] = t;
-    } else if (topic == "poise/robot_description" && wire_joints.empty()) {
-      if (decode(m, desc))
-        wire_joints.assign(desc.joint_names().begin(), desc.joint_names().end());
-    }
-    return true;
-  };
-  const record::ScanResult scan = record::scan(mcap, h);
+  Recording rec;
+  const record::ScanResult scan = read_recording(mcap, rec);
   if (!scan.ok()) {
     acc.error = mcap + ": " + scan.error;
     return acc;
   }
-  acc.state_ticks = states.size();
-  acc.truth_ticks = truths.size();
-  if (wire_joints.empty()) {
+  acc.state_ticks = rec.states.size();
+  acc.truth_ticks = rec.truths.size();
+  if (rec.wire_joints.empty()) {
     acc.error = mcap + ": no poise/robot_description";
     return acc;
   }
-  // Wire index of each model joint.
-  std::vector<int> wire_of(model.joint_names.size(), -1);
-  for (std::size_t j = 0; j < model.joint_names.size(); ++j)
-    for (std::size_t w = 0; w < wire_joints.size(); ++w)
-      if (wire_joints[w] == model.joint_names[j]) wire_of[j] = static_cast<int>(w);
-  for (std::size_t j = 0; j < wire_of.size(); ++j)
-    if (wire_of[j] < 0) {
-      acc.error = "joint '" + model.joint_names[j] + "' is not in the robot description";
-      return acc;
-    }
+  std::vector<int> wire_of;
+  acc.error = wire_indices(model, rec.wire_joints, wire_of);
+  if (!acc.error.empty()) return acc;
 
-  Eigen::VectorXd q = model.neutral(), v = Eigen::VectorXd::Zero(model.nv);
-  // True foot positions of every tick with both topics: forward kinematics with the base at
-  // identity and the encoders' q, then the true base pose. Their velocities are central
-  // differences over +-kHalf ticks (the encoders' qd is the drive's filtered velocity: using it
-  // would put the filter's lag into the truth).
-  constexpr int kHalf = 5;
-  std::map<std::uint64_t, std::array<Vector3d, 2>> true_feet;
-  for (const auto& [tick, s] : states) {
-    const auto it = truths.find(tick);
-    if (it == truths.end() || s.joints_q.size() != wire_joints.size()) continue;
-    for (std::size_t j = 0; j < wire_of.size(); ++j)
-      q[7 + static_cast<Eigen::Index>(j)] = s.joints_q[static_cast<std::size_t>(wire_of[j])];
-    model::forward_kinematics(model, data, q, v);
-    std::array<Vector3d, 2> p;
-    for (int f = 0; f < 2; ++f)
-      p[f] = it->second.p + it->second.q * model::frame_placement(model, data, foot_frame[f]).p;
-    true_feet[tick] = p;
-  }
-  bool have_t0 = false;
-  double t0 = 0.0;
-  int next_drift = 0;
-  for (int i = 0; i < 3; ++i)
-    acc.base_drift[i] = acc.com_drift[i] = kNaN;
-  for (const auto& [tick, s] : states) {
-    const auto it = truths.find(tick);
-    if (it == truths.end()) continue;
-    const TruthSample& t = it->second;
-    if (!have_t0) {
-      t0 = t.stamp_s;
-      have_t0 = true;
-    }
-    if (s.flags & 16u) continue;  // STATE_INITIALIZING
-    if (s.joints_q.size() != wire_joints.size()) continue;
-    const double time = t.stamp_s - t0;
-    if (t.other_contact) {
-      acc.fell_at_s = time;
-      break;
-    }
-    ++acc.matched_ticks;
-    acc.duration_s = time;
-    // World frame.
-    acc.base_pos.add((s.p - t.p).norm());
-    if (time < 2.0) acc.base_pos_early.add((s.p - t.p).norm());
-    acc.base_vel.add((s.v - t.v).norm());
-    acc.com_pos.add((s.com - t.com).norm());
-    acc.com_vel.add((s.vcom - t.vcom).norm());
-    const Matrix3d R_est = s.q.toRotationMatrix(), R_true = t.q.toRotationMatrix();
-    acc.attitude_deg.add(Eigen::AngleAxisd(R_est.transpose() * R_true).angle() * kRadToDeg);
-    const double c = std::clamp(R_est.col(2).dot(R_true.col(2)), -1.0, 1.0);
-    acc.tilt_deg.add(std::acos(c) * kRadToDeg);
-    // (a run of D s ends at its tick D/dt - 1: 5 ms of tolerance)
-    while (next_drift < 3 && time >= acc.drift_t[next_drift] - 0.005) {
-      acc.base_drift[next_drift] = (s.p - t.p).norm();
-      acc.com_drift[next_drift] = (s.com - t.com).norm();
-      ++next_drift;
-    }
-    // Relative to the supporting feet (truth's contact flags).
-    if (!t.contact[0] && !t.contact[1]) {
-      ++acc.no_support_ticks;
-      continue;
-    }
-    const auto before = true_feet.find(tick - kHalf), after = true_feet.find(tick + kHalf);
-    if (before == true_feet.end() || after == true_feet.end()) continue;  // run's ends
-    const double span = truths.at(tick + kHalf).stamp_s - truths.at(tick - kHalf).stamp_s;
-    if (!(span > 0.0)) continue;
-    Vector3d sup_est = Vector3d::Zero(), sup_vest = Vector3d::Zero();
-    Vector3d sup_true = Vector3d::Zero(), sup_vtrue = Vector3d::Zero();
-    int n = 0;
-    for (int f = 0; f < 2; ++f) {
-      if (!t.contact[f]) continue;
-      sup_true += true_feet[tick][f];
-      sup_vtrue += (after->second[f] - before->second[f]) / span;
-      sup_est += s.foot_p[f];
-      sup_vest += s.foot_v[f];
-      ++n;
-    }
-    sup_est /= n;
-    sup_vest /= n;
-    sup_true /= n;
-    sup_vtrue /= n;
-    acc.rel_com_pos.add(((s.com - sup_est) - (t.com - sup_true)).norm());
-    acc.rel_com_vel.add(((s.vcom - sup_vest) - (t.vcom - sup_vtrue)).norm());
-    acc.rel_base_pos.add(((s.p - sup_est) - (t.p - sup_true)).norm());
-    acc.rel_base_vel.add(((s.v - sup_vest) - (t.v - sup_vtrue)).norm());
-  }
+  auto true_feet = true_foot_positions(model, robot, rec, wire_of);
+  compare_to_truth(acc, rec, true_feet);
   if (acc.matched_ticks == 0) acc.error = mcap + ": no tick with both poise/state and poise/ground_truth";
   return acc;
 }

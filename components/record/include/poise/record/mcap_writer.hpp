@@ -123,6 +123,12 @@ class McapWriter {
   bool fail(std::string why);
   void append_schema(std::vector<std::uint8_t>& out, const SchemaInfo& s) const;
   void append_channel(std::vector<std::uint8_t>& out, const ChannelInfo& c) const;
+  // close(): the DataEnd record, then the summary (records by opcode, their offsets, the footer).
+  void write_data_end();
+  void write_summary();
+  void append_statistics(std::vector<std::uint8_t>& out) const;
+  void append_chunk_indexes(std::vector<std::uint8_t>& out) const;
+  void append_metadata_indexes(std::vector<std::uint8_t>& out) const;
 
   std::string path_;
   WriterOptions options_;

@@ -114,8 +114,62 @@ class BalanceController {
   const AccelerationSolver& acceleration_solver() const { return solver_; }
 
  private:
+  // ---- construction (configuration time) ------------------------------------------------------
+  void check_robot_matches_model() const;
+  void init_joint_tables();
+  void find_effort_limited_chains();
+  void init_upper_body();
+  void find_base_up();
+  void find_leg_joints();
+  void init_reference_leaks();
+  double nominal_com_height();
+  void allocate_workspace();
+  void init_contact_problem();
+
+  // ---- phase A, prepare() -----------------------------------------------------------------------
+  /// The support feet of a tick: their number and the sums of their stand points, linear
+  /// velocities and measured linear accelerations.
+  struct SupportSums {
+    int count = 0;
+    Eigen::Vector3d stand_point = Eigen::Vector3d::Zero();
+    Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
+    Eigen::Vector3d acceleration = Eigen::Vector3d::Zero();
+  };
+  bool inputs_usable(const RobotState& state, const BalanceReference& reference) const noexcept;
+  void problem_without_support(contact::ContactProblem& problem) const noexcept;
+  Eigen::Matrix3d set_model_state(const RobotState& state) noexcept;
+  SupportSums plan_feet(const RobotState& state, const BalanceReference& reference,
+                        double weight) noexcept;
+  void foot_kinematics(int i) noexcept;
+  Eigen::Vector3d measured_foot_acceleration(int i) noexcept;
+  bool foot_is_support(int i, const FootMeasurement& meas, FootMode mode, double weight) noexcept;
+  bool apply_resting_rule(int i, const FootMeasurement& meas, bool support, double weight,
+                          bool& loaded) noexcept;
+  void foot_motion_row_eq_36(int i, const FootReference& ref, bool support, bool resting,
+                             bool loaded) noexcept;
+  void contact_problem_foot(int i, bool support, double normal_force) noexcept;
+  void filter_support_acceleration(const SupportSums& supports) noexcept;
+  void desired_com(const BalanceReference& reference, const SupportSums& supports) noexcept;
+  void desired_momentum_rate_eqs_10_11(const BalanceReference& reference,
+                                       const Eigen::Matrix3d& R_WB, const Eigen::Vector3d& com,
+                                       double mass) noexcept;
+  void blend_ankle_first(const Eigen::Vector3d& com, double mass, int num_support) noexcept;
+  void upper_body_objective(const BalanceReference& reference) noexcept;
+
+  // ---- phase B, finish() ------------------------------------------------------------------------
   void finish_with(const contact::ContactSolution& solution, ContactSource source,
                    JointCommand& command) noexcept;
+  void record_applied_wrenches(const contact::ContactSolution& solution,
+                               ContactSource source) noexcept;
+  void joint_accelerations_eq_33() noexcept;
+  void posture_objective() noexcept;
+  void inverse_dynamics_torques(const contact::ContactSolution& solution,
+                                JointCommand& command) noexcept;
+  void joint_references_eqs_34_35(const contact::ContactSolution& solution) noexcept;
+  void restart_references() noexcept;
+  void internal_reference_errors() noexcept;
+  int integrate_references() noexcept;
+  void follow_touched_down_legs(const contact::ContactSolution& solution) noexcept;
   void command_damping(JointCommand& command) noexcept;
   bool command_sized(const JointCommand& command) const noexcept;
 
