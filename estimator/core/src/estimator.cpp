@@ -489,16 +489,57 @@ StatusFlags Estimator::update(const SensorFrame& frame, EstimatorState& out) noe
     hold_output(frame, kNonFiniteInput, out);
     return out.status_flags;
   }
-
   StatusFlags flags = kStateOk;
   double dt = config_.dt;
+  if (!accept_tick(frame, flags, dt, out)) return out.status_flags;
+  last_tick_ = frame.tick;
+  update_contacts(frame, dt);
+  const bool frozen = imu_is_frozen(frame);
+  if (!initialized_) {
+    initialize(frame);
+    flags |= kInitializing;
+    if (frozen) imu_frozen_ = true;  // restart from a frozen IMU: the fallback takes over
+  } else if (!frozen) {
+    if (imu_frozen_)
+      restart_from_fallback(frame);
+    else
+      ekf_.propagate(frame.imu_omega_I, frame.imu_specific_force_I, dt);
+    correct_with_stance_feet(frame, dt);
+  }
+  if (frozen) {
+    flags |= kImuFrozen;
+    run_kinematic_fallback(dt);
+  }
+  // Not on the tick that (re)started the filter (initialize() placed it there; only that tick
+  // has kInitializing at this point).
+  if (!(flags & kInitializing)) update_baseline(frame, dt);
+  time_since_init_ += dt;
+  if (started_without_orientation_ && time_since_init_ >= config_.initializing_time)
+    relevel_from_filter();
+  if (time_since_init_ < config_.initializing_time) flags |= kInitializing;
+  time_since_start_ += dt;
+  if (!contacts_free_ && config_.supports != SupportModel::kFixed)
+    calibrate_on_still_supports(frame, flags);
+  if (!legs_.contact[0] && !legs_.contact[1]) {
+    flags |= kNoContact;
+    ++diag_.no_contact_ticks;
+  }
+  write_output(frame, flags, out);
+  return out.status_flags;
+}
+
+// The frame's tick against the last accepted one: refused (the output held, false) when not
+// after it; dropped frames flagged and the step dt made their span; a gap too long to propagate
+// restarts the filter.
+bool Estimator::accept_tick(const SensorFrame& frame, StatusFlags& flags, double& dt,
+                            EstimatorState& out) noexcept {
   if (initialized_) {
     const std::int64_t gap = frame.tick - last_tick_;
     if (gap <= 0) {
       ++diag_.rejected_frames;
       diag_.last_error = "sensor frame: tick not after the previous accepted tick";
       hold_output(frame, kDroppedFrames, out);
-      return out.status_flags;
+      return false;
     }
     if (gap > 1) {
       flags |= kDroppedFrames;
@@ -514,8 +555,10 @@ StatusFlags Estimator::update(const SensorFrame& frame, EstimatorState& out) noe
       ring_full_ = false;
     }
   }
-  last_tick_ = frame.tick;
+  return true;
+}
 
+void Estimator::update_contacts(const SensorFrame& frame, double dt) noexcept {
   // Contact: F/T load, and the sole's height from this tick's leg kinematics placed by the
   // previous tick's filter state (contact_detector.hpp).
   compute_leg_kinematics(frame);
@@ -547,8 +590,10 @@ StatusFlags Estimator::update(const SensorFrame& frame, EstimatorState& out) noe
     legs_.contact[f] = contact_[f].update(frame.foot_wrench_Fo_F[f], kin);
     legs_.normal_force[f] = frame.foot_wrench_Fo_F[f][2];
   }
+}
 
-  // Frozen IMU: every field bit-identical to the previous sample for frozen_imu_ticks samples.
+// Frozen IMU: every field bit-identical to the previous sample for frozen_imu_ticks samples.
+bool Estimator::imu_is_frozen(const SensorFrame& frame) noexcept {
   const bool same = have_last_imu_ && frame.imu_omega_I == last_gyro_ &&
                     frame.imu_specific_force_I == last_accel_ &&
                     frame.imu_q_WI.coeffs() == last_imu_q_.coeffs();
@@ -559,100 +604,85 @@ StatusFlags Estimator::update(const SensorFrame& frame, EstimatorState& out) noe
   last_imu_q_ = frame.imu_q_WI;
   const bool frozen = same_imu_count_ >= config_.frozen_imu_ticks;
   if (frozen && !imu_frozen_) diag_.last_error = "IMU frozen: kinematics-only fallback";
+  return frozen;
+}
 
-  if (!initialized_) {
-    initialize(frame);
-    flags |= kInitializing;
-    if (frozen) imu_frozen_ = true;  // restart from a frozen IMU: the fallback takes over
-  } else if (!frozen) {
-    if (imu_frozen_) {
-      // The IMU is back: restart the filter from the fallback pose, keeping the biases.
-      const SE3& X_WB = fallback_.X_WB();
-      InvariantEkf::Mean m = ekf_.mean();
-      m.R_WI = X_WB.R * X_BI_.R;
-      m.p_WI = X_WB.act(X_BI_.p);
-      m.v_WI = imu_velocity(X_WB, fallback_.v_WB(),
-                            X_WB.R * base_rate(frame.imu_omega_I - m.b_g));
-      InvariantEkf::Covariance P = initial_covariance();
-      P.bottomRightCorner<6, 6>() = ekf_.covariance().bottomRightCorner<6, 6>();
-      ekf_.reset(m, P);
-      imu_frozen_ = false;
-      time_since_init_ = 0.0;
-      ++diag_.resets;
-    } else {
-      ekf_.propagate(frame.imu_omega_I, frame.imu_specific_force_I, dt);
-    }
-    omega_B_ = fuse_stance_rate(base_rate(frame.imu_omega_I - ekf_.mean().b_g), dt);
-    for (int f = 0; f < kNumFeet; ++f) {
-      legs_.v_BF_B[f] = omega_B_.cross(legs_.X_BF[f].p) + v_F0_B_[f];
-      const Vector3 s_I = X_IB_.act(legs_.X_BF[f].p);
-      ekf_.set_contact(f, legs_.contact[f], s_I);
-      if (legs_.contact[f]) ekf_.correct(f, s_I);
-    }
-    if (contacts_free_ && config_.supports == SupportModel::kTranslating)
-      correct_with_kept_foot_orientations();
-  }
-  if (frozen) {
-    flags |= kImuFrozen;
-    ++diag_.frozen_imu_ticks;
-    const auto& m = ekf_.mean();
-    const Matrix3 R_WB = m.R_WI * X_IB_.R;
-    if (!imu_frozen_) {
-      SE3 X_WB(R_WB, m.p_WI + m.R_WI * X_IB_.p);
-      fallback_.reset(X_WB, m.v_WI, legs_);
-    }
-    imu_frozen_ = true;
-    // Angular velocity from the stance foot that carries most load (it does not rotate).
-    const int stance = loaded_stance_foot();
-    omega_B_ = stance >= 0 ? Vector3(-omega_F0_B_[stance]) : Vector3::Zero();
-    stance_rate_valid_ = false;  // the IMU's return starts the fusion afresh
-    for (int f = 0; f < kNumFeet; ++f)
-      legs_.v_BF_B[f] = omega_B_.cross(legs_.X_BF[f].p) + v_F0_B_[f];
-    fallback_.update(LegOdometry::OrientationSource::kStanceFoot, R_WB, legs_, dt);
-    const SE3& X_WB = fallback_.X_WB();
-    const Matrix3 R_WI = X_WB.R * X_BI_.R;
-    const Vector3 p_WI = X_WB.act(X_BI_.p);
-    const Vector3 v_WI = imu_velocity(X_WB, fallback_.v_WB(), X_WB.R * omega_B_);
-    ekf_.set_pose_velocity(R_WI, v_WI, p_WI);
-  }
+// The IMU is back: restart the filter from the fallback pose, keeping the biases.
+void Estimator::restart_from_fallback(const SensorFrame& frame) noexcept {
+  const SE3& X_WB = fallback_.X_WB();
+  InvariantEkf::Mean m = ekf_.mean();
+  m.R_WI = X_WB.R * X_BI_.R;
+  m.p_WI = X_WB.act(X_BI_.p);
+  m.v_WI = imu_velocity(X_WB, fallback_.v_WB(),
+                        X_WB.R * base_rate(frame.imu_omega_I - m.b_g));
+  InvariantEkf::Covariance P = initial_covariance();
+  P.bottomRightCorner<6, 6>() = ekf_.covariance().bottomRightCorner<6, 6>();
+  ekf_.reset(m, P);
+  imu_frozen_ = false;
+  time_since_init_ = 0.0;
+  ++diag_.resets;
+}
 
-  // Baseline: IMU orientation (or the raw gyro integrated, when the IMU gives no orientation),
-  // raw gyro, stance-foot kinematics, no filter. Not on the tick that (re)started the filter
-  // (initialize() placed it there; only that tick has kInitializing at this point).
-  if (!(flags & kInitializing)) {
-    LegKinematics legs_baseline = legs_;
-    const Vector3 omega_B_raw = base_rate(frame.imu_omega_I);
-    omega_B_raw_ = omega_B_raw;
-    for (int f = 0; f < kNumFeet; ++f)
-      legs_baseline.v_BF_B[f] = omega_B_raw.cross(legs_.X_BF[f].p) + v_F0_B_[f];
-    if (imu_orientation_present(frame.imu_q_WI)) {
-      R_WB_gyro_ = frame.imu_q_WI.normalized().toRotationMatrix() * X_IB_.R;
-    } else if (started_without_orientation_) {
-      R_WB_gyro_ = ekf_.mean().R_WI * X_IB_.R;  // the filter's, until relevel_from_filter()
-    } else {
-      // Integrate the body rate: R <- R exp([omega dt]x) (exact for a constant rate).
-      const double angle = omega_B_raw.norm() * dt;
-      if (angle > 0.0) {
-        R_WB_gyro_ = R_WB_gyro_ * Eigen::AngleAxisd(angle, omega_B_raw.normalized()).toRotationMatrix();
-        R_WB_gyro_ = Eigen::Quaterniond(R_WB_gyro_).normalized().toRotationMatrix();
-      }
-    }
-    baseline_.update(LegOdometry::OrientationSource::kImu, R_WB_gyro_, legs_baseline, dt);
+// The base rate (gyro less bias, fused with the stance feet's), the feet's velocities, and the
+// filter's contact corrections.
+void Estimator::correct_with_stance_feet(const SensorFrame& frame, double dt) noexcept {
+  omega_B_ = fuse_stance_rate(base_rate(frame.imu_omega_I - ekf_.mean().b_g), dt);
+  for (int f = 0; f < kNumFeet; ++f) {
+    legs_.v_BF_B[f] = omega_B_.cross(legs_.X_BF[f].p) + v_F0_B_[f];
+    const Vector3 s_I = X_IB_.act(legs_.X_BF[f].p);
+    ekf_.set_contact(f, legs_.contact[f], s_I);
+    if (legs_.contact[f]) ekf_.correct(f, s_I);
   }
+  if (contacts_free_ && config_.supports == SupportModel::kTranslating)
+    correct_with_kept_foot_orientations();
+}
 
-  time_since_init_ += dt;
-  if (started_without_orientation_ && time_since_init_ >= config_.initializing_time)
-    relevel_from_filter();
-  if (time_since_init_ < config_.initializing_time) flags |= kInitializing;
-  time_since_start_ += dt;
-  if (!contacts_free_ && config_.supports != SupportModel::kFixed)
-    calibrate_on_still_supports(frame, flags);
-  if (!legs_.contact[0] && !legs_.contact[1]) {
-    flags |= kNoContact;
-    ++diag_.no_contact_ticks;
+// The frozen IMU's kinematics-only fallback: leg odometry from the filter's last pose, the base
+// rate from the most loaded stance foot; the filter's mean follows it.
+void Estimator::run_kinematic_fallback(double dt) noexcept {
+  ++diag_.frozen_imu_ticks;
+  const auto& m = ekf_.mean();
+  const Matrix3 R_WB = m.R_WI * X_IB_.R;
+  if (!imu_frozen_) {
+    SE3 X_WB(R_WB, m.p_WI + m.R_WI * X_IB_.p);
+    fallback_.reset(X_WB, m.v_WI, legs_);
   }
-  write_output(frame, flags, out);
-  return out.status_flags;
+  imu_frozen_ = true;
+  // Angular velocity from the stance foot that carries most load (it does not rotate).
+  const int stance = loaded_stance_foot();
+  omega_B_ = stance >= 0 ? Vector3(-omega_F0_B_[stance]) : Vector3::Zero();
+  stance_rate_valid_ = false;  // the IMU's return starts the fusion afresh
+  for (int f = 0; f < kNumFeet; ++f)
+    legs_.v_BF_B[f] = omega_B_.cross(legs_.X_BF[f].p) + v_F0_B_[f];
+  fallback_.update(LegOdometry::OrientationSource::kStanceFoot, R_WB, legs_, dt);
+  const SE3& X_WB = fallback_.X_WB();
+  const Matrix3 R_WI = X_WB.R * X_BI_.R;
+  const Vector3 p_WI = X_WB.act(X_BI_.p);
+  const Vector3 v_WI = imu_velocity(X_WB, fallback_.v_WB(), X_WB.R * omega_B_);
+  ekf_.set_pose_velocity(R_WI, v_WI, p_WI);
+}
+
+// Baseline: IMU orientation (or the raw gyro integrated, when the IMU gives no orientation),
+// raw gyro, stance-foot kinematics, no filter.
+void Estimator::update_baseline(const SensorFrame& frame, double dt) noexcept {
+  LegKinematics legs_baseline = legs_;
+  const Vector3 omega_B_raw = base_rate(frame.imu_omega_I);
+  omega_B_raw_ = omega_B_raw;
+  for (int f = 0; f < kNumFeet; ++f)
+    legs_baseline.v_BF_B[f] = omega_B_raw.cross(legs_.X_BF[f].p) + v_F0_B_[f];
+  if (imu_orientation_present(frame.imu_q_WI)) {
+    R_WB_gyro_ = frame.imu_q_WI.normalized().toRotationMatrix() * X_IB_.R;
+  } else if (started_without_orientation_) {
+    R_WB_gyro_ = ekf_.mean().R_WI * X_IB_.R;  // the filter's, until relevel_from_filter()
+  } else {
+    // Integrate the body rate: R <- R exp([omega dt]x) (exact for a constant rate).
+    const double angle = omega_B_raw.norm() * dt;
+    if (angle > 0.0) {
+      R_WB_gyro_ = R_WB_gyro_ * Eigen::AngleAxisd(angle, omega_B_raw.normalized()).toRotationMatrix();
+      R_WB_gyro_ = Eigen::Quaterniond(R_WB_gyro_).normalized().toRotationMatrix();
+    }
+  }
+  baseline_.update(LegOdometry::OrientationSource::kImu, R_WB_gyro_, legs_baseline, dt);
 }
 
 void Estimator::write_output(const SensorFrame& frame, StatusFlags flags,

@@ -64,6 +64,15 @@ class Bvls {
   SolverStatus run(const Eigen::Ref<const Eigen::MatrixXd>* A, const double* b, int n,
                    double norm_a, double b_norm, const Eigen::Ref<const Eigen::VectorXd>& lower,
                    const Eigen::Ref<const Eigen::VectorXd>& upper, Eigen::Ref<Eigen::VectorXd> x);
+  struct Problem;
+  void free_rhs(const Problem& p);
+  void cold_start(Problem& p);
+  void warm_start(Problem& p);
+  bool clamp_to_bounds(Problem& p);
+  int entering_variable(const Problem& p, double tol) const;
+  bool solve_free_set(Problem& p);
+  SolverStatus free_variable(Problem& p, int t, bool& x_changed);
+  bool step_to_free_solution(Problem& p);
 
   int max_iterations_ = 0;
   double tolerance_ = 1e-12;

@@ -74,6 +74,11 @@ class QpOptimizer {
   const Eigen::Matrix<double, kMaxConstraints, 1>& inequality_bounds() const { return b_; }
 
  private:
+  void add_foot_rows(const ContactProblem& p, const FootContact& foot, int s, double sw_k,
+                     double se_f, double se_t);
+  void refine_torsion_rows(const ContactProblem& p, const FootContact& foot, int s);
+  FootWrench admissible_wrench(const ContactProblem& p, const FootContact& foot, int s, int slot);
+
   DualQp qp_;
   int n_ = 0;
   Eigen::Matrix<double, kResidualRows, kMaxVars> M_;

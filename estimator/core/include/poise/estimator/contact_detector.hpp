@@ -154,6 +154,15 @@ class ContactDetector {
   double force_offset() const noexcept { return offset_; }
 
  private:
+  struct Signals;
+  void read_sole_height(const FootKinematics& kin, Signals& sig) noexcept;
+  void read_corners(const FootKinematics& kin, Signals& sig) noexcept;
+  void read_swing_plan(const FootKinematics& kin, Signals& sig) noexcept;
+  void read_normal_force(double raw, const FootKinematics& kin, Signals& sig) noexcept;
+  void update_in_contact(const FootKinematics& kin, const Signals& sig) noexcept;
+  bool update_resting(const FootKinematics& kin, const Signals& sig) noexcept;
+  void update_out_of_contact(const Signals& sig) noexcept;
+
   ContactThresholds thresholds_{};
   bool in_contact_ = false;
   int pending_ = 0;        ///< consecutive ticks the opposite condition held

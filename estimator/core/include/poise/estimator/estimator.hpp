@@ -272,6 +272,15 @@ class Estimator {
   void correct_with_kept_foot_orientations() noexcept;
   void calibrate_on_still_supports(const SensorFrame& frame, StatusFlags flags) noexcept;
   void compute_leg_kinematics(const SensorFrame& frame) noexcept;
+  // One tick of update(), phase by phase.
+  bool accept_tick(const SensorFrame& frame, StatusFlags& flags, double& dt,
+                   EstimatorState& out) noexcept;
+  void update_contacts(const SensorFrame& frame, double dt) noexcept;
+  bool imu_is_frozen(const SensorFrame& frame) noexcept;
+  void restart_from_fallback(const SensorFrame& frame) noexcept;
+  void correct_with_stance_feet(const SensorFrame& frame, double dt) noexcept;
+  void run_kinematic_fallback(double dt) noexcept;
+  void update_baseline(const SensorFrame& frame, double dt) noexcept;
   void initialize(const SensorFrame& frame) noexcept;
   /// Base position for a base orientation: x, y from the config, z such that the soles in
   /// contact are at their start heights (initialize()).
