@@ -246,6 +246,37 @@ TEST(RtpsDecoder, FragmentsAreReassembledInAnyOrder) {
   EXPECT_EQ(h.decoder.counters().malformed, 0u);
 }
 
+// A fragment that contradicts the sample's size or fragment size given by the first fragment of
+// the same (writer, sequence number) is refused and counted: its offsets would reach past the
+// buffer reassembling the sample. The sample still completes from consistent fragments.
+TEST(RtpsDecoder, AFragmentThatContradictsTheSamplesSizeIsRefused) {
+  Harness h;
+  const Participant p(6);
+  Bytes a = p.header();
+  announce(a, p, kWriter, "poise/state", "poise::msg::State", 1);
+  h.feed(a);
+  const Bytes whole = sample_payload(1, 3000);  // fragments of 1344, 1344, 312
+  Bytes first = p.header();
+  data_frag(first, kWriter, 1, 1, 1, 1344, whole);
+  h.feed(first);
+  const Bytes larger = sample_payload(1, 9000);  // 7 fragments of 1344: numbers 3..7 reach past
+  for (std::uint32_t k : {3u, 5u, 7u}) {
+    Bytes bad = p.header();
+    data_frag(bad, kWriter, 1, k, 1, 1344, larger);
+    h.feed(bad);
+  }
+  Bytes other_size = p.header();
+  data_frag(other_size, kWriter, 1, 2, 1, 2000, whole);  // another fragment size
+  h.feed(other_size);
+  EXPECT_EQ(h.decoder.counters().malformed, 4u);
+  EXPECT_TRUE(h.got.empty());
+  Bytes rest = p.header();
+  data_frag(rest, kWriter, 1, 2, 2, 1344, whole);
+  h.feed(rest);
+  ASSERT_EQ(h.got.size(), 1u);
+  EXPECT_EQ(h.got[0].bytes, whole);
+}
+
 TEST(RtpsDecoder, GarbageAndTruncatedMessagesNeverCrashAndAreCounted) {
   Harness h;
   const Participant p(5);

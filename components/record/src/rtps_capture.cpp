@@ -132,7 +132,8 @@ struct RtpsDecoder::Impl {
     std::int64_t source_ns, receive_ns;
   };
   struct Fragments {
-    std::vector<std::uint8_t> bytes;
+    std::vector<std::uint8_t> bytes;  // sample_size of the first fragment seen
+    std::size_t frag_size = 0;        // of the first fragment seen
     std::vector<bool> have;
     std::size_t missing = 0;
     std::int64_t source_ns = 0;
@@ -446,9 +447,15 @@ struct RtpsDecoder::Impl {
     Fragments& f = found->second;
     if (f.have.empty()) {
       f.bytes.assign(h.sample_size, 0);
+      f.frag_size = h.frag_size;
       f.have.assign(total, false);
       f.missing = total;
       f.source_ns = source_ns;
+    } else if (h.sample_size != f.bytes.size() || h.frag_size != f.frag_size) {
+      // A fragment of the same sample that says otherwise of its size or its fragments' (a
+      // malformed or hostile datagram): its offsets would point outside what was allocated.
+      ++c.malformed;
+      return nullptr;
     }
     return &f;
   }
