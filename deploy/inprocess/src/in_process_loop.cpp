@@ -565,7 +565,7 @@ RunResult InProcessLoop::result() const {
 // over the scenario's tolerance fail the run.
 void InProcessLoop::add_robot_side(RunResult& r) const {
   r.safety = safety_->counters();
-  r.safety_mode = safety::to_string(safety_->mode());
+  r.safety_mode = safety_->mode();
   r.hold_ticks = r.safety.ticks_hold;
   r.damping_ticks = r.safety.ticks_damp + r.safety.ticks_estop;
   r.estop_ticks = r.safety.ticks_estop;

@@ -6,6 +6,7 @@
 #include <fstream>
 #include <stdexcept>
 
+#include "poise/safety/counters_json.hpp"
 #include "poise/sim/reality_json.hpp"
 
 namespace poise::inprocess {
@@ -54,21 +55,7 @@ void add_robot_side(const RunResult& r, Json& j) {
   j["damping_ticks"] = r.damping_ticks;
   j["estop_ticks"] = r.estop_ticks;
   j["watchdog_stale_events"] = c.hold_events;
-  j["safety"] = {{"mode", r.safety_mode},
-                 {"accepted", c.accepted},
-                 {"rejected", c.rejected},
-                 {"rejected_size", c.rejected_size},
-                 {"rejected_non_finite", c.rejected_non_finite},
-                 {"rejected_gain", c.rejected_gain},
-                 {"rejected_range", c.rejected_range},
-                 {"rejected_tick", c.rejected_tick},
-                 {"ignored_during_estop", c.ignored_estop},
-                 {"hold_events", c.hold_events},
-                 {"damp_events", c.damp_events},
-                 {"estop_events", c.estop_events},
-                 {"protective_stop_events", c.protective_stop_events},
-                 {"refused_protective_stops", c.refused_protective_stops},
-                 {"ticks_protective_stop", c.ticks_protective_stop}};
+  j["safety"] = safety::counters_to_json(c, r.safety_mode);
   j["max_joint_speed"] = {{"joint", r.fastest_joint}, {"speed", r.max_joint_speed}};
 }
 

@@ -68,6 +68,7 @@
 #include "poise/node/shutdown.hpp"
 #include "poise/sim/world.hpp"
 #include "poise/sim/simulator.hpp"
+#include "poise/safety/counters_json.hpp"
 #include "poise/safety/safety_layer.hpp"
 #include "poise/model/robot_config.hpp"
 #include "poise/sim_node/sim_messages.hpp"
@@ -262,21 +263,7 @@ class SimNode {
     j["watchdog_stale_events"] = sc.hold_events;
     j["hold_ticks"] = figures_.hold_ticks;
     j["estop_ticks"] = figures_.estop_ticks;
-    j["safety"] = {{"mode", safety::to_string(safety_.mode())},
-                   {"accepted", sc.accepted},
-                   {"rejected", sc.rejected},
-                   {"rejected_size", sc.rejected_size},
-                   {"rejected_non_finite", sc.rejected_non_finite},
-                   {"rejected_gain", sc.rejected_gain},
-                   {"rejected_range", sc.rejected_range},
-                   {"rejected_tick", sc.rejected_tick},
-                   {"ignored_during_estop", sc.ignored_estop},
-                   {"hold_events", sc.hold_events},
-                   {"damp_events", sc.damp_events},
-                   {"estop_events", sc.estop_events},
-                   {"protective_stop_events", sc.protective_stop_events},
-                   {"refused_protective_stops", sc.refused_protective_stops},
-                   {"ticks_protective_stop", sc.ticks_protective_stop}};
+    j["safety"] = safety::counters_to_json(sc, safety_.mode());
     j["overruns"] = figures_.overruns;
     j["max_joint_speed"] = {
         {"joint", figures_.fastest_joint >= 0 ? sim_.joint_names()[static_cast<std::size_t>(

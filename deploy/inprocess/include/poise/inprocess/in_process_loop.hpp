@@ -154,7 +154,7 @@ struct RunResult {
   /// E-STOP (damping), in E-STOP; its counters and final mode.
   std::uint64_t hold_ticks = 0, damping_ticks = 0, estop_ticks = 0;
   safety::Counters safety;
-  std::string safety_mode;
+  safety::Mode safety_mode = safety::Mode::kStartup;
   double max_joint_speed = 0.0;  ///< largest |qd| of any joint over the run [rad/s | m/s]
   std::string fastest_joint;     ///< whose
   double wall_time_s = 0.0;      ///< wall time of the ticks (start-up excluded)
