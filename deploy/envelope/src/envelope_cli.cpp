@@ -286,7 +286,8 @@ struct Envelope : Results {
 void add_study_options(CLI::App& app, Options& o) {
   app.add_option("study", o.what,
                  "all, pushes, fig11 or platforms; `random` (pushes drawn at random) and "
-                 "`merge` (its shards) take options of their own: poise envelope random --help")
+                 "`merge` (its shards) take options of their own: poise envelope random --help, "
+                 "poise envelope merge --help")
       ->check(CLI::IsMember({"all", "pushes", "fig11", "platforms"}))
       ->capture_default_str();
   app.add_option("--mode", o.mode,

@@ -12,9 +12,17 @@
 #include <variant>
 
 #include "poise/estimator/estimator.hpp"
+#include "poise/estimator/settings.hpp"
 
 namespace poise::scenario {
 namespace {
+
+using estimator::kContactFtNoiseSetting;
+using estimator::kContactRestTimeSetting;
+using estimator::kImuDelayTicksSetting;
+using estimator::kStanceRateSetting;
+using estimator::kSupportsSetting;
+using estimator::kTypeSetting;
 
 using FootHeights = std::vector<std::pair<std::string, double>>;
 
@@ -49,37 +57,30 @@ const estimator::EstimatorConfig& config_defaults() {
 // One row a key: clang-format would put each of a row's fields on a line of its own.
 // clang-format off
 const EstimatorKey kKeys[] = {
-    {"type", &EstimatorHints::type, "", {"invariant-ekf", "leg-odometry"}, 0, 0, "",
-     [] { return EstimatorHints{}.type; },
-     "which estimate the state carries: the contact-aided invariant EKF or the leg-odometry "
-     "baseline"},
-    {"supports", &EstimatorHints::supports, "", {"fixed", "moving", "translating"}, 0, 0, "",
-     [] { return EstimatorHints{}.supports; },
-     "what the feet stand on: static ground, supports that move in W, or that move without "
-     "turning (estimator.hpp SupportModel)"},
+    {kTypeSetting.name, &EstimatorHints::type, "", kTypeSetting.choices, 0, 0, "",
+     [] { return EstimatorHints{}.type; }, kTypeSetting.doc},
+    {kSupportsSetting.name, &EstimatorHints::supports, "", kSupportsSetting.choices, 0, 0, "",
+     [] { return EstimatorHints{}.supports; }, kSupportsSetting.doc},
     {"ground_height", &EstimatorHints::ground_height, "m", {}, -kInf, kInf, "",
      [] { return std::string("the ground plane's (platforms: each foot's at t = 0)"); },
      "z of the ground under both soles at the start"},
     {"support_height", &EstimatorHints::support_height, "m", {}, -kInf, kInf,
      "a mapping foot -> height (m), feet of the robot", [] { return std::string("ground_height"); },
      "z of each named foot's sole point at the start (feet on supports of their own)"},
-    {"stance_rate_hz", &EstimatorHints::stance_rate_hz, "Hz", {}, 0.0, kInf, "0: the gyro alone",
-     [] { return number_text(config_defaults().stance_rate_filter_hz); },
-     "cut-off of the gyro / stance-kinematics complementary filter of the published angular "
-     "velocity"},
-    {"contact_ft_noise", &EstimatorHints::contact_ft_noise, "N", {}, 0.0, kInf,
-     "the F/T normal-force noise; 0: the light-touch rule off",
+    {kStanceRateSetting.name, &EstimatorHints::stance_rate_hz, kStanceRateSetting.unit, {},
+     kStanceRateSetting.lo, kStanceRateSetting.hi, kStanceRateSetting.note,
+     [] { return number_text(config_defaults().stance_rate_filter_hz); }, kStanceRateSetting.doc},
+    {kContactFtNoiseSetting.name, &EstimatorHints::contact_ft_noise, kContactFtNoiseSetting.unit, {},
+     kContactFtNoiseSetting.lo, kContactFtNoiseSetting.hi, kContactFtNoiseSetting.note,
      [] { return "the simulated F/T's force_noise_std when > 0, else " +
                  number_text(config_defaults().contact_ft_noise); },
-     "the contact detector's light-touch rule: the foot F/T's normal-force noise, 1 sigma"},
-    {"contact_rest_time", &EstimatorHints::contact_rest_time, "s", {}, 0.0, 10.0,
-     "the contact detector's resting rule; 0: off",
-     [] { return number_text(config_defaults().contact_rest_time); },
-     "a foot that stayed below 2 % of the weight this long with its sole still keeps its contact"},
-    {"imu_delay_ticks", &EstimatorHints::imu_delay_ticks, "ticks", {}, 0.0, 100.0,
-     "the IMU's latency, used with an IMU behind joints",
-     [] { return std::string("the simulated IMU's delay_ticks"); },
-     "the IMU's output latency the estimator allows for with an IMU behind joints"},
+     kContactFtNoiseSetting.doc},
+    {kContactRestTimeSetting.name, &EstimatorHints::contact_rest_time, kContactRestTimeSetting.unit,
+     {}, kContactRestTimeSetting.lo, kContactRestTimeSetting.hi, kContactRestTimeSetting.note,
+     [] { return number_text(config_defaults().contact_rest_time); }, kContactRestTimeSetting.doc},
+    {kImuDelayTicksSetting.name, &EstimatorHints::imu_delay_ticks, kImuDelayTicksSetting.unit, {},
+     kImuDelayTicksSetting.lo, kImuDelayTicksSetting.hi, kImuDelayTicksSetting.note,
+     [] { return std::string("the simulated IMU's delay_ticks"); }, kImuDelayTicksSetting.doc},
 };
 // clang-format on
 

@@ -50,7 +50,7 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
 
   // dds hints
   if (const YAML::Node d = root["dds"]) {
-    c.allow(d, "dds", {"vendor", "components"});
+    c.allow_declared(d, "dds");
     auto check = [&](const std::string& v, const std::string& key) {
       if (v != "fastdds" && v != "cyclone" && v != "cyclonedds")
         c.fail(key, "must be 'fastdds' or 'cyclone' (also spelt 'cyclonedds')");
@@ -75,7 +75,7 @@ Scenario parse_scenario(const std::string& yaml_text, const fs::path& base_dir,
 
   // contact optimiser hint for poise run
   if (const YAML::Node cn = root["contact"]) {
-    c.allow(cn, "contact", {"method"});
+    c.allow_declared(cn, "contact");
     if (cn["method"]) {
       sc.contact_method = c.str(cn["method"], "contact.method");
       if (sc.contact_method != "sequential" && sc.contact_method != "qp")

@@ -38,11 +38,13 @@
 #include <mutex>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <poise/msg/balance_reference.h>
 
 #include "poise/estimator/estimator.hpp"
+#include "poise/estimator/settings.hpp"
 #include "poise/estimator_node/estimator_messages.hpp"
 #include "poise/estimator_node/foot_plan_queue.hpp"
 #include "poise/model/robot_config.hpp"
@@ -74,6 +76,20 @@ struct Options {
   double stance_rate_hz = estimator::EstimatorConfig{}.stance_rate_filter_hz;
 };
 
+/// The names a setting allows (settings.hpp: the scenario's `estimator:` section checks the same).
+std::vector<std::string> choices_of(const estimator::NameSetting& s) {
+  std::vector<std::string> out;
+  for (const std::string_view c : s.choices)
+    if (!c.empty()) out.emplace_back(c);
+  return out;
+}
+
+/// The bounds of a numeric setting (settings.hpp), as a command-line check.
+CLI::Range range_of(const estimator::NumberSetting& s) { return CLI::Range(s.lo, s.hi); }
+CLI::Range whole_range_of(const estimator::NumberSetting& s) {
+  return CLI::Range(static_cast<int>(s.lo), static_cast<int>(s.hi));
+}
+
 /// The options of the estimate's start and of what the feet stand on.
 void add_start_options(CLI::App& app, Options& o) {
   app.add_option("--supports", o.supports,
@@ -82,14 +98,14 @@ void add_start_options(CLI::App& app, Options& o) {
                  "velocity and attitude from the IMU alone) or 'translating' (as moving, the "
                  "supports do not rotate: attitude from the stance feet); the supports must be "
                  "still for the first 2 s (IMU calibration); see estimator.hpp")
-      ->check(CLI::IsMember({"fixed", "moving", "translating"}))
+      ->check(CLI::IsMember(choices_of(estimator::kSupportsSetting)))
       ->capture_default_str();
   app.add_option("--estimator", o.kind,
                  "which estimate the state carries: 'invariant-ekf' (contact-aided invariant EKF) "
                  "or 'leg-odometry' (baseline: IMU orientation, or the integrated gyro when the "
                  "IMU sends none, plus stance-foot kinematics; no filter, no bias estimate); "
                  "estimator/README.md compares them")
-      ->check(CLI::IsMember({"invariant-ekf", "leg-odometry"}))
+      ->check(CLI::IsMember(choices_of(estimator::kTypeSetting)))
       ->capture_default_str();
   app.add_option("--ground-height", o.ground_height,
                  "height in W of the ground the soles stand on at the start [m] (the lowest sole "
@@ -122,27 +138,27 @@ void add_sensor_options(CLI::App& app, Options& o) {
                  "weight this long with its sole still, or that landed and never carried 2 % "
                  "this long since, keeps its contact until its sole leaves (the flag means "
                  "touching); 0: off, the flag drops below 1 % of the weight [s]")
-      ->check(CLI::Range(0.0, 10.0))
+      ->check(range_of(estimator::kContactRestTimeSetting))
       ->capture_default_str();
   app.add_option("--contact-ft-noise", o.contact_ft_noise,
                  "the foot F/T sensors' normal-force noise (1 sigma) for the contact detector's "
                  "light-touch rule: a touch too light for the 1 % load threshold is flagged from "
                  "its step in the reading, with the sole down where it stood (default: the "
                  "simulator's F/T, an industrial strain-gauge class); 0: the rule is off [N]")
-      ->check(CLI::Range(0.0, 1.0e4))
+      ->check(range_of(estimator::kContactFtNoiseSetting))
       ->capture_default_str();
   app.add_option("--imu-delay-ticks", o.imu_delay_ticks,
                  "the IMU's output latency in ticks (its filters and transfer), used when the IMU "
                  "sits behind joints (a torso IMU behind a waist): its pose relative to the base "
                  "is then taken from the encoders of that many ticks earlier (estimator/README.md)")
-      ->check(CLI::Range(0, 100))
+      ->check(whole_range_of(estimator::kImuDelayTicksSetting))
       ->capture_default_str();
   app.add_option("--stance-rate-hz", o.stance_rate_hz,
                  "cut-off of the complementary filter of the gyro and the stance feet's "
                  "kinematics for the published base angular velocity (a flat stance foot does "
                  "not turn; below the cut-off the gyro, above it the encoders); 0: the gyro "
                  "alone [Hz]")
-      ->check(CLI::Range(0.0, 1.0e4))
+      ->check(range_of(estimator::kStanceRateSetting))
       ->capture_default_str();
 }
 

@@ -104,9 +104,7 @@ void named_map(const YamlChecks& c, const YAML::Node& n, const std::string& key,
 
 void parse_links(const YamlChecks& c, const YAML::Node& n, LinkReality& l) {
   const std::string key = std::string(kKey) + ".links";
-  c.allow(n, key,
-          {"mass_scale_std", "inertia_scale_std", "com_offset_std_m", "mass_scale",
-           "inertia_scale", "com_offset"});
+  c.allow_declared(n, key);
   l.mass_scale_std = scale_std(c, n, "mass_scale_std", key, l.mass_scale_std);
   l.inertia_scale_std = scale_std(c, n, "inertia_scale_std", key, l.inertia_scale_std);
   l.com_offset_std_m = nonneg(c, n, "com_offset_std_m", key, l.com_offset_std_m);
@@ -133,7 +131,7 @@ void parse_payloads(const YamlChecks& c, const YAML::Node& n, std::vector<Payloa
   for (std::size_t i = 0; i < n.size(); ++i) {
     const std::string pk = key + "[" + std::to_string(i) + "]";
     const YAML::Node p = n[i];
-    c.allow(p, pk, {"link", "mass", "offset", "inertia"});
+    c.allow_declared(p, pk);
     if (!p["link"]) c.fail(pk + ".link", "is required");
     if (!p["mass"]) c.fail(pk + ".mass", "is required");
     Payload pl;
@@ -155,10 +153,7 @@ void parse_payloads(const YamlChecks& c, const YAML::Node& n, std::vector<Payloa
 
 void parse_actuators(const YamlChecks& c, const YAML::Node& n, ActuatorReality& a) {
   const std::string key = std::string(kKey) + ".actuators";
-  c.allow(n, key,
-          {"bandwidth_hz", "delay_ticks", "torque_noise_std", "torque_noise_of_effort",
-           "coulomb_friction", "coulomb_friction_of_effort", "viscous_friction",
-           "effort_scale"});
+  c.allow_declared(n, key);
   a.bandwidth_hz = nonneg(c, n, "bandwidth_hz", key, a.bandwidth_hz);
   if (n["delay_ticks"]) {
     const double d = c.num(n["delay_ticks"], key + ".delay_ticks");
@@ -172,8 +167,9 @@ void parse_actuators(const YamlChecks& c, const YAML::Node& n, ActuatorReality& 
   a.coulomb_friction_of_effort =
       nonneg(c, n, "coulomb_friction_of_effort", key, a.coulomb_friction_of_effort);
   a.viscous_friction = nonneg(c, n, "viscous_friction", key, a.viscous_friction);
-  if (a.torque_noise_of_effort > 1.0 || a.coulomb_friction_of_effort > 1.0)
-    c.fail(key, "fractions of the effort limit (*_of_effort) must be at most 1");
+  for (const auto& [k, v] : {std::pair<const char*, double>{"torque_noise_of_effort", a.torque_noise_of_effort},
+                              {"coulomb_friction_of_effort", a.coulomb_friction_of_effort}})
+    if (v > 1.0) c.fail(key + "." + k, "a fraction of the effort limit: must be at most 1");
   a.effort_scale = c.num(n, "effort_scale", key, a.effort_scale);
   if (!(a.effort_scale > 0.0 && a.effort_scale <= 1.0))
     c.fail(key + ".effort_scale", "must be in (0, 1]");
@@ -181,7 +177,7 @@ void parse_actuators(const YamlChecks& c, const YAML::Node& n, ActuatorReality& 
 
 void parse_ground(const YamlChecks& c, const YAML::Node& n, GroundReality& g) {
   const std::string key = std::string(kKey) + ".ground";
-  c.allow(n, key, {"friction", "stiffness", "damping"});
+  c.allow_declared(n, key);
   if (const YAML::Node f = n["friction"]) {
     const std::string fk = key + ".friction";
     if (f.IsSequence()) {
@@ -211,7 +207,7 @@ RealityConfig parse_reality(const YamlChecks& c, const YAML::Node& node) {
     c.fail(key, "unknown profile '" + name + "' (known: typical, none)");
   };
   if (node.IsScalar()) return profile(c.str(node, kKey), kKey);
-  c.allow(node, kKey, {"profile", "seed", "links", "payloads", "actuators", "ground"});
+  c.allow_declared(node, kKey);
   if (node["profile"]) r = profile(c.str(node["profile"], "reality.profile"), "reality.profile");
   r.enabled = true;
   if (node["seed"]) {

@@ -49,7 +49,7 @@ struct Ctx : YamlChecks {
 };
 
 constexpr double kDeg = M_PI / 180.0;
-// Physical ranges of a scenario (deploy/scenarios/README.md).
+// Physical ranges of a scenario (scenario_schema.cpp declares them for the docs).
 constexpr double kMaxGravity = 100.0;     // m/s^2, |world.gravity|
 constexpr double kMaxPushForce = 5000.0;  // N, |force| of a scripted push
 constexpr double kMaxPushLever = 5.0;     // m, |point| of a push in its link's frame
@@ -57,20 +57,15 @@ constexpr double kMinDuration = 0.001;    // s, one control period
 
 Sinusoid sinusoid(const Ctx& c, const YAML::Node& n, const std::string& key, bool angular,
                   Eigen::Vector3d& axis) {
-  c.allow(n, key, {"axis", "amplitude", "amplitude_deg", "frequency", "phase_deg"});
+  c.allow_declared(n, key);
   Sinusoid s;
   if (n["axis"]) {
     axis = c.vec3(n["axis"], key + ".axis");
     if (axis.norm() < 1e-9) c.fail(key + ".axis", "must be non-zero");
     axis.normalize();
   }
-  if (angular) {
-    if (n["amplitude"]) c.fail(key + ".amplitude", "use amplitude_deg for rotations");
-    s.amplitude = c.num(n, "amplitude_deg", key, 0.0) * kDeg;
-  } else {
-    if (n["amplitude_deg"]) c.fail(key + ".amplitude_deg", "use amplitude (m) for translations");
-    s.amplitude = c.num(n, "amplitude", key, 0.0);
-  }
+  // A rotation's amplitude is amplitude_deg, a translation's amplitude (m): the schema has each.
+  s.amplitude = angular ? c.num(n, "amplitude_deg", key, 0.0) * kDeg : c.num(n, "amplitude", key, 0.0);
   s.frequency = c.num(n, "frequency", key, 0.0);
   if (s.frequency < 0.0) c.fail(key + ".frequency", "must be >= 0");
   s.phase = c.num(n, "phase_deg", key, 0.0) * kDeg;
@@ -167,7 +162,7 @@ void load_robot(const Ctx& c, const YAML::Node& n, World& sc,
                 std::map<std::string, std::pair<double, double>>& limits, LoadedRobot& loaded) {
   const std::string key = "robot";
   if (!n) c.fail(key, "is required");
-  c.allow(n, key, {"config", "urdf", "feet", "imu_frame", "self_collision", "damping_mode_kd"});
+  c.allow_declared(n, key);
   RobotConfig& r = sc.sim.robot;
   if (n["config"]) {
     if (n["urdf"] || n["feet"] || n["imu_frame"])
@@ -236,13 +231,13 @@ void load_robot(const Ctx& c, const YAML::Node& n, World& sc,
     for (const auto& kv : feet) {
       const std::string name = kv.first.as<std::string>();
       const std::string fk = key + ".feet." + name;
-      c.allow(kv.second, fk, {"frame", "sole"});
+      c.allow_declared(kv.second, fk);
       FootConfig f;
       f.name = name;
       if (!kv.second["frame"]) c.fail(fk + ".frame", "is required");
       f.frame = c.str(kv.second["frame"], fk + ".frame");
       if (const YAML::Node s = kv.second["sole"]) {
-        c.allow(s, fk + ".sole", {"x_min", "x_max", "y_min", "y_max", "height", "thickness"});
+        c.allow_declared(s, fk + ".sole");
         for (const char* k : {"x_min", "x_max", "y_min", "y_max", "height"})
           if (!s[k]) c.fail(fk + ".sole." + k, "is required");
         f.has_sole = true;
@@ -264,7 +259,7 @@ void load_robot(const Ctx& c, const YAML::Node& n, World& sc,
 
 void load_world(const Ctx& c, const YAML::Node& n, World& sc) {
   const std::string key = "world";
-  c.allow(n, key, {"gravity", "ground", "platforms"});
+  c.allow_declared(n, key);
   WorldConfig& w = sc.sim.world;
   if (!n) return;
   if (n["gravity"]) w.gravity = c.vec3(n["gravity"], key + ".gravity");
@@ -272,7 +267,7 @@ void load_world(const Ctx& c, const YAML::Node& n, World& sc) {
     c.fail(key + ".gravity", "|g| must be at most " + std::to_string(int(kMaxGravity)) +
                                  " m/s^2 (Earth: 9.81)");
   if (const YAML::Node g = n["ground"]) {
-    c.allow(g, key + ".ground", {"enabled", "height", "friction"});
+    c.allow_declared(g, key + ".ground");
     w.ground.enabled = c.boolean(g, "enabled", key + ".ground", true);
     w.ground.height = c.num(g, "height", key + ".ground", 0.0);
     w.ground.friction = c.num(g, "friction", key + ".ground", w.ground.friction);
@@ -283,9 +278,7 @@ void load_world(const Ctx& c, const YAML::Node& n, World& sc) {
     for (std::size_t i = 0; i < ps.size(); ++i) {
       const YAML::Node p = ps[i];
       const std::string pk = key + ".platforms[" + std::to_string(i) + "]";
-      c.allow(p, pk,
-              {"name", "foot", "size", "position", "auto_place", "roll_deg", "pitch_deg", "yaw_deg",
-               "friction", "translation", "rotation", "motion_start", "motion_ramp"});
+      c.allow_declared(p, pk);
       PlatformConfig pc;
       pc.name = p["name"] ? c.str(p["name"], pk + ".name") : "platform" + std::to_string(i);
       if (p["foot"]) pc.foot = c.str(p["foot"], pk + ".foot");
@@ -400,9 +393,7 @@ double load_initial(const Ctx& c, const YAML::Node& n, World& sc,
     }
     return 0.0;
   }
-  c.allow(n, "initial",
-          {"posture", "joints", "base_xy", "base_height", "base_rpy_deg", "facing_deg",
-           "clearance", "support"});
+  c.allow_declared(n, "initial");
   const std::string posture = n["posture"] ? c.str(n["posture"], "initial.posture") : "nominal";
   if (posture != "nominal" && posture != "zero")
     c.fail("initial.posture", "must be 'nominal' or 'zero'");
@@ -425,7 +416,7 @@ double load_initial(const Ctx& c, const YAML::Node& n, World& sc,
 /// start and duration, within physical ranges and the run.
 Push load_push(const Ctx& c, const YAML::Node& p, const std::string& pk, const World& sc,
                double facing) {
-  c.allow(p, pk, {"link", "point", "force", "frame", "start", "duration"});
+  c.allow_declared(p, pk);
   for (const char* k : {"link", "force", "start", "duration"})
     if (!p[k]) c.fail(pk + "." + k, "is required");
   Push push;
@@ -463,7 +454,7 @@ Push load_push(const Ctx& c, const YAML::Node& p, const std::string& pk, const W
 /// `disturbances:`: the scheduled pushes.
 void load_disturbances(const Ctx& c, const YAML::Node& d, World& sc, double facing) {
   if (!d) return;
-  c.allow(d, "disturbances", {"pushes"});
+  c.allow_declared(d, "disturbances");
   const YAML::Node ps = d["pushes"];
   if (!ps) return;
   if (!ps.IsSequence()) c.fail("disturbances.pushes", "must be a list");
@@ -503,12 +494,7 @@ void load_imu_orientation(const Ctx& c, const YAML::Node& i, const std::string& 
 /// `sensors.imu`: noise, biases, scale, misalignment, range, rate, delay, orientation filter.
 void load_imu(const Ctx& c, const YAML::Node& i, ImuNoiseConfig& imu) {
   const std::string key = "sensors.imu";
-  c.allow(i, key,
-          {"orientation", "gyro_noise_std", "gyro_noise_density", "gyro_bias",
-           "gyro_bias_walk", "gyro_scale_error", "gyro_misalignment_deg", "gyro_range",
-           "accel_noise_std", "accel_noise_density", "accel_bias", "accel_bias_walk",
-           "accel_scale_error", "accel_misalignment_deg", "accel_range", "rate_hz",
-           "delay_ticks", "filter_gain", "filter_accel_gate"});
+  c.allow_declared(i, key);
   load_imu_orientation(c, i, key, imu);
   nonneg(c, i, "gyro_noise_std", key, imu.gyro_noise_std);
   nonneg(c, i, "gyro_noise_density", key, imu.gyro_noise_density);
@@ -544,7 +530,7 @@ void load_sensors(const Ctx& c, const YAML::Node& s, World& sc) {
   sc.sim.encoders = industrial_encoder();
   sc.sim.foot_ft = industrial_foot_ft();
   if (!s) return;
-  c.allow(s, "sensors", {"preset", "imu", "encoders", "foot_ft", "seed"});
+  c.allow_declared(s, "sensors");
   if (s["preset"]) {
     const std::string p = c.str(s["preset"], "sensors.preset");
     if (p == "ideal") {
@@ -563,13 +549,13 @@ void load_sensors(const Ctx& c, const YAML::Node& s, World& sc) {
   }
   if (const YAML::Node i = s["imu"]) load_imu(c, i, sc.sim.imu);
   if (const YAML::Node e = s["encoders"]) {
-    c.allow(e, "sensors.encoders", {"counts_per_rev", "velocity_filter_hz"});
+    c.allow_declared(e, "sensors.encoders");
     nonneg(c, e, "counts_per_rev", "sensors.encoders", sc.sim.encoders.counts_per_rev);
     nonneg(c, e, "velocity_filter_hz", "sensors.encoders", sc.sim.encoders.velocity_filter_hz);
   }
   if (const YAML::Node f = s["foot_ft"]) {
     const std::string key = "sensors.foot_ft";
-    c.allow(f, key, {"force_noise_std", "torque_noise_std", "force_offset", "torque_offset"});
+    c.allow_declared(f, key);
     nonneg(c, f, "force_noise_std", key, sc.sim.foot_ft.force_noise_std);
     nonneg(c, f, "torque_noise_std", key, sc.sim.foot_ft.torque_noise_std);
     vec(c, f, "force_offset", key, sc.sim.foot_ft.force_offset, 1.0);
@@ -580,10 +566,7 @@ void load_sensors(const Ctx& c, const YAML::Node& s, World& sc) {
 /// `solver:`: Bullet's step, iterations, contact and friction settings, warm starting.
 void load_solver(const Ctx& c, const YAML::Node& s, World& sc) {
   if (!s) return;
-  c.allow(s, "solver",
-          {"dt", "iterations", "contact_erp", "contact_cfm", "friction_anchor",
-           "residual_threshold", "joint_friction_constraint", "joint_friction_velocity",
-           "warm_start", "warm_start_factor"});
+  c.allow_declared(s, "solver");
   SolverConfig& sv = sc.sim.solver;
   sv.dt = c.num(s, "dt", "solver", sv.dt);
   if (!(sv.dt > 0.0 && sv.dt <= 0.01)) c.fail("solver.dt", "must be in (0, 0.01] s");
@@ -610,10 +593,7 @@ void load_solver(const Ctx& c, const YAML::Node& s, World& sc) {
 /// `success:`: the verdict's criteria.
 void load_success(const Ctx& c, const YAML::Node& s, World& sc) {
   if (!s) return;
-  c.allow(s, "success",
-          {"com_error_max_m", "com_error_final_m", "foot_slip_max_m", "foot_tilt_max_deg",
-           "recovery_time_s",
-           "allow_non_foot_contacts", "min_base_height_m", "max_damping_ticks"});
+  c.allow_declared(s, "success");
   SuccessCriteria& k = sc.success;
   k.com_error_max_m = c.num(s, "com_error_max_m", "success", k.com_error_max_m);
   k.com_error_final_m = c.num(s, "com_error_final_m", "success", k.com_error_final_m);
@@ -663,10 +643,7 @@ World parse_world(const std::string& yaml_text, const fs::path& base_dir,
   }
   if (!root.IsMap()) throw std::runtime_error(what + ": the top level must be a mapping");
   c.refuse_duplicated_keys(root);
-  c.allow(root, "",
-          {"name", "description", "robot", "world", "initial", "disturbances", "duration",
-           "success", "sensors", "solver", "reality", "dds", "estimator", "contact",
-           "controller", "reference"});
+  c.allow_declared(root, "");
   // dds, estimator, contact, controller, reference configure the other components: the scenario format
   // (deploy/scenario, poise::scenario::parse_scenario) reads and checks them; the world skips them.
   World sc;

@@ -61,6 +61,9 @@ struct YamlChecks {
       }
     }
   }
+  /// A mapping whose keys are all declared under the scenario key `key` ("" the top level) in
+  /// the scenario schema (scenario_schema.hpp; defined in scenario_schema.cpp, poise_sim).
+  void allow_declared(const YAML::Node& n, const std::string& key) const;
   double num(const YAML::Node& n, const std::string& key) const {
     try {
       if (!n.IsScalar()) fail(key, "must be a number");
