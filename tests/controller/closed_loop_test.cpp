@@ -656,8 +656,8 @@ TEST(ClosedLoop, AFootAPushLiftsIsHeldWhereItStood) {
     // Measured 2026-12-04. Ankle first: held, drift 4.7-5.8 mm, slip 1.6-2.0 mm, all survive;
     // kp, kd: drift 11.6-14.6 mm, slip 11.3-14.3 mm, all four fail. Defaults: held, the foot
     // swings 15.6-28.0 mm out in the air (the trunk rolls 17-18 deg; the hip roll's limit,
-    // recorded at 30599eb in deploy/envelope/README.md, is what stops it) but is brought back
-    // before it lands: slip 1.8-9.6 mm, all survive; kp, kd: drift 25.3-52.4 mm, slip 13.2-17.4
+    // recorded at 30599eb in deploy/logs/2026-12-05-envelope-by-direction.md, is what stops
+    // it) but is brought back before it lands: slip 1.8-9.6 mm, all survive; kp, kd: drift 25.3-52.4 mm, slip 13.2-17.4
     // mm, all four fail. (Slip is the sole centre's since 2026-12-04; with the ankle's, as
     // before, held 1.8-2.5 / 2.2-7.4 mm, kp, kd 11.6-14.6 / 14.2-19.7 mm.) The test can tell the
     // two apart by what the held foot controls, where it lands:
