@@ -280,7 +280,11 @@ TEST(Mcap, AWriterThatMayNotOverwriteRefusesAnExistingFile) {
 
 TEST(Mcap, AFullDiskFailsTheWriterAndKeepsWhatWasWritten) {
   // RLIMIT_FSIZE makes write() fail with EFBIG past 64 KiB, as a full disk fails with ENOSPC.
+  // The writer's count of messages in the file is what a reader finds there (not the messages
+  // it accepted: those of the chunk that failed are not in the file), and the file ends with its
+  // last complete record (the half-written chunk is cut off).
   const fs::path path = temp_dir() / "full.mcap";
+  const fs::path counts = temp_dir() / "full.counts";
   const pid_t pid = ::fork();
   ASSERT_GE(pid, 0);
   if (pid == 0) {
@@ -297,7 +301,13 @@ TEST(Mcap, AFullDiskFailsTheWriterAndKeepsWhatWasWritten) {
     for (int i = 0; i < 1000; ++i)
       accepted += w.write_message(ch, i + 1, 1000 + i, 1000 + i, payload.data(), payload.size());
     const bool closed = w.close();
-    const bool named = w.error().find("File too large") != std::string::npos;
+    const bool named = w.error().find("File too large") != std::string::npos &&
+                       w.error().find(path.string()) != std::string::npos;
+    {
+      std::ofstream c(counts);  // a few bytes: the limit is far
+      c << w.messages_in_file(ch) << " " << w.stats().messages_in_file << " "
+        << w.stats().bytes_written << "\n";
+    }
     ::_exit(!closed && named && accepted > 50 && accepted < 1000 ? 0 : 1);
   }
   int status = 0;
@@ -311,6 +321,12 @@ TEST(Mcap, AFullDiskFailsTheWriterAndKeepsWhatWasWritten) {
   EXPECT_GT(got.size(), 100u);  // ~120 messages fit in 64 KiB
   for (std::size_t i = 0; i < got.size(); ++i)
     EXPECT_EQ(got[i].sequence, i + 1);
+  std::uint64_t channel_in_file = 0, in_file = 0, bytes_written = 0;
+  std::ifstream(counts) >> channel_in_file >> in_file >> bytes_written;
+  EXPECT_EQ(channel_in_file, got.size()) << "the writer counts messages that are not in the file";
+  EXPECT_EQ(in_file, got.size());
+  EXPECT_EQ(fs::file_size(path), bytes_written);
+  EXPECT_EQ(r.bytes_read, fs::file_size(path)) << "a record cut in the middle: " << r.truncation;
 }
 
 TEST(Mcap, InfoCountsTopicsTicksAndGaps) {
@@ -346,4 +362,92 @@ TEST(Mcap, InfoCountsTopicsTicksAndGaps) {
   EXPECT_EQ(t.sequence_gaps, 1u);
   EXPECT_NEAR(t.longest_interval_s, 0.011, 1e-9);
   EXPECT_NEAR(info.duration_s(), 0.999, 1e-9);
+}
+
+namespace {
+// A Poise-shaped payload: encapsulation + Header{tick, stamp} + padding.
+std::vector<std::uint8_t> poise_payload(std::uint64_t tick) {
+  std::vector<std::uint8_t> b{0, 1, 0, 0};
+  for (int i = 0; i < 8; ++i)
+    b.push_back(static_cast<std::uint8_t>(tick >> (8 * i)));
+  b.resize(40, 0);
+  return b;
+}
+}  // namespace
+
+TEST(Mcap, InfoCountsTheTicksMissingAtTheStartOfTheRun) {
+  // A recorder started after the stack: every per-tick topic begins at tick 2453, but the run
+  // began at tick 10, as the latched robot description (header tick = the run's first tick)
+  // says. Before, info said "0 missing".
+  const fs::path late = temp_dir() / "late.mcap";
+  {
+    McapWriter w(late.string());
+    const auto d = w.add_channel(w.add_schema("poise::msg::RobotDescription", "omgidl", "x"),
+                                 "poise/robot_description", "cdr");
+    const auto s = w.add_channel(w.add_schema("poise::msg::Sensors", "omgidl", "x"),
+                                 "poise/sensors", "cdr");
+    const auto st =
+        w.add_channel(w.add_schema("poise::msg::State", "omgidl", "x"), "poise/state", "cdr");
+    const auto desc = poise_payload(10);
+    w.write_message(d, 1, 1'000'000ULL, 1'000'000ULL, desc.data(), desc.size());
+    std::uint32_t seq = 0;
+    for (std::uint64_t tick = 2453; tick <= 3000; ++tick) {
+      const auto b = poise_payload(tick);
+      ++seq;
+      w.write_message(s, seq, tick * 1'000'000ULL, tick * 1'000'000ULL, b.data(), b.size());
+      w.write_message(st, seq, tick * 1'000'000ULL, tick * 1'000'000ULL, b.data(), b.size());
+    }
+    ASSERT_TRUE(w.close());
+  }
+  RecordingInfo info = read_recording_info(late.string());
+  ASSERT_TRUE(info.scan.complete);
+  EXPECT_EQ(info.run_first_tick, 10u);
+  EXPECT_EQ(info.run_first_tick_source, "poise/robot_description");
+  ASSERT_EQ(info.topics.size(), 3u);
+  for (const TopicInfo& t : info.topics) {
+    if (!t.per_tick) continue;
+    EXPECT_EQ(t.first_tick, 2453u) << t.topic;
+    EXPECT_EQ(t.missing_at_start, 2443u) << t.topic;
+    EXPECT_EQ(t.missing_ticks, 0u) << t.topic;
+  }
+  const std::string text = format_recording_info(info);
+  EXPECT_NE(text.find("first tick 2453 on poise/sensors, expected 10: 2443 ticks missing at the "
+                      "start"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("2453..3000, 2443 missing at the start"), std::string::npos) << text;
+  const auto j = recording_info_json(info);
+  EXPECT_EQ(j["run_first_tick"], 10);
+  EXPECT_EQ(j["topics"][1]["missing_at_start"], 2443);
+
+  // No description (or one that does not say): the earliest tick of any per-tick topic is the
+  // reference; a topic that began later misses the ticks before.
+  const fs::path partial = temp_dir() / "partial.mcap";
+  {
+    McapWriter w(partial.string());
+    const auto s = w.add_channel(w.add_schema("poise::msg::Sensors", "omgidl", "x"),
+                                 "poise/sensors", "cdr");
+    const auto st =
+        w.add_channel(w.add_schema("poise::msg::State", "omgidl", "x"), "poise/state", "cdr");
+    for (std::uint64_t tick = 1; tick <= 1000; ++tick) {
+      const auto b = poise_payload(tick);
+      w.write_message(s, static_cast<std::uint32_t>(tick), tick * 1'000'000ULL,
+                      tick * 1'000'000ULL, b.data(), b.size());
+      if (tick >= 50)
+        w.write_message(st, static_cast<std::uint32_t>(tick - 49), tick * 1'000'000ULL,
+                        tick * 1'000'000ULL, b.data(), b.size());
+    }
+    ASSERT_TRUE(w.close());
+  }
+  info = read_recording_info(partial.string());
+  EXPECT_EQ(info.run_first_tick, 1u);
+  EXPECT_EQ(info.run_first_tick_source, "earliest per-tick topic");
+  ASSERT_EQ(info.topics.size(), 2u);
+  EXPECT_EQ(info.topics[0].topic, "poise/sensors");
+  EXPECT_EQ(info.topics[0].missing_at_start, 0u);
+  EXPECT_EQ(info.topics[1].missing_at_start, 49u);
+  EXPECT_NE(format_recording_info(info).find(
+                "first tick 50 on poise/state, expected 1: 49 ticks missing at the start"),
+            std::string::npos)
+      << format_recording_info(info);
 }

@@ -15,7 +15,10 @@ int info_main(int argc, char** argv) {
   CLI::App app{
       "What an MCAP recording holds: duration, start and end, per topic the type, message count, "
       "mean rate, longest gap, missing and repeated ticks, size; compression; the recorder's loss "
-      "counters. Reads files cut short by a crash too (and says how much they hold).\n"
+      "counters. Ticks missing at the start of a per-tick topic (a recorder started after the "
+      "stack) are counted against the run's first tick: the one poise-sim puts in "
+      "poise/robot_description, or the earliest tick of any per-tick topic in the file. Reads "
+      "files cut short by a crash or a full disk too (and says how much they hold).\n"
       "Exit status: 0 complete file, 1 incomplete (cut short) or unreadable, 2 not MCAP."};
   app.name("poise info");
   app.add_option("file", file, "MCAP file")->required();

@@ -76,6 +76,12 @@ bool McapWriter::fail(std::string why) {
   return false;
 }
 
+void McapWriter::cut_back_to(std::uint64_t size) {
+  // Shrinking is allowed past a file size limit and frees space on a full disk. If it fails too,
+  // the half-written record stays: a streaming reader still stops at it (file cut short).
+  if (fd_ >= 0 && ::ftruncate(fd_, static_cast<off_t>(size)) == 0) stats_.bytes_written = size;
+}
+
 bool McapWriter::write_bytes(const std::uint8_t* data, std::size_t size) {
   if (failed() || fd_ < 0) return false;
   std::size_t done = 0;
@@ -83,8 +89,11 @@ bool McapWriter::write_bytes(const std::uint8_t* data, std::size_t size) {
     const ssize_t n = ::write(fd_, data + done, size - done);
     if (n < 0) {
       if (errno == EINTR) continue;
-      return fail("writing '" + path_ + "' failed after " +
-                  std::to_string(stats_.bytes_written + done) + " bytes: " + std::strerror(errno));
+      const int e = errno;
+      fail("writing '" + path_ + "' failed after " + std::to_string(stats_.bytes_written + done) +
+           " bytes: " + std::strerror(e));
+      cut_back_to(stats_.bytes_written);  // the bytes of this call that did get written
+      return false;
     }
     done += static_cast<std::size_t>(n);
   }
@@ -223,8 +232,19 @@ bool McapWriter::write_chunk() {
   const std::uint64_t content = scratch_.size() - at - 8 + records_size;
   for (int i = 0; i < 8; ++i)
     scratch_[at + i] = static_cast<std::uint8_t>(content >> (8 * i));
-  if (!write_record(scratch_) || !write_bytes(records, records_size)) return false;
+  if (!write_record(scratch_) || !write_bytes(records, records_size)) {
+    // No half chunk in the file: it ends with the last complete record, and the messages of
+    // this chunk are not counted as in the file.
+    scratch_.clear();
+    cut_back_to(index.offset);
+    return false;
+  }
   index.length = stats_.bytes_written - index.offset;
+  // The chunk is in the file (a streaming reader reads it; the message indexes are optional).
+  for (const auto& [channel, entries] : chunk_index_) {
+    channels_[channel].in_file += entries.size();
+    stats_.messages_in_file += entries.size();
+  }
 
   const std::uint64_t index_start = stats_.bytes_written;
   for (const auto& [channel, entries] : chunk_index_) {
@@ -238,7 +258,10 @@ bool McapWriter::write_chunk() {
     }
     w.end_record(rec);
   }
-  if (!write_record(scratch_)) return false;
+  if (!write_record(scratch_)) {
+    cut_back_to(index_start);  // the chunk stays, complete; its indexes are optional
+    return false;
+  }
   index.index_length = stats_.bytes_written - index_start;
   chunk_indexes_.push_back(std::move(index));
   ++stats_.chunks;

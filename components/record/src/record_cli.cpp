@@ -386,10 +386,14 @@ int record(RecordArgs& a) {
   passive_readers.clear();
   print_recording_summary(final_status, stderr);
   if (!final_status.error.empty()) {
+    // The counts above are of the file: the samples of the chunk that failed, and every one
+    // after it, are counted as dropped.
     std::fprintf(stderr,
-                 "poise record: error: %s\nEverything written before the failure is in the "
-                 "file, which a streaming reader (poise info) reads as incomplete.\n",
-                 final_status.error.c_str());
+                 "poise record: error: %s\nThe recording stopped there: the file ends with the "
+                 "last chunk written completely (the %llu messages counted as written above); a "
+                 "streaming reader (poise info) reads it and says it is incomplete.\n",
+                 final_status.error.c_str(),
+                 static_cast<unsigned long long>(final_status.messages));
     return 1;
   }
   return 0;
@@ -404,7 +408,10 @@ int record_main(int argc, char** argv) {
   CLI::App app{
       "Record Poise DDS topics to an MCAP file (schema encoding omgidl, message encoding cdr), "
       "from writers of either vendor, until Ctrl-C, SIGTERM or --duration.\n"
-      "Read it with `poise info`, `poise replay`, `poise export`, `poise plot` or any MCAP tool."};
+      "Read it with `poise info`, `poise replay`, `poise export`, `poise plot` or any MCAP tool.\n"
+      "Exit status: 0 recorded; 1 the recording failed (e.g. a full disk: the error names the "
+      "file and the reason, the file ends with its last complete chunk, and the summary counts "
+      "as written only the messages in the file); 2 bad arguments or the output file exists."};
   app.name("poise record");
   dds::add_dds_options(app, a.dds_options);
   add_file_options(app, a);

@@ -61,7 +61,11 @@ struct Recorder::Topic {
   std::string_view schema;
   std::atomic<std::uint64_t> received{0};
   std::atomic<std::uint64_t> dropped{0};
-  std::atomic<std::uint64_t> written{0};
+  std::atomic<std::uint64_t> written{0};  ///< in the file (complete chunks), all files
+  // Writer thread only: in the files closed before, and accepted by the open file's writer
+  // (in its open chunk or in the file).
+  std::uint64_t written_closed_files = 0;
+  std::uint64_t accepted_open_file = 0;
   std::atomic<std::uint64_t> tick_gaps{0};
   bool per_tick = false;  ///< one sample per tick per writer (Qos::control() topics)
   std::mutex ticks_mutex;
@@ -264,10 +268,33 @@ std::map<std::string, std::string> Recorder::loss_metadata() const {
   return m;
 }
 
+void Recorder::count_written() {
+  if (!writer_) return;
+  for (auto& t : topics_) {
+    const std::uint16_t channel = channel_of_[t->index];
+    if (channel == kNoChannel) continue;
+    const std::uint64_t in_file = writer_->messages_in_file(channel);
+    if (writer_->failed() && t->accepted_open_file > in_file) {
+      // The chunk that failed: accepted, never in the file.
+      t->dropped.fetch_add(t->accepted_open_file - in_file, std::memory_order_relaxed);
+      t->accepted_open_file = in_file;
+    }
+    t->written.store(t->written_closed_files + in_file, std::memory_order_relaxed);
+  }
+}
+
 bool Recorder::close_file() {
   if (!writer_) return true;
+  // The open chunk first, so that the counts of the metadata are those of the file.
+  writer_->flush();
+  count_written();
   writer_->write_metadata("poise_recorder", loss_metadata());
   const bool ok = writer_->close();
+  count_written();
+  for (auto& t : topics_) {
+    t->written_closed_files = t->written.load(std::memory_order_relaxed);
+    t->accepted_open_file = 0;
+  }
   std::lock_guard lock(status_mutex_);
   if (!ok && error_.empty()) error_ = writer_->error();
   bytes_closed_files_ += writer_->stats().bytes_written;
@@ -287,9 +314,10 @@ void Recorder::write_item(Item& item) {
     const std::uint16_t schema = writer_->add_schema(t.type_name, "omgidl", t.schema);
     channel = writer_->add_channel(schema, t.name, "cdr");
   }
+  // Written = in the file: counted once its chunk is (count_written), not when accepted here.
   if (writer_->write_message(channel, item.sequence, item.log_time, item.publish_time,
                              item.bytes.data(), item.bytes.size())) {
-    t.written.fetch_add(1, std::memory_order_relaxed);
+    ++t.accepted_open_file;
   } else {
     t.dropped.fetch_add(1, std::memory_order_relaxed);
   }
@@ -313,6 +341,7 @@ void Recorder::writer_loop() {
     for (auto& item : batch)
       write_item(item);
     batch.clear();
+    count_written();
     const std::int64_t now = monotonic_ns();
     if (writer_ && !writer_->failed()) {
       if (now - last_flush >= flush_ns) {
@@ -323,6 +352,7 @@ void Recorder::writer_loop() {
                            writer_->stats().bytes_written >= options_.split_size_mb * 1e6;
       const bool too_long =
           options_.split_duration_s > 0 && now - file_opened_ns_ >= options_.split_duration_s * 1e9;
+      count_written();  // after the flush
       if (!stopping && (too_big || too_long)) {
         close_file();
         ++file_index_;

@@ -21,6 +21,7 @@ namespace {
 
 struct Accumulator {
   TopicInfo info;
+  bool description = false;  // poise/robot_description: its header tick is the run's k0
   std::uint64_t previous_time = 0;
   std::uint64_t previous_sequence = 0;
   std::vector<std::uint64_t> ticks;
@@ -36,6 +37,28 @@ std::string utc(std::uint64_t ns) {
   std::snprintf(out, sizeof(out), "%s.%03u UTC", b,
                 static_cast<unsigned>((ns / 1000000ULL) % 1000ULL));
   return out;
+}
+
+/// The run's first tick (the description's k0, or the earliest tick of any per-tick topic if
+/// lower or if there is none) and each per-tick topic's ticks missing before its first one.
+void find_missing_starts(RecordingInfo& out, std::uint64_t description_tick) {
+  bool any = false;
+  std::uint64_t earliest = 0;
+  for (const auto& t : out.topics)
+    if (t.per_tick && (!any || t.first_tick < earliest)) {
+      earliest = t.first_tick;
+      any = true;
+    }
+  if (!any) return;
+  if (description_tick > 0 && description_tick <= earliest) {
+    out.run_first_tick = description_tick;
+    out.run_first_tick_source = "poise/robot_description";
+  } else {
+    out.run_first_tick = earliest;
+    out.run_first_tick_source = "earliest per-tick topic";
+  }
+  for (auto& t : out.topics)
+    if (t.per_tick) t.missing_at_start = t.first_tick - out.run_first_tick;
 }
 
 }  // namespace
@@ -55,7 +78,10 @@ RecordingInfo read_recording_info(const std::string& path) {
       a.info.schema_name = it->second.name;
       a.info.schema_encoding = it->second.encoding;
     }
+    a.description =
+        c.topic == "poise/robot_description" && a.info.schema_name == "poise::msg::RobotDescription";
   };
+  std::uint64_t description_tick = 0;  // 0: none, or a robot that does not say (tick 0)
   h.on_message = [&](const MessageView& m) {
     Accumulator& a = channels[m.channel_id];
     TopicInfo& t = a.info;
@@ -78,6 +104,8 @@ RecordingInfo read_recording_info(const std::string& path) {
     if (t.message_encoding == "cdr" && t.schema_name.starts_with("poise::msg::") &&
         header_tick(m.data.data(), m.data.size(), tick)) {
       a.ticks.push_back(tick);
+      if (a.description && tick > 0 && (description_tick == 0 || tick < description_tick))
+        description_tick = tick;
     }
     return true;
   };
@@ -115,6 +143,7 @@ RecordingInfo read_recording_info(const std::string& path) {
   }
   std::sort(out.topics.begin(), out.topics.end(),
             [](const TopicInfo& a, const TopicInfo& b) { return a.topic < b.topic; });
+  find_missing_starts(out, description_tick);
   return out;
 }
 
@@ -155,7 +184,15 @@ std::string format_recording_info(const RecordingInfo& info) {
     std::string ticks = "-";
     if (t.has_ticks) {
       char b[200];
-      if (t.per_tick) {
+      if (t.per_tick && t.missing_at_start > 0) {
+        std::snprintf(b, sizeof(b), "%llu..%llu, %llu missing at the start, %llu missing after, "
+                      "%llu repeated",
+                      static_cast<unsigned long long>(t.first_tick),
+                      static_cast<unsigned long long>(t.last_tick),
+                      static_cast<unsigned long long>(t.missing_at_start),
+                      static_cast<unsigned long long>(t.missing_ticks),
+                      static_cast<unsigned long long>(t.duplicate_ticks));
+      } else if (t.per_tick) {
         std::snprintf(b, sizeof(b), "%llu..%llu, %llu missing, %llu repeated",
                       static_cast<unsigned long long>(t.first_tick),
                       static_cast<unsigned long long>(t.last_tick),
@@ -171,6 +208,19 @@ std::string format_recording_info(const RecordingInfo& info) {
     add("%-26s %-30s %9llu %9.1f %9.3f %10.3f %s\n", t.topic.c_str(), t.schema_name.c_str(),
         static_cast<unsigned long long>(t.messages), t.mean_rate_hz, t.longest_interval_s,
         t.bytes / 1e6, ticks.c_str());
+  }
+  bool start_missing = false;
+  for (const auto& t : info.topics) {
+    if (t.missing_at_start == 0) continue;
+    if (!start_missing)
+      add("\nThe recording misses the start of the run (first tick %llu, from %s):\n",
+          static_cast<unsigned long long>(info.run_first_tick),
+          info.run_first_tick_source.c_str());
+    start_missing = true;
+    add("  first tick %llu on %s, expected %llu: %llu ticks missing at the start\n",
+        static_cast<unsigned long long>(t.first_tick), t.topic.c_str(),
+        static_cast<unsigned long long>(info.run_first_tick),
+        static_cast<unsigned long long>(t.missing_at_start));
   }
   if (auto it = info.metadata.find("poise_recorder"); it != info.metadata.end()) {
     const auto& m = it->second;
@@ -214,6 +264,10 @@ nlohmann::ordered_json recording_info_json(const RecordingInfo& info) {
   j["duration_s"] = info.duration_s();
   j["chunks"] = r.chunks;
   j["messages"] = r.messages;
+  if (!info.run_first_tick_source.empty()) {
+    j["run_first_tick"] = info.run_first_tick;
+    j["run_first_tick_source"] = info.run_first_tick_source;
+  }
   for (const auto& [name, n] : r.compressions)
     j["compression"][name.empty() ? "none" : name] = n;
   j["topics"] = nlohmann::ordered_json::array();
@@ -235,6 +289,7 @@ nlohmann::ordered_json recording_info_json(const RecordingInfo& info) {
       o["duplicate_ticks"] = t.duplicate_ticks;
       o["per_tick"] = t.per_tick;
       o["missing_ticks"] = t.missing_ticks;
+      if (t.per_tick) o["missing_at_start"] = t.missing_at_start;
     }
     j["topics"].push_back(o);
   }

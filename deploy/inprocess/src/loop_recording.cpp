@@ -84,10 +84,8 @@ void LoopRecording::write(const T& message, std::int64_t tick) {
   const std::size_t n = ts.serialize(&message, buffer_.data(), buffer_.size());
   if (n == 0) return;  // cannot happen with the size asked for; nothing half-written
   const std::uint64_t t = log_time_ns(tick);
-  if (writer_->write_message(channel->id, channel->sequence++, t, t, buffer_.data(), n)) {
-    ++channel->written;
-    ++messages_;
-  }
+  // Counted as written once its chunk is in the file (close()), not when accepted here.
+  writer_->write_message(channel->id, channel->sequence++, t, t, buffer_.data(), n);
 }
 
 void LoopRecording::before_step() {
@@ -114,6 +112,14 @@ void LoopRecording::after_step() {
 std::string LoopRecording::close() {
   if (closed_) return writer_->error();
   closed_ = true;
+  // The open chunk first: the counts below are of the messages in the file (after a failed
+  // write, the failed chunk's are not).
+  writer_->flush();
+  messages_ = 0;
+  for (Channel& c : channels_) {
+    c.written = static_cast<std::uint32_t>(writer_->messages_in_file(c.id));
+    messages_ += c.written;
+  }
   writer_->write_metadata("poise_recording", {{"capture", "in process (no DDS)"},
                                                {"messages", std::to_string(messages_)}});
   // The losses `poise info` reports, in the recorder's terms: every message of the loop is
@@ -133,6 +139,7 @@ std::string LoopRecording::close() {
   m["total.tick_gaps"] = "0";
   writer_->write_metadata("poise_recorder", m);
   writer_->close();
+  messages_ = writer_->stats().messages_in_file;
   return writer_->error();
 }
 

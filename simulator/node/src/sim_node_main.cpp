@@ -3,7 +3,11 @@
 // ------------------------------------------------------------------------------------------------
 // Contract
 //   publishes   poise/robot_description  RobotDescription  once at start (reliable,
-//                                                          transient-local: late joiners get it)
+//                                                          transient-local: late joiners get it);
+//                                                          header.tick = k0, the first tick the
+//                                                          run publishes (after --settle-ticks):
+//                                                          `poise info` finds a recording's
+//                                                          missing start with it
 //               poise/sensors            Sensors           every tick k (reliable, keep-last 1)
 //               poise/ground_truth       GroundTruth       every tick k while a reader is
 //                                                          matched (reliable, keep-last 1)
@@ -153,8 +157,10 @@ class SimNode {
     node.watch(estops_.subscriber());
     applied_ = sim_.make_command();
     applied_.mode = sim::CommandMode::kPd;
-    const msg::RobotDescription description =
-        sim_node::make_robot_description(scenario_, sim_, feet_);
+    msg::RobotDescription description = sim_node::make_robot_description(scenario_, sim_, feet_);
+    // The tick of the first frame the run publishes (k0, after settling): a recorder that joins
+    // late still gets this latched sample, so a recording says how many ticks it missed.
+    description.header().tick(static_cast<std::uint64_t>(sim_.tick() + settings_.settle_ticks));
     urdf_link_of_body_ = sim_node::urdf_link_index_of_bodies(description.urdf(), sim_.body_names());
     description_pub_.publish(description);
     settle();

@@ -12,8 +12,12 @@
 //
 // Failure: the constructor throws std::runtime_error naming the file when it cannot be created.
 // After that nothing throws for I/O: a failed write (disk full, file size limit) puts the writer
-// in a failed state, error() says why, and every later call returns false. What was written
-// before the failure stays on disk and remains readable as a file cut short.
+// in a failed state, error() says why (the file and the errno text), and every later call
+// returns false. The file is cut back to the end of its last complete record (a chunk half
+// written is removed), so what was written before the failure stays on disk and remains
+// readable as a file cut short. A message accepted by write_message() is in the file only once
+// its chunk is: messages_in_file() counts those, stats().messages every message accepted
+// (the messages of a chunk that failed are in the second count, not the first).
 //
 // Not thread-safe: one thread writes (the recorder has a writer thread of its own).
 
@@ -48,7 +52,8 @@ struct WriterOptions {
 
 /// Per-file counts, as the Statistics record will say.
 struct WriterStats {
-  std::uint64_t messages = 0;
+  std::uint64_t messages = 0;          ///< accepted by write_message (open chunk included)
+  std::uint64_t messages_in_file = 0;  ///< in chunks written completely to the file
   std::uint64_t chunks = 0;
   std::uint64_t bytes_written = 0;  ///< file size so far
   std::uint64_t message_bytes = 0;  ///< sum of message payload sizes
@@ -90,6 +95,11 @@ class McapWriter {
   /// Bytes of messages in the open chunk (not yet on disk).
   std::size_t open_chunk_bytes() const noexcept { return chunk_.size(); }
   const std::string& path() const noexcept { return path_; }
+  /// Messages of a channel in chunks written completely to the file (not those of the open
+  /// chunk, nor of a chunk whose write failed).
+  std::uint64_t messages_in_file(std::uint16_t channel_id) const noexcept {
+    return channel_id < channels_.size() ? channels_[channel_id].in_file : 0;
+  }
 
  private:
   struct ChannelInfo {
@@ -98,7 +108,8 @@ class McapWriter {
     std::string topic;
     std::string encoding;
     std::map<std::string, std::string> metadata;
-    std::uint64_t count = 0;
+    std::uint64_t count = 0;    // accepted
+    std::uint64_t in_file = 0;  // in chunks written completely
   };
   struct SchemaInfo {
     std::uint16_t id;
@@ -121,6 +132,9 @@ class McapWriter {
   bool write_record(std::vector<std::uint8_t>& scratch);
   bool write_chunk();
   bool fail(std::string why);
+  // After a failed write: cuts the file back to `size` bytes (the end of the last complete
+  // record), so that it ends on a record boundary.
+  void cut_back_to(std::uint64_t size);
   void append_schema(std::vector<std::uint8_t>& out, const SchemaInfo& s) const;
   void append_channel(std::vector<std::uint8_t>& out, const ChannelInfo& c) const;
   // close(): the DataEnd record, then the summary (records by opcode, their offsets, the footer).

@@ -64,8 +64,9 @@ struct TopicCounts {
   std::string topic;
   std::string type_name;
   std::uint64_t received = 0;  ///< delivered by DDS to the recorder
-  std::uint64_t written = 0;   ///< handed to the file
-  std::uint64_t dropped = 0;   ///< dropped by the recorder (queue full, or the file failed)
+  std::uint64_t written = 0;   ///< in the file: in chunks written completely (not the open one)
+  std::uint64_t dropped = 0;   ///< dropped by the recorder (queue full; after a write failure,
+                               ///< every sample not in the file, the failed chunk's included)
   std::uint64_t vendor_lost = 0;
   std::uint64_t vendor_rejected = 0;
   std::uint64_t tick_gaps = 0;  ///< per-tick topics: ticks skipped within one writer's stream
@@ -74,7 +75,7 @@ struct TopicCounts {
 
 struct RecorderStatus {
   std::vector<TopicCounts> topics;  ///< topics that have matched a writer or received a sample
-  std::uint64_t messages = 0;       ///< written
+  std::uint64_t messages = 0;       ///< written: in the file
   std::uint64_t bytes = 0;          ///< file bytes written (all files)
   std::uint64_t dropped = 0;
   std::uint64_t vendor_lost = 0;
@@ -119,6 +120,9 @@ class Recorder {
   bool open_file();
   bool close_file();
   void write_item(Item& item);
+  // Topic::written from the writer's messages in the file; after a failure, the messages of
+  // the failed chunk counted as dropped. Writer thread.
+  void count_written();
   std::string next_path();
   std::map<std::string, std::string> loss_metadata() const;
 

@@ -31,6 +31,9 @@ struct TopicInfo {
   std::uint64_t distinct_ticks = 0;
   std::uint64_t duplicate_ticks = 0;  ///< messages whose tick was seen before on this topic
   std::uint64_t missing_ticks = 0;    ///< per-tick streams: ticks in [first, last] never seen
+  /// Per-tick streams: ticks of the run before this topic's first one, never seen (first_tick -
+  /// RecordingInfo::run_first_tick): a recorder that joined late, or a writer that began late.
+  std::uint64_t missing_at_start = 0;
 };
 
 struct RecordingInfo {
@@ -38,6 +41,13 @@ struct RecordingInfo {
   ScanResult scan;
   std::uint64_t start_time = 0, end_time = 0;  ///< log times (ns since the Unix epoch)
   std::vector<TopicInfo> topics;               ///< by topic name
+  /// The run's first tick, the reference of TopicInfo::missing_at_start: the tick poise-sim puts
+  /// in poise/robot_description's header (k0, the first frame it publishes; latched, so a late
+  /// recorder has it too), or lower, the earliest tick of any per-tick topic in the file.
+  /// Meaningful when run_first_tick_source is not empty.
+  std::uint64_t run_first_tick = 0;
+  /// "poise/robot_description", "earliest per-tick topic", or "" (no per-tick topic).
+  std::string run_first_tick_source;
   std::map<std::string, std::map<std::string, std::string>> metadata;  ///< by record name
 
   double duration_s() const { return end_time > start_time ? (end_time - start_time) * 1e-9 : 0; }

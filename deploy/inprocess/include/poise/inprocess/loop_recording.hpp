@@ -48,6 +48,7 @@ class LoopRecording {
   /// wrong. Idempotent.
   std::string close();
 
+  /// Messages in the file (after close()).
   std::uint64_t messages() const { return messages_; }
   const std::filesystem::path& file() const { return file_; }
 
@@ -56,7 +57,7 @@ class LoopRecording {
     std::string topic;
     std::uint16_t id = 0;
     std::uint32_t sequence = 0;  ///< messages handed to the file
-    std::uint32_t written = 0;   ///< of those, written
+    std::uint32_t written = 0;   ///< of those, in the file (set by close())
   };
   template <class T>
   void write(const T& message, std::int64_t tick);
