@@ -147,6 +147,72 @@ RecordingInfo read_recording_info(const std::string& path) {
   return out;
 }
 
+namespace {
+
+/// A topic's TICKS column: the range, and for per-tick topics what is missing and repeated.
+std::string ticks_text(const TopicInfo& t) {
+  std::string ticks = "-";
+  if (t.has_ticks) {
+    char b[200];
+    if (t.per_tick && t.missing_at_start > 0) {
+      std::snprintf(b, sizeof(b), "%llu..%llu, %llu missing at the start, %llu missing after, "
+                    "%llu repeated",
+                    static_cast<unsigned long long>(t.first_tick),
+                    static_cast<unsigned long long>(t.last_tick),
+                    static_cast<unsigned long long>(t.missing_at_start),
+                    static_cast<unsigned long long>(t.missing_ticks),
+                    static_cast<unsigned long long>(t.duplicate_ticks));
+    } else if (t.per_tick) {
+      std::snprintf(b, sizeof(b), "%llu..%llu, %llu missing, %llu repeated",
+                    static_cast<unsigned long long>(t.first_tick),
+                    static_cast<unsigned long long>(t.last_tick),
+                    static_cast<unsigned long long>(t.missing_ticks),
+                    static_cast<unsigned long long>(t.duplicate_ticks));
+    } else {
+      std::snprintf(b, sizeof(b), "%llu..%llu", static_cast<unsigned long long>(t.first_tick),
+                    static_cast<unsigned long long>(t.last_tick));
+    }
+    ticks = b;
+  }
+  return ticks;
+}
+
+/// The recorder's loss counters from the file's poise_recorder metadata.
+std::string recorder_losses_text(const RecordingInfo& info) {
+  std::string s;
+  char line[512];
+  auto add = [&](const char* fmt, auto... args) {
+    std::snprintf(line, sizeof(line), fmt, args...);
+    s += line;
+  };
+  if (auto it = info.metadata.find("poise_recorder"); it != info.metadata.end()) {
+    const auto& m = it->second;
+    auto get = [&](const std::string& k) {
+      auto f = m.find(k);
+      return f == m.end() ? std::string("?") : f->second;
+    };
+    add("\nRecorder losses: %s dropped by the recorder, %s lost or rejected by DDS, %s ticks "
+        "skipped within a writer's stream (seen live)\n",
+        get("total.dropped").c_str(), get("total.vendor_lost").c_str(),
+        m.count("total.tick_gaps") ? get("total.tick_gaps").c_str() : "?");
+    for (const auto& t : info.topics) {
+      const std::string gaps = m.count(t.topic + ".tick_gaps") ? get(t.topic + ".tick_gaps") : "0";
+      if (get(t.topic + ".dropped") != "0" || get(t.topic + ".vendor_lost") != "0" ||
+          get(t.topic + ".vendor_rejected") != "0" || gaps != "0") {
+        add("  %-24s received %s, dropped %s, DDS lost %s, DDS rejected %s, tick gaps %s\n",
+            t.topic.c_str(), get(t.topic + ".received").c_str(), get(t.topic + ".dropped").c_str(),
+            get(t.topic + ".vendor_lost").c_str(), get(t.topic + ".vendor_rejected").c_str(),
+            gaps.c_str());
+      }
+    }
+  } else {
+    add("\nRecorder losses: unknown (no poise_recorder metadata: the recording did not finish)\n");
+  }
+  return s;
+}
+
+}  // namespace
+
 std::string format_recording_info(const RecordingInfo& info) {
   std::string s;
   char line[512];
@@ -181,29 +247,7 @@ std::string format_recording_info(const RecordingInfo& info) {
   add("%-26s %-30s %9s %9s %9s %10s %s\n", "TOPIC", "TYPE", "MESSAGES", "RATE[Hz]", "MAXGAP[s]",
       "SIZE[MB]", "TICKS");
   for (const auto& t : info.topics) {
-    std::string ticks = "-";
-    if (t.has_ticks) {
-      char b[200];
-      if (t.per_tick && t.missing_at_start > 0) {
-        std::snprintf(b, sizeof(b), "%llu..%llu, %llu missing at the start, %llu missing after, "
-                      "%llu repeated",
-                      static_cast<unsigned long long>(t.first_tick),
-                      static_cast<unsigned long long>(t.last_tick),
-                      static_cast<unsigned long long>(t.missing_at_start),
-                      static_cast<unsigned long long>(t.missing_ticks),
-                      static_cast<unsigned long long>(t.duplicate_ticks));
-      } else if (t.per_tick) {
-        std::snprintf(b, sizeof(b), "%llu..%llu, %llu missing, %llu repeated",
-                      static_cast<unsigned long long>(t.first_tick),
-                      static_cast<unsigned long long>(t.last_tick),
-                      static_cast<unsigned long long>(t.missing_ticks),
-                      static_cast<unsigned long long>(t.duplicate_ticks));
-      } else {
-        std::snprintf(b, sizeof(b), "%llu..%llu", static_cast<unsigned long long>(t.first_tick),
-                      static_cast<unsigned long long>(t.last_tick));
-      }
-      ticks = b;
-    }
+    std::string ticks = ticks_text(t);
     if (t.sequence_gaps) ticks += ", " + std::to_string(t.sequence_gaps) + " dropped (sequence)";
     add("%-26s %-30s %9llu %9.1f %9.3f %10.3f %s\n", t.topic.c_str(), t.schema_name.c_str(),
         static_cast<unsigned long long>(t.messages), t.mean_rate_hz, t.longest_interval_s,
@@ -222,29 +266,7 @@ std::string format_recording_info(const RecordingInfo& info) {
         static_cast<unsigned long long>(info.run_first_tick),
         static_cast<unsigned long long>(t.missing_at_start));
   }
-  if (auto it = info.metadata.find("poise_recorder"); it != info.metadata.end()) {
-    const auto& m = it->second;
-    auto get = [&](const std::string& k) {
-      auto f = m.find(k);
-      return f == m.end() ? std::string("?") : f->second;
-    };
-    add("\nRecorder losses: %s dropped by the recorder, %s lost or rejected by DDS, %s ticks "
-        "skipped within a writer's stream (seen live)\n",
-        get("total.dropped").c_str(), get("total.vendor_lost").c_str(),
-        m.count("total.tick_gaps") ? get("total.tick_gaps").c_str() : "?");
-    for (const auto& t : info.topics) {
-      const std::string gaps = m.count(t.topic + ".tick_gaps") ? get(t.topic + ".tick_gaps") : "0";
-      if (get(t.topic + ".dropped") != "0" || get(t.topic + ".vendor_lost") != "0" ||
-          get(t.topic + ".vendor_rejected") != "0" || gaps != "0") {
-        add("  %-24s received %s, dropped %s, DDS lost %s, DDS rejected %s, tick gaps %s\n",
-            t.topic.c_str(), get(t.topic + ".received").c_str(), get(t.topic + ".dropped").c_str(),
-            get(t.topic + ".vendor_lost").c_str(), get(t.topic + ".vendor_rejected").c_str(),
-            gaps.c_str());
-      }
-    }
-  } else {
-    add("\nRecorder losses: unknown (no poise_recorder metadata: the recording did not finish)\n");
-  }
+  s += recorder_losses_text(info);
   if (!r.ok()) add("\nERROR: %s\n", r.error.c_str());
   return s;
 }

@@ -25,7 +25,12 @@ std::string num(double v) {
   return std::string(buf, r.ptr);
 }
 std::string vec(const Eigen::Vector3d& v, double scale = 1.0) {
-  return "[" + num(v.x() / scale) + ", " + num(v.y() / scale) + ", " + num(v.z() / scale) + "]";
+  std::string out = "[";
+  for (int i = 0; i < 3; ++i) {
+    out.append(num(v[i] / scale));
+    out.append(i < 2 ? ", " : "]");
+  }
+  return out;
 }
 std::string yes_no(bool b) { return b ? "true" : "false"; }
 
@@ -83,7 +88,7 @@ const std::vector<ScenarioKey> kKeys = {
   {"initial.base_xy", K::kVec2, "m", "", -kInf, kInf, false, false, [] { return std::string("[0, 0]"); },
    "", "the base's x and y", "[0.1, 0.0]"},
   {"initial.base_height", K::kNumber, "m", "", -kInf, kInf, false, false, [] { return std::string("auto"); },
-   "auto, or a number between the ground height and 100 m above it",
+   "or auto; at least the ground height and at most 100 m above it",
    "the base's z; auto: the lowest sole corner on its support (plus clearance)", "auto"},
   {"initial.base_rpy_deg", K::kVec3, "deg", "", -kInf, kInf, false, false, [] { return std::string("[0, 0, 0]"); },
    "", "the base's roll, pitch, yaw", "[0, 0, 10]"},
@@ -254,7 +259,7 @@ const std::vector<ScenarioKey> kKeys = {
    [] { return num(SolverConfig{}.warm_start_factor); }, "", "fraction of the last step's impulse", "0.5"},
 
   {"reality", K::kSection, "", "", -kInf, kInf, false, false, [] { return std::string("none (the robot is its model)"); },
-   "a profile name (typical | none) or a mapping",
+   "or a profile name: typical | none",
    "the simulated robot differs from the description the nodes get (simulator/README.md)", ""},
   {"reality.profile", K::kChoice, "", "typical | none", -kInf, kInf, false, false, [] { return std::string("none"); },
    "", "the values the keys below start from", "typical"},
