@@ -149,6 +149,14 @@ RecordingInfo read_recording_info(const std::string& path) {
 
 namespace {
 
+/// Appends printf-formatted text (at most 511 characters) to `s`.
+template <class... Args>
+void append_line(std::string& s, const char* fmt, Args... args) {
+  char line[512];
+  std::snprintf(line, sizeof(line), fmt, args...);
+  s += line;
+}
+
 /// A topic's TICKS column: the range, and for per-tick topics what is missing and repeated.
 std::string ticks_text(const TopicInfo& t) {
   std::string ticks = "-";
@@ -180,11 +188,7 @@ std::string ticks_text(const TopicInfo& t) {
 /// The recorder's loss counters from the file's poise_recorder metadata.
 std::string recorder_losses_text(const RecordingInfo& info) {
   std::string s;
-  char line[512];
-  auto add = [&](const char* fmt, auto... args) {
-    std::snprintf(line, sizeof(line), fmt, args...);
-    s += line;
-  };
+  const auto add = [&s](const char* fmt, auto... args) { append_line(s, fmt, args...); };
   if (auto it = info.metadata.find("poise_recorder"); it != info.metadata.end()) {
     const auto& m = it->second;
     auto get = [&](const std::string& k) {
@@ -215,11 +219,7 @@ std::string recorder_losses_text(const RecordingInfo& info) {
 
 std::string format_recording_info(const RecordingInfo& info) {
   std::string s;
-  char line[512];
-  auto add = [&](const char* fmt, auto... args) {
-    std::snprintf(line, sizeof(line), fmt, args...);
-    s += line;
-  };
+  const auto add = [&s](const char* fmt, auto... args) { append_line(s, fmt, args...); };
   const ScanResult& r = info.scan;
   add("File:        %s (%.2f MB)\n", info.path.c_str(), r.file_size / 1e6);
   if (!r.complete) {

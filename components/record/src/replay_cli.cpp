@@ -70,11 +70,17 @@ struct ReplayArgs {
 /// The topic on which the component that reads `topic` answers each of its ticks with the same
 /// Header.tick ("" if none): the loop's order, sim -> estimator -> controller <-> contact.
 std::string default_answer(const std::string& topic) {
-  if (topic == "poise/sensors") return "poise/state";                  // poise-estimator
-  if (topic == "poise/state") return "poise/contact_problem";          // poise-controller
-  if (topic == "poise/contact_problem") return "poise/contact_solution";  // poise-contact
-  if (topic == "poise/contact_solution") return "poise/joint_command";  // poise-controller
-  if (topic == "poise/joint_command") return "poise/sensors";          // poise-sim
+  using dds::TopicTraits;
+  // (input, the answer of the component that reads it); names from the topic declarations.
+  static constexpr std::pair<std::string_view, std::string_view> kAnswers[] = {
+      {TopicTraits<msg::Sensors>::topic_name, TopicTraits<msg::State>::topic_name},  // estimator
+      {TopicTraits<msg::State>::topic_name, TopicTraits<msg::ContactProblem>::topic_name},
+      {TopicTraits<msg::ContactProblem>::topic_name, TopicTraits<msg::ContactSolution>::topic_name},
+      {TopicTraits<msg::ContactSolution>::topic_name, TopicTraits<msg::JointCommand>::topic_name},
+      {TopicTraits<msg::JointCommand>::topic_name, TopicTraits<msg::Sensors>::topic_name},  // sim
+  };
+  for (const auto& [input, answer] : kAnswers)
+    if (topic == input) return std::string(answer);
   return "";
 }
 
