@@ -1,3 +1,4 @@
+#include "poise/cli/reference_text.hpp"
 #include "poise/controller/controller_config_keys.hpp"
 
 #include <charconv>
@@ -142,19 +143,9 @@ const ConfigKey kKeys[] = {
 #undef POISE_FIELD
 // clang-format on
 
-std::string number_text(double v) {
-  char buf[32];
-  const auto r = std::to_chars(buf, buf + sizeof buf, v);
-  return std::string(buf, r.ptr);
-}
+using cli::number_text;
 
-/// Markdown table cell: '|' would end it.
-std::string cell(std::string_view s) {
-  std::string out;
-  for (const char ch : s)
-    out += ch == '|' ? std::string("\\|") : std::string(1, ch);
-  return out;
-}
+std::string cell(std::string_view s) { return cli::markdown_cell(s); }
 
 /// "[5, 5, 5]".
 std::string vec3_text(const Eigen::Vector3d& v) {

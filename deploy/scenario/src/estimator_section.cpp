@@ -2,6 +2,7 @@
 // the parser and its checks, and the generated reference estimator/CONFIG.md. The defaults are
 // EstimatorHints' member initialisers and, where the scenario leaves a setting to the estimator,
 // EstimatorConfig's.
+#include "poise/cli/reference_text.hpp"
 #include "estimator_section.hpp"
 
 #include <algorithm>
@@ -43,11 +44,7 @@ struct EstimatorKey {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-std::string number_text(double v) {
-  char buf[32];
-  const auto r = std::to_chars(buf, buf + sizeof buf, v);
-  return std::string(buf, r.ptr);
-}
+using cli::number_text;
 
 const estimator::EstimatorConfig& config_defaults() {
   static const estimator::EstimatorConfig c;
@@ -153,13 +150,7 @@ void read_key(const YAML::Node& v, const EstimatorKey& k, const sim::YamlChecks&
   }
 }
 
-/// Markdown table cell: '|' would end it.
-std::string cell(std::string_view s) {
-  std::string out;
-  for (const char ch : s)
-    out += ch == '|' ? std::string("\\|") : std::string(1, ch);
-  return out;
-}
+std::string cell(std::string_view s) { return cli::markdown_cell(s); }
 
 }  // namespace
 

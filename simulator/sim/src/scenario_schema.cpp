@@ -7,6 +7,7 @@
 #include <charconv>
 #include <cmath>
 
+#include "poise/cli/reference_text.hpp"
 #include "poise/sim/reality.hpp"
 #include "poise/sim/simulator.hpp"
 #include "poise/sim/world.hpp"
@@ -20,9 +21,7 @@ constexpr double kDeg = M_PI / 180.0;
 
 std::string num(double v) {
   if (std::isinf(v)) return v > 0 ? "none" : "-none";
-  char buf[32];
-  const auto r = std::to_chars(buf, buf + sizeof buf, v);
-  return std::string(buf, r.ptr);
+  return cli::number_text(v);
 }
 std::string vec(const Eigen::Vector3d& v, double scale = 1.0) {
   std::string out = "[";
@@ -391,13 +390,6 @@ std::string last_of(std::string_view path) {
   return std::string(dot == std::string_view::npos ? path : path.substr(dot + 1));
 }
 
-std::string cell(std::string_view s) {
-  std::string out;
-  for (const char ch : s)
-    out += ch == '|' ? std::string("\\|") : std::string(1, ch);
-  return out;
-}
-
 std::string choices_text(std::string_view choices) {
   std::vector<std::string> names;
   std::size_t start = 0;
@@ -483,8 +475,9 @@ std::string scenario_schema_markdown() {
              "|---|---|---|---|---|\n";
     }
     const std::string dflt = k.default_text ? k.default_text() : (k.required ? "—" : "none");
-    out += "| `" + std::string(k.path) + "` | " + cell(allowed_text(k)) + " | " +
-           cell(k.unit.empty() ? "—" : k.unit) + " | " + cell(dflt) + " | " + cell(k.doc) + " |\n";
+    out += "| `" + std::string(k.path) + "` | " + cli::markdown_cell(allowed_text(k)) + " | " +
+           cli::markdown_cell(k.unit.empty() ? "—" : k.unit) + " | " + cli::markdown_cell(dflt) +
+           " | " + cli::markdown_cell(k.doc) + " |\n";
   }
   return out;
 }
